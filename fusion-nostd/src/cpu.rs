@@ -1,0 +1,72 @@
+//! Run-time choice of the best instruction set for the portable kernels (x86-64 hosts only).
+//!
+//! The hot kernels are plain portable Rust marked `#[inline(always)]`. On x86-64,
+//! [`dispatch!`] compiles a second copy of a kernel with AVX2 enabled and calls it when the CPU
+//! has AVX2; the arithmetic is integer, so both copies give the same bits. On every other
+//! target (the flight targets included) the macro is a direct call.
+
+#[cfg(target_arch = "x86_64")]
+use core::sync::atomic::{AtomicU8, Ordering};
+
+#[cfg(target_arch = "x86_64")]
+static AVX2: AtomicU8 = AtomicU8::new(0); // 0 unknown, 1 no, 2 yes
+
+/// Whether this x86-64 CPU and OS support AVX2 (CPUID leaf 7 and the XCR0 YMM state).
+#[cfg(target_arch = "x86_64")]
+pub(crate) fn has_avx2() -> bool {
+    match AVX2.load(Ordering::Relaxed) {
+        1 => false,
+        2 => true,
+        _ => {
+            let yes = detect_avx2();
+            AVX2.store(if yes { 2 } else { 1 }, Ordering::Relaxed);
+            yes
+        }
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+fn detect_avx2() -> bool {
+    use core::arch::x86_64::{__cpuid, __cpuid_count};
+    let leaf1 = __cpuid(1);
+    let osxsave = leaf1.ecx & (1 << 27) != 0;
+    let avx = leaf1.ecx & (1 << 28) != 0;
+    if !(osxsave && avx) || __cpuid(0).eax < 7 {
+        return false;
+    }
+    let avx2 = __cpuid_count(7, 0).ebx & (1 << 5) != 0;
+    // SAFETY: OSXSAVE is set, so XGETBV is available.
+    let xcr0 = unsafe { xgetbv0() };
+    avx2 && xcr0 & 0b110 == 0b110
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "xsave")]
+unsafe fn xgetbv0() -> u64 {
+    // SAFETY: the caller guarantees XGETBV is available (CPUID.1:ECX.OSXSAVE).
+    unsafe { core::arch::x86_64::_xgetbv(0) }
+}
+
+/// Defines `fn $name(args) -> ()` calling `$kernel(args)`, through an AVX2-compiled copy of
+/// the kernel on x86-64 CPUs that have AVX2.
+macro_rules! dispatch {
+    ($(#[$meta:meta])* $vis:vis fn $name:ident($($arg:ident: $ty:ty),* $(,)?) => $kernel:ident) => {
+        $(#[$meta])*
+        $vis fn $name($($arg: $ty),*) {
+            #[cfg(target_arch = "x86_64")]
+            {
+                #[target_feature(enable = "avx2")]
+                fn avx2_copy($($arg: $ty),*) {
+                    $kernel($($arg),*)
+                }
+                if $crate::cpu::has_avx2() {
+                    // SAFETY: the CPU supports AVX2, checked at run time just above.
+                    unsafe { avx2_copy($($arg),*) };
+                    return;
+                }
+            }
+            $kernel($($arg),*)
+        }
+    };
+}
+pub(crate) use dispatch;

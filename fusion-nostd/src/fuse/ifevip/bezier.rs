@@ -1,0 +1,106 @@
+//! Per-leaf cubic Bézier background (`QuadReconstructRefined`), exact in integers.
+//!
+//! For a leaf of side `n = 2^L` at `t = k/n` the Bernstein basis times `n³` is the integer
+//! vector `b(k) = [(n−k)³, 3k(n−k)², 3k²(n−k), k³]` (it sums to `n³`). The patch value
+//! `T(t_i)·M·P·M·T(t_j)ᵀ` is therefore `Σ_a Σ_b b_a(i)·P_ab·b_b(j) / n⁶` exactly, with the
+//! numerator < 255·2⁵⁴ < 2⁶² for n ≤ 512 (an `i64`). Per row `i` the four sums
+//! `Q_b = Σ_a b_a(i)·P_ab` are formed once; along the row the numerator is a cubic in `j`,
+//! stepped by forward differences (three wrapping additions per pixel, exact: the true values
+//! fit, and wrapping arithmetic is exact modulo 2⁶⁴). The result is rounded once to the
+//! background's Q20 ([`super::BG_BITS`]): error ≤ 2⁻²¹ grey levels.
+
+use super::BG_BITS;
+use super::quadtree::Leaf;
+use crate::{Error, FrameMut, FrameRef};
+
+/// Bernstein basis times `n³` at `k`.
+#[inline]
+fn basis(n: i64, k: i64) -> [i64; 4] {
+    let m = n - k;
+    [m * m * m, 3 * k * m * m, 3 * k * k * m, k * k * k]
+}
+
+/// Writes every leaf's `(n+1)×(n+1)` patch into `bg` (Q20) in the given order, dropping what
+/// falls outside (the one-pixel pad). Control points come from `minimum` at the local offsets
+/// `{0, n/2 − 1, 3n/4 − 1, n}`, clamped into the grid (the replicate pad).
+pub fn render(leaves: &[Leaf], minimum: FrameRef<'_, i32>, mut bg: FrameMut<'_, i32>) -> Result<(), Error> {
+    let d = minimum.width();
+    if minimum.size() != bg.size() || minimum.height() != d {
+        return Err(Error::SizeMismatch { expected: minimum.size(), got: bg.size() });
+    }
+    for leaf in leaves {
+        let (r0, c0, n) = (usize::from(leaf.row), usize::from(leaf.col), usize::from(leaf.side));
+        if !n.is_power_of_two() || !(4..=512).contains(&n) {
+            return Err(Error::InvalidParameter { name: "quad_min_dim" });
+        }
+        let bits = 6 * n.trailing_zeros();
+        let offsets = [0, n / 2 - 1, 3 * n / 4 - 1, n];
+        let mut p = [[0i64; 4]; 4];
+        for (pa, &oa) in p.iter_mut().zip(&offsets) {
+            let row = minimum.row((r0 + oa).min(d - 1));
+            for (v, &ob) in pa.iter_mut().zip(&offsets) {
+                *v = i64::from(row.get((c0 + ob).min(d - 1)).copied().unwrap_or(0));
+            }
+        }
+        let to_q = |f: i64| -> i32 {
+            if bits > BG_BITS {
+                ((f + (1i64 << (bits - BG_BITS - 1))) >> (bits - BG_BITS)) as i32
+            } else {
+                (f << (BG_BITS - bits)) as i32
+            }
+        };
+        let ni = n as i64;
+        for i in 0..=n.min(d.saturating_sub(r0 + 1)) {
+            let bi = basis(ni, i as i64);
+            let mut q = [0i64; 4];
+            for (qb, b) in q.iter_mut().zip(0..4) {
+                *qb = bi.iter().zip(&p).map(|(&ba, pa)| ba * pa.get(b).copied().unwrap_or(0)).sum();
+            }
+            let f = |j: i64| -> i64 { basis(ni, j).iter().zip(&q).map(|(&bb, &qb)| bb * qb).sum() };
+            let (f0, f1, f2, f3) = (f(0), f(1), f(2), f(3));
+            let mut v = f0;
+            let mut d1 = f1.wrapping_sub(f0);
+            let mut d2 = f2.wrapping_sub(f1.wrapping_mul(2)).wrapping_add(f0);
+            let d3 = f3.wrapping_sub(f2.wrapping_mul(3)).wrapping_add(f1.wrapping_mul(3)).wrapping_sub(f0);
+            let out = bg.row_mut(r0 + i);
+            let seg = out.get_mut(c0..).unwrap_or(&mut []);
+            for o in seg.iter_mut().take(n + 1) {
+                *o = to_q(v);
+                v = v.wrapping_add(d1);
+                d1 = d1.wrapping_add(d2);
+                d2 = d2.wrapping_add(d3);
+            }
+        }
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn constant_controls_give_a_constant_patch_and_corners_interpolate() -> Result<(), Error> {
+        let d = 32;
+        let mut minimum = [77i32; 32 * 32];
+        let mut bg = [0i32; 32 * 32];
+        let leaves = [Leaf { row: 0, col: 0, side: 32 }];
+        render(&leaves, FrameRef::new(&minimum, d, d)?, FrameMut::new(&mut bg, d, d)?)?;
+        assert!(bg.iter().all(|&v| v == 77 << BG_BITS));
+        // Corner control point (0,0) is interpolated exactly.
+        minimum[0] = 10;
+        minimum[15] = 200; // control (0, n/2 − 1)
+        render(&leaves, FrameRef::new(&minimum, d, d)?, FrameMut::new(&mut bg, d, d)?)?;
+        assert_eq!(bg[0], 10 << BG_BITS);
+        // Row 0 at t = j/32 against the f64 Bernstein sum.
+        for (j, &v) in bg.iter().enumerate().take(32) {
+            let t = j as f64 / 32.0;
+            let u = 1.0 - t;
+            let b = [u * u * u, 3.0 * t * u * u, 3.0 * t * t * u, t * t * t];
+            let want = b[0] * 10.0 + b[1] * 200.0 + (b[2] + b[3]) * 77.0;
+            let got = f64::from(v) / f64::from(1 << BG_BITS);
+            assert!((got - want).abs() < 1e-6, "j {j}: {got} vs {want}");
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,456 @@
+//! MATLAB `imresize(…, 'bicubic')` as IFEVIP's published run uses it, in fixed point.
+//!
+//! * Kernel: Keys cubic, a = −0.5. Shrinking (out < in) widens it by in/out (antialiasing,
+//!   `h(x) = s·cubic(s·x)`, s = out/in).
+//! * Coordinates: output sample `x` (1-based) sits at `u = x/s + ½(1 − 1/s)` in the input.
+//!   With `A = 2x·in + out − in` the distance to input sample `j` (1-based) is
+//!   `(A − 2j·out)/(2·out)` and the kernel argument (after the antialias scaling) is
+//!   `σ/D`, `σ = A − 2j·out`, `D = 2·max(in, out)`. So `2D³·cubic(σ/D)` is an exact integer
+//!   ([`kernel_num`], < 2⁴⁹) and the normalised weights `K_j / Σ K` are exact rationals.
+//! * Ends: tap indices outside the input are reflected symmetrically with the end sample
+//!   repeated (`[1:n, n:-1:1]` periodic), the rule of the published run; taps that land on
+//!   the same input sample are merged, so each output reads one contiguous input run.
+//! * Weights are stored in Q30 (`i32`), rounded, with the rounding residual put on the
+//!   largest weight so that they sum to exactly 2³⁰ (a constant stays constant). Error per
+//!   weight ≤ 2⁻³¹ · (taps merged into it).
+//!
+//! Tables live in a caller `i32` slice: per output sample `[start, count, w₀ … w_{T−1}]`
+//! with the fixed row length `T + 2` ([`Taps::stride`]).
+
+use crate::{Error, FrameMut, FrameRef};
+
+/// Fractional bits of the stored weights.
+pub const WEIGHT_BITS: u32 = 30;
+
+/// `2D³·cubic(σ/D)` for the Keys kernel with a = −0.5 (exact; 0 for |σ| ≥ 2D).
+pub fn kernel_num(sigma: i64, d: i64) -> i64 {
+    let s = sigma.abs();
+    if s <= d {
+        3 * s * s * s - 5 * s * s * d + 2 * d * d * d
+    } else if s < 2 * d {
+        -s * s * s + 5 * s * s * d - 8 * s * d * d + 4 * d * d * d
+    } else {
+        0
+    }
+}
+
+/// 0-based index of the 0-based, possibly out-of-range, position `j` in `0..n`: symmetric
+/// reflection with the end sample repeated.
+fn reflect(j: i64, n: i64) -> i64 {
+    let m = j.rem_euclid(2 * n);
+    if m < n { m } else { 2 * n - 1 - m }
+}
+
+/// `a / b` rounded toward −∞ (b > 0).
+fn floor_div(a: i64, b: i64) -> i64 {
+    a.div_euclid(b)
+}
+
+/// A built tap table (see the module docs).
+#[derive(Debug)]
+pub struct Taps<'a> {
+    table: &'a [i32],
+    stride: usize,
+}
+
+impl<'a> Taps<'a> {
+    /// Elements per output sample in the table (`2 + taps`).
+    pub fn stride(&self) -> usize {
+        self.stride
+    }
+
+    /// `(start, weights)` of every output sample, in order.
+    pub fn iter(&self) -> impl Iterator<Item = (usize, &'a [i32])> + '_ {
+        self.table.chunks_exact(self.stride.max(1)).map(|c| match c {
+            [start, count, ws @ ..] => (*start as usize, ws.get(..*count as usize).unwrap_or(&[])),
+            _ => (0, &[][..]),
+        })
+    }
+}
+
+/// Table length needed for a resize from `in_len` to `out_len` samples.
+pub fn table_len(in_len: usize, out_len: usize) -> usize {
+    out_len.saturating_mul(max_taps(in_len, out_len) + 2)
+}
+
+/// Taps per output sample after merging: `min(in, ⌈4·max(in,out)/out⌉ + 2)`.
+fn max_taps(in_len: usize, out_len: usize) -> usize {
+    let big = in_len.max(out_len);
+    let p = (4 * big).div_ceil(out_len.max(1)) + 2;
+    p.min(in_len)
+}
+
+/// The exact kernel numerators of output sample `x` (1-based): calls `f(index, K)` for every
+/// tap with a non-zero kernel (index reflected into `0..in`), returns `Σ K`.
+fn for_taps(x: i64, n_in: i64, n_out: i64, mut f: impl FnMut(i64, i64)) -> i128 {
+    let d = 2 * n_in.max(n_out);
+    let p = (4 * n_in.max(n_out) + n_out - 1) / n_out + 2;
+    let a = 2 * x * n_in + n_out - n_in;
+    let left = floor_div(a - 2 * d, 2 * n_out);
+    let mut total: i128 = 0;
+    for j in left..left + p {
+        let k = kernel_num(a - 2 * j * n_out, d);
+        if k != 0 {
+            total += i128::from(k);
+            f(reflect(j - 1, n_in), k);
+        }
+    }
+    total
+}
+
+/// Builds the taps of a resize from `in_len` to `out_len` samples into `buf`. Every output
+/// reads the same number of consecutive input samples (the widest merged run; runs at the
+/// ends are shifted inward and padded with zero weights).
+pub fn build(in_len: usize, out_len: usize, buf: &mut [i32]) -> Result<Taps<'_>, Error> {
+    if in_len == 0 || out_len == 0 {
+        return Err(Error::ZeroDimension);
+    }
+    let (n_in, n_out) = (in_len as i64, out_len as i64);
+    // The widest merged run.
+    let mut taps = 1usize;
+    for x in 1..=n_out {
+        let (mut lo, mut hi) = (i64::MAX, i64::MIN);
+        for_taps(x, n_in, n_out, |idx, _| {
+            lo = lo.min(idx);
+            hi = hi.max(idx);
+        });
+        taps = taps.max((hi - lo + 1).max(1) as usize);
+    }
+    let taps = taps.min(in_len);
+    let stride = taps + 2;
+    let needed = out_len.saturating_mul(stride);
+    let capacity = buf.len();
+    let table = buf.get_mut(..needed).ok_or(Error::ScratchTooSmall { needed, capacity })?;
+    for (x, row) in (1..=n_out).zip(table.chunks_exact_mut(stride)) {
+        let mut lo = i64::MAX;
+        let total = for_taps(x, n_in, n_out, |idx, _| lo = lo.min(idx));
+        if total <= 0 || lo == i64::MAX {
+            return Err(Error::InvalidParameter { name: "resize" });
+        }
+        let start = lo.min(n_in - taps as i64).max(0);
+        row.fill(0);
+        let (head, ws) = row.split_at_mut(2);
+        if let [s, c] = head {
+            *s = start as i32;
+            *c = taps as i32;
+        }
+        let mut sum: i64 = 0;
+        for_taps(x, n_in, n_out, |idx, k| {
+            let num = (i128::from(k) << WEIGHT_BITS) + total / 2;
+            let w = num.div_euclid(total) as i64;
+            if let Some(slot) = ws.get_mut((idx - start) as usize) {
+                *slot += w as i32;
+                sum += w;
+            }
+        });
+        // The residual goes to the largest weight: the weights sum to exactly 2^30.
+        let residual = (1i64 << WEIGHT_BITS) - sum;
+        if let Some(big) = ws.iter_mut().max_by_key(|w| **w) {
+            *big += residual as i32;
+        }
+    }
+    Ok(Taps { table, stride })
+}
+
+impl Taps<'_> {
+    /// `(start, weights)` of output sample `x`.
+    fn get(&self, x: usize) -> Option<(usize, &[i32])> {
+        let row = self.table.get(x * self.stride..(x + 1) * self.stride)?;
+        match row {
+            [start, count, ws @ ..] => Some((*start as usize, ws.get(..*count as usize)?)),
+            _ => None,
+        }
+    }
+}
+
+/// Upper bound of the table length of [`build_smoothed`] (both of its tables).
+pub fn smoothed_len(in_len: usize, out_len: usize, gauss_len: usize) -> usize {
+    let r = gauss_len / 2;
+    let taps = (max_taps(in_len, out_len) + (2 * r * in_len).div_ceil(out_len.max(1)) + 2).min(in_len);
+    table_len(in_len, out_len) + out_len.saturating_mul(taps + 2)
+}
+
+/// Taps of the resize from `in_len` to `out_len` samples followed by the zero-padded
+/// correlation with `gauss` (Q30, odd length) on the output grid: one linear operator, so
+/// `F = G_v·G_h·R_h·R_v·B` is two passes instead of four. Output sample `x` gets
+/// `c_j = Σ_t g_t·w_{x+t−r, j}` over the `x + t − r` inside the output (zero padding); each
+/// term is rounded to Q30 (error ≤ 2⁻³¹ per term, ≤ n·2⁻³¹ per weight). `buf` holds the plain
+/// resize table first, then the combined one ([`smoothed_len`]).
+pub fn build_smoothed<'a>(
+    in_len: usize,
+    out_len: usize,
+    gauss: &[i32],
+    buf: &'a mut [i32],
+) -> Result<Taps<'a>, Error> {
+    let split = table_len(in_len, out_len).min(buf.len());
+    let (rbuf, cbuf) = buf.split_at_mut(split);
+    let resize = build(in_len, out_len, rbuf)?;
+    let r = gauss.len() / 2;
+    let outputs = |x: usize| (x.saturating_sub(r)..(x + r + 1).min(out_len)).filter_map(|xx| resize.get(xx));
+    // The widest combined run.
+    let mut taps = 1usize;
+    for x in 0..out_len {
+        let lo = outputs(x).map(|(s, _)| s).min().unwrap_or(0);
+        let hi = outputs(x).map(|(s, ws)| s + ws.len()).max().unwrap_or(0);
+        taps = taps.max(hi.saturating_sub(lo));
+    }
+    let taps = taps.min(in_len);
+    let stride = taps + 2;
+    let needed = split + out_len.saturating_mul(stride);
+    let capacity = split + cbuf.len();
+    let table = cbuf.get_mut(..out_len * stride).ok_or(Error::ScratchTooSmall { needed, capacity })?;
+    for (x, row) in table.chunks_exact_mut(stride).enumerate() {
+        let lo = outputs(x).map(|(s, _)| s).min().unwrap_or(0);
+        let start = lo.min(in_len - taps);
+        row.fill(0);
+        let (head, cs) = row.split_at_mut(2);
+        if let [s, c] = head {
+            *s = start as i32;
+            *c = taps as i32;
+        }
+        for (xx, &g) in (x.saturating_sub(r)..(x + r + 1).min(out_len)).zip(gauss.iter().skip(r.saturating_sub(x))) {
+            if let Some((s, ws)) = resize.get(xx) {
+                for (k, &w) in ws.iter().enumerate() {
+                    let term = (i64::from(g) * i64::from(w) + (1 << (WEIGHT_BITS - 1))) >> WEIGHT_BITS;
+                    if let Some(c) = cs.get_mut(s + k - start) {
+                        *c += term as i32;
+                    }
+                }
+            }
+        }
+    }
+    Ok(Taps { table, stride })
+}
+
+/// What a pass does with its Q30 sums.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Output {
+    /// Integer input, `uint8` output: round half up (the sums are never negative ties) and
+    /// saturate to 0..=255, as MATLAB's cast of the pass result.
+    U8,
+    /// Fixed-point input and output in the same Q format (the `double` passes): round to
+    /// nearest.
+    Same,
+}
+
+#[inline(always)]
+fn finish(acc: i64, out: Output) -> i32 {
+    let r = (acc + (1 << (WEIGHT_BITS - 1))) >> WEIGHT_BITS;
+    match out {
+        Output::U8 => r.clamp(0, 255) as i32,
+        Output::Same => r.clamp(i64::from(i32::MIN), i64::from(i32::MAX)) as i32,
+    }
+}
+
+#[inline(always)]
+fn rows_n<T: Copy + Into<i64>, const N: usize>(
+    src: FrameRef<'_, T>,
+    taps: &Taps<'_>,
+    mut dst: FrameMut<'_, i32>,
+    out: Output,
+) {
+    for (s, d) in src.rows().zip(dst.rows_mut()) {
+        for (o, (start, ws)) in d.iter_mut().zip(taps.iter()) {
+            let seg = s.get(start..start + N).and_then(|v| <&[T; N]>::try_from(v).ok());
+            let ws = <&[i32; N]>::try_from(ws).ok();
+            let acc = match (seg, ws) {
+                (Some(seg), Some(ws)) => seg.iter().zip(ws).map(|(&v, &w)| v.into() * i64::from(w)).sum(),
+                _ => 0,
+            };
+            *o = finish(acc, out);
+        }
+    }
+}
+
+#[inline(always)]
+fn rows_any<T: Copy + Into<i64>>(
+    src: FrameRef<'_, T>,
+    taps: &Taps<'_>,
+    mut dst: FrameMut<'_, i32>,
+    out: Output,
+) {
+    for (s, d) in src.rows().zip(dst.rows_mut()) {
+        for (o, (start, ws)) in d.iter_mut().zip(taps.iter()) {
+            let seg = s.get(start..).unwrap_or(&[]);
+            let acc: i64 = seg.iter().zip(ws).map(|(&v, &w)| v.into() * i64::from(w)).sum();
+            *o = finish(acc, out);
+        }
+    }
+}
+
+#[inline(always)]
+fn rows_kernel<T: Copy + Into<i64>>(
+    src: FrameRef<'_, T>,
+    taps: &Taps<'_>,
+    dst: FrameMut<'_, i32>,
+    out: Output,
+) {
+    match taps.stride - 2 {
+        4 => rows_n::<T, 4>(src, taps, dst, out),
+        5 => rows_n::<T, 5>(src, taps, dst, out),
+        6 => rows_n::<T, 6>(src, taps, dst, out),
+        7 => rows_n::<T, 7>(src, taps, dst, out),
+        8 => rows_n::<T, 8>(src, taps, dst, out),
+        9 => rows_n::<T, 9>(src, taps, dst, out),
+        10 => rows_n::<T, 10>(src, taps, dst, out),
+        11 => rows_n::<T, 11>(src, taps, dst, out),
+        12 => rows_n::<T, 12>(src, taps, dst, out),
+        13 => rows_n::<T, 13>(src, taps, dst, out),
+        14 => rows_n::<T, 14>(src, taps, dst, out),
+        16 => rows_n::<T, 16>(src, taps, dst, out),
+        _ => rows_any(src, taps, dst, out),
+    }
+}
+
+#[inline(always)]
+fn rows_u8(src: FrameRef<'_, u8>, taps: &Taps<'_>, dst: FrameMut<'_, i32>, out: Output) {
+    rows_kernel(src, taps, dst, out)
+}
+
+#[inline(always)]
+fn rows_i32(src: FrameRef<'_, i32>, taps: &Taps<'_>, dst: FrameMut<'_, i32>, out: Output) {
+    rows_kernel(src, taps, dst, out)
+}
+
+crate::cpu::dispatch! {
+    fn rows_u8_best(src: FrameRef<'_, u8>, taps: &Taps<'_>, dst: FrameMut<'_, i32>, out: Output) => rows_u8
+}
+crate::cpu::dispatch! {
+    fn rows_i32_best(src: FrameRef<'_, i32>, taps: &Taps<'_>, dst: FrameMut<'_, i32>, out: Output) => rows_i32
+}
+
+/// A pass source: `u8` frames and `i32` planes.
+pub trait Sample: Copy + Into<i64> {
+    /// Resizes every row of `src` (see [`pass_rows`]).
+    fn pass_rows(src: FrameRef<'_, Self>, taps: &Taps<'_>, dst: FrameMut<'_, i32>, out: Output);
+    /// Resizes every column of `src` (see [`pass_cols`]).
+    fn pass_cols(src: FrameRef<'_, Self>, taps: &Taps<'_>, dst: FrameMut<'_, i32>, out: Output);
+}
+
+impl Sample for u8 {
+    fn pass_rows(src: FrameRef<'_, u8>, taps: &Taps<'_>, dst: FrameMut<'_, i32>, out: Output) {
+        rows_u8_best(src, taps, dst, out)
+    }
+    fn pass_cols(src: FrameRef<'_, u8>, taps: &Taps<'_>, dst: FrameMut<'_, i32>, out: Output) {
+        cols_u8_best(src, taps, dst, out)
+    }
+}
+
+impl Sample for i32 {
+    fn pass_rows(src: FrameRef<'_, i32>, taps: &Taps<'_>, dst: FrameMut<'_, i32>, out: Output) {
+        rows_i32_best(src, taps, dst, out)
+    }
+    fn pass_cols(src: FrameRef<'_, i32>, taps: &Taps<'_>, dst: FrameMut<'_, i32>, out: Output) {
+        cols_i32_best(src, taps, dst, out)
+    }
+}
+
+/// Resizes every row (along the width) with `taps`: `dst` must be `taps`' output length wide
+/// and as high as `src`.
+pub fn pass_rows<T: Sample>(src: FrameRef<'_, T>, taps: &Taps<'_>, dst: FrameMut<'_, i32>, out: Output) {
+    T::pass_rows(src, taps, dst, out)
+}
+
+/// Strip width of the column pass's accumulators.
+const STRIP: usize = 64;
+
+#[inline(always)]
+fn cols_kernel<T: Copy + Into<i64>>(
+    src: FrameRef<'_, T>,
+    taps: &Taps<'_>,
+    mut dst: FrameMut<'_, i32>,
+    out: Output,
+) {
+    for (d, (start, ws)) in dst.rows_mut().zip(taps.iter()) {
+        for (strip, dchunk) in d.chunks_mut(STRIP).enumerate() {
+            let x0 = strip * STRIP;
+            let mut acc = [0i64; STRIP];
+            for (t, &w) in ws.iter().enumerate() {
+                if w == 0 {
+                    continue;
+                }
+                let row = src.row(start + t);
+                let seg = row.get(x0..).unwrap_or(&[]);
+                for (a, &v) in acc.iter_mut().zip(seg.iter().take(STRIP)) {
+                    *a += v.into() * i64::from(w);
+                }
+            }
+            for (o, &a) in dchunk.iter_mut().zip(&acc) {
+                *o = finish(a, out);
+            }
+        }
+    }
+}
+
+#[inline(always)]
+fn cols_u8(src: FrameRef<'_, u8>, taps: &Taps<'_>, dst: FrameMut<'_, i32>, out: Output) {
+    cols_kernel(src, taps, dst, out)
+}
+
+#[inline(always)]
+fn cols_i32(src: FrameRef<'_, i32>, taps: &Taps<'_>, dst: FrameMut<'_, i32>, out: Output) {
+    cols_kernel(src, taps, dst, out)
+}
+
+crate::cpu::dispatch! {
+    fn cols_u8_best(src: FrameRef<'_, u8>, taps: &Taps<'_>, dst: FrameMut<'_, i32>, out: Output) => cols_u8
+}
+crate::cpu::dispatch! {
+    fn cols_i32_best(src: FrameRef<'_, i32>, taps: &Taps<'_>, dst: FrameMut<'_, i32>, out: Output) => cols_i32
+}
+
+/// Resizes every column (along the height) with `taps`: `dst` must be as wide as `src` and
+/// `taps`' output length high.
+pub fn pass_cols<T: Sample>(src: FrameRef<'_, T>, taps: &Taps<'_>, dst: FrameMut<'_, i32>, out: Output) {
+    T::pass_cols(src, taps, dst, out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn weights_sum_to_one_and_identity_at_scale_one() -> Result<(), Error> {
+        let mut buf = [0i32; 8192];
+        for (n_in, n_out) in [(5usize, 5usize), (1, 7), (7, 1), (332, 512), (630, 512), (512, 2), (3, 512)] {
+            let taps = build(n_in, n_out, &mut buf)?;
+            let mut rows = 0;
+            for (start, ws) in taps.iter() {
+                rows += 1;
+                assert_eq!(
+                    ws.iter().map(|&w| i64::from(w)).sum::<i64>(),
+                    1 << WEIGHT_BITS,
+                    "{n_in}->{n_out}"
+                );
+                assert!(start + ws.len() <= n_in);
+            }
+            assert_eq!(rows, n_out);
+        }
+        let taps = build(5, 5, &mut buf)?;
+        for (x, (start, ws)) in taps.iter().enumerate() {
+            let ones: i32 = ws.iter().filter(|&&w| w == 1 << WEIGHT_BITS).count() as i32;
+            assert_eq!(ones, 1);
+            let pos = ws.iter().position(|&w| w == 1 << WEIGHT_BITS).unwrap_or(usize::MAX);
+            assert_eq!(start + pos, x);
+        }
+        Ok(())
+    }
+
+    #[test]
+    fn kernel_matches_keys_half() {
+        // 2D³·cubic(σ/D) at σ/D = 0, 0.5, 1, 1.5, 2 with D = 8.
+        let d = 8;
+        let two_d3 = 2 * d * d * d;
+        assert_eq!(kernel_num(0, d), two_d3);
+        assert_eq!(kernel_num(4, d) * 16, two_d3 * 9); // cubic(0.5) = 0.5625
+        assert_eq!(kernel_num(-8, d), 0);
+        assert_eq!(kernel_num(12, d) * 16, -two_d3); // cubic(1.5) = −0.0625
+        assert_eq!(kernel_num(16, d), 0);
+    }
+
+    #[test]
+    fn small_too_small_buffer_is_an_error() {
+        let mut buf = [0i32; 8];
+        assert!(matches!(build(630, 512, &mut buf), Err(Error::ScratchTooSmall { .. })));
+    }
+}

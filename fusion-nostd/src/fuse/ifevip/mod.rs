@@ -1,0 +1,365 @@
+//! IFEVIP — infrared feature extraction and visual information preservation (Zhang, Zhang,
+//! Bai, Zhang, Infrared Phys. Technol. 83, 2017), integer core. Spec:
+//! `shared/reference/fusion-algorithms.md`, IFEVIP (Part B) and Part A's guards.
+//!
+//! # Steps and number formats
+//!
+//! | step | where | format | error against exact arithmetic |
+//! |---|---|---|---|
+//! | 1. IR → `D×D` (`D` = 512), MATLAB bicubic, `uint8` after each pass ([`imresize`]) | plane B | integers 0..=255 | weights Q30 (sum exactly 2³⁰), sums exact `i64`; differs from exact only within ≈ 2⁻²² of a .5 tie |
+//! | 2. quadtree (`max − min > 51`, sides 512…32) ([`quadtree`]) | stack, `heapless` | integers | exact |
+//! | 3. 32×32 erosion, van Herk/Gil–Werman ([`crate::filters::erode`]) | plane C | integers | exact |
+//! | 4. Bézier patches ([`bezier`]) | plane A | Q20 ([`BG_BITS`]) | exact numerator, one rounding: ≤ 2⁻²¹ |
+//! | 5. back to W×H, `double` bicubic | plane C | Q20 | ≤ 2⁻²¹ per pass + weight rounding (≈ 2⁻³¹ × local variation) |
+//! | 6. 9×9 Gaussian σ 4.5, zero padded ([`crate::filters::gauss`]) | plane B | Q20 | ≤ 2⁻²¹ per pass + 9·2⁻³¹·255 |
+//! | 7. `R = IR ⊖ uint8(bg)` | plane B | integers | flips only where bg is within ≈ 10⁻⁶ of a .5 tie |
+//! | 8. `r_H = H(IR)/H(VIS)` ([`entropy`]) | — | Q32 (keys use Q24) | `H` within 2⁻²⁹ bits |
+//! | 9. keys `max(Feat, 0) + VIS` = `VIS·2²⁴ + max(R·2²⁴ + (IR−VIS)·r_H,24, 0)` | recomputed | `i64` Q24 ([`peak::KEY_BITS`]) | ≤ 255·2⁻²⁵ from `r_H`'s Q24 |
+//! | 10. `m·k` = exact sum of the top `k` keys by histogram selection ([`peak`]) | planes A, C | `i128` Q24 | exact given the keys |
+//! | 11. `g = min(255/m, 0.8)` as `G = g·2⁴⁰`, `B = g·r_H·2⁴⁰` (B saturated at 2⁵²) | — | Q40 | ≤ 2⁻⁴¹ |
+//! | 12. `F = VIS ⊕ uint8(R·G + (IR−VIS)·B)` | out | `i64` Q40, round half away, saturate | ≤ 2⁻³² before rounding |
+//!
+//! The output differs from the exact-arithmetic result only where a rounding (steps 1, 7, 12)
+//! sits within the stated error of a .5 tie; the VIFB tests count those pixels.
+//!
+//! # Variants and guards
+//!
+//! Both variants compute the published method; they differ only in its undefined cases.
+//! * `H(VIS) = 0` (constant visible image, [`Guards::IFEVIP_ZERO_ENTROPY`]): classic returns
+//!   `F = VIS`, which is what the published code's `Inf`/`NaN` arithmetic and the final
+//!   `uint8` cast produce (`g = 0` or `Feat = ±Inf/NaN` everywhere); flight sets `r_H = 1`:
+//!   the visible image carries nothing, so the IR−VIS difference is added at unit weight (in
+//!   eclipse, black VIS, the output is the scaled IR with its bright features).
+//! * `N·0.001 < 1` (fewer than 1000 pixels, [`Guards::IFEVIP_FEW_PIXELS`]): `k = round(0.001·N)`;
+//!   classic keeps the published `k = 0 → g = 0.8` (`min(NaN, 0.8)` in MATLAB), flight uses
+//!   `k = max(1, ·)`.
+//! * `m = 0` ([`Guards::IFEVIP_ZERO_PEAK`]): `g = 0.8` in both (MATLAB's `min(Inf, 0.8)`).
+//! * [`Guards::OUTPUT_SATURATED`]: some `uint8(g·Feat)` exceeded 255 or `VIS + uint8(g·Feat)`
+//!   was clipped at 255 — the in-light saturation the study reports.
+//!
+//! # Scratch
+//!
+//! Three `i32` planes of [`scratch_pixels`] each: `max(W·H, D²)` plus the resizes'
+//! intermediate frames and tap tables (`D` × the shorter side, ≤ 4·max(W,H)+2·D entries);
+//! at most `W·H` for frames from 512² up to 1024² — even a 1×1 frame needs `D²`.
+//! No other memory except ≈ 12 KiB of stack (histograms, quadtree).
+
+pub mod bezier;
+pub mod entropy;
+pub mod imresize;
+pub mod peak;
+pub mod quadtree;
+
+use super::{Guards, Variant};
+use crate::filters::{erode, gauss};
+use crate::{Error, FrameMut, FrameRef, ScratchMut};
+use imresize::Output;
+
+/// Fractional bits of the background planes (steps 4–6).
+pub const BG_BITS: u32 = 20;
+
+/// Fractional bits of the final gains `G`, `B`.
+const GAIN_BITS: u32 = 40;
+
+/// IFEVIP parameters. [`Default`] gives the published ones (`run_IFEVIP.m`) with
+/// [`Variant::Flight`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct IfevipParams {
+    /// Classic (published) or flight (guarded).
+    pub variant: Variant,
+    /// Side of the square grid the IR image is resized to for the quadtree (`QuadNormDim`, 512).
+    /// A power of two in `8..=1024`.
+    pub quad_norm_dim: u16,
+    /// Smallest quadtree leaf side (`QuadMinDim`, 32). A power of two, `4 ≤ min ≤ norm`,
+    /// `norm / min ≤ 16`.
+    pub quad_min_dim: u16,
+    /// A block is split while `max − min` exceeds this many grey levels (`0.2·255 = 51`).
+    pub split_threshold: u8,
+    /// Side of the square erosion window giving the local-minimum image (32), `1..=256`.
+    pub erode_size: u16,
+    /// Side of the square Gaussian (`GaussScale`, 9), odd, `1..=31`; σ = side / 2.
+    pub gauss_size: u8,
+    /// Fraction of the pixels averaged for the peak `m`, in parts per million
+    /// (`MaxRatio` 0.001 = 1000 ppm), `1..=1_000_000`.
+    pub top_ppm: u32,
+    /// Gain cap in percent (`StdRatio` 0.8 = 80), `1..=100`.
+    pub gain_cap_percent: u8,
+}
+
+impl Default for IfevipParams {
+    fn default() -> Self {
+        Self {
+            variant: Variant::Flight,
+            quad_norm_dim: 512,
+            quad_min_dim: 32,
+            split_threshold: 51,
+            erode_size: 32,
+            gauss_size: 9,
+            top_ppm: 1000,
+            gain_cap_percent: 80,
+        }
+    }
+}
+
+impl IfevipParams {
+    /// Checks every field against its documented range.
+    pub fn validate(&self) -> Result<(), Error> {
+        let norm = self.quad_norm_dim;
+        let min = self.quad_min_dim;
+        if !norm.is_power_of_two() || !(8..=1024).contains(&norm) {
+            return Err(Error::InvalidParameter { name: "quad_norm_dim" });
+        }
+        if !min.is_power_of_two() || min < 4 || min > norm || norm / min > 16 {
+            return Err(Error::InvalidParameter { name: "quad_min_dim" });
+        }
+        if !(1..=256).contains(&self.erode_size) {
+            return Err(Error::InvalidParameter { name: "erode_size" });
+        }
+        if self.gauss_size.is_multiple_of(2) || self.gauss_size > 31 {
+            return Err(Error::InvalidParameter { name: "gauss_size" });
+        }
+        if !(1..=1_000_000).contains(&self.top_ppm) {
+            return Err(Error::InvalidParameter { name: "top_ppm" });
+        }
+        if !(1..=100).contains(&self.gain_cap_percent) {
+            return Err(Error::InvalidParameter { name: "gain_cap_percent" });
+        }
+        Ok(())
+    }
+}
+
+/// Pixels each of the three scratch planes must hold for a `width × height` frame.
+pub fn scratch_pixels(width: usize, height: usize, params: &IfevipParams) -> usize {
+    let d = usize::from(params.quad_norm_dim);
+    let mut need = (width * height).max(d * d);
+    // Step 1: IR → D×D (the wider side's pass first), tables for both axes.
+    if width != d && height != d {
+        need = need.max(if width > height { d * height } else { width * d });
+    }
+    // Steps 5–6: D×D → D×H → W×H, tables of the combined operators.
+    let g = usize::from(params.gauss_size);
+    need = need.max(d * height);
+    need = need.max(imresize::table_len(width, d)).max(imresize::table_len(height, d));
+    need = need.max(imresize::smoothed_len(d, height, g)).max(imresize::smoothed_len(d, width, g));
+    need
+}
+
+fn view<'a>(plane: &'a [i32], w: usize, h: usize) -> Result<FrameRef<'a, i32>, Error> {
+    FrameRef::new(plane, w, h)
+}
+
+fn view_mut<'a>(plane: &'a mut [i32], w: usize, h: usize) -> Result<FrameMut<'a, i32>, Error> {
+    FrameMut::new(plane, w, h)
+}
+
+/// Step 1: the IR frame to `d×d` in `dst` (integers), with `tmp` for the first pass and
+/// `table` for the taps. The dimension with the smaller scale (the wider side) goes first.
+fn resize_ir(
+    tir: FrameRef<'_, u8>,
+    d: usize,
+    tmp: &mut [i32],
+    dst: &mut [i32],
+    table: &mut [i32],
+) -> Result<(), Error> {
+    let (w, h) = tir.size();
+    match (w == d, h == d) {
+        (true, true) => {
+            for (row, out) in tir.rows().zip(dst.chunks_exact_mut(d)) {
+                for (o, &v) in out.iter_mut().zip(row) {
+                    *o = i32::from(v);
+                }
+            }
+        }
+        (false, true) => {
+            let taps = imresize::build(w, d, table)?;
+            imresize::pass_rows(tir, &taps, view_mut(dst, d, d)?, Output::U8);
+        }
+        (true, false) => {
+            let taps = imresize::build(h, d, table)?;
+            imresize::pass_cols(tir, &taps, view_mut(dst, d, d)?, Output::U8);
+        }
+        (false, false) if w > h => {
+            let taps = imresize::build(w, d, table)?;
+            imresize::pass_rows(tir, &taps, view_mut(tmp, d, h)?, Output::U8);
+            let taps = imresize::build(h, d, table)?;
+            imresize::pass_cols(view(tmp, d, h)?, &taps, view_mut(dst, d, d)?, Output::U8);
+        }
+        (false, false) => {
+            let taps = imresize::build(h, d, table)?;
+            imresize::pass_cols(tir, &taps, view_mut(tmp, w, d)?, Output::U8);
+            let taps = imresize::build(w, d, table)?;
+            imresize::pass_rows(view(tmp, w, d)?, &taps, view_mut(dst, d, d)?, Output::U8);
+        }
+    }
+    Ok(())
+}
+
+fn histogram(frame: FrameRef<'_, u8>) -> [u32; 256] {
+    let mut hist = [0u32; 256];
+    for row in frame.rows() {
+        for &v in row {
+            if let Some(h) = hist.get_mut(usize::from(v)) {
+                *h += 1;
+            }
+        }
+    }
+    hist
+}
+
+/// Steps 1–6: the smoothed IR background (Q20, [`BG_BITS`]) for every pixel, row-major in
+/// the first `W·H` elements of the third plane of `scratch` (public for tests and tools).
+pub fn background(
+    tir: FrameRef<'_, u8>,
+    params: &IfevipParams,
+    scratch: &mut ScratchMut<'_>,
+) -> Result<(), Error> {
+    params.validate()?;
+    let (w, h) = tir.size();
+    let d = usize::from(params.quad_norm_dim);
+    let [a, b, c] = scratch.planes(scratch_pixels(w, h, params))?;
+    // 1. IR → D×D in B.
+    resize_ir(tir, d, a, b, c)?;
+    // 2. Quadtree leaves.
+    let leaves = quadtree::decompose(
+        view(b, d, d)?,
+        usize::from(params.quad_min_dim),
+        i32::from(params.split_threshold),
+    )?;
+    // 3. Local minimum in C (two transposing row passes through A).
+    let size = usize::from(params.erode_size);
+    let origin = size.div_ceil(2).max(1);
+    let (before, after) = (origin - 1, size - origin);
+    erode::min_rows_transposed(view(b, d, d)?, a, c, before, after)?;
+    erode::min_rows_transposed(view(a, d, d)?, c, b, before, after)?;
+    // 4. Bézier background in A (Q20).
+    bezier::render(&leaves, view(c, d, d)?, view_mut(a, d, d)?)?;
+    // 5 + 6. Back to W×H and the Gaussian, as one operator per axis: A → B (D×H) → C (W×H).
+    let (weights, n) = gauss::weights(usize::from(params.gauss_size), u32::from(params.gauss_size), 2)?;
+    let weights = weights.get(..n).unwrap_or(&[]);
+    let taps = imresize::build_smoothed(d, h, weights, c)?;
+    imresize::pass_cols(view(a, d, d)?, &taps, view_mut(b, d, h)?, Output::Same);
+    let taps = imresize::build_smoothed(d, w, weights, a)?;
+    imresize::pass_rows(view(b, d, h)?, &taps, view_mut(c, w, h)?, Output::Same);
+    Ok(())
+}
+
+/// `uint8(bg)` of a Q20 background value (round half away; the value is never a negative tie).
+#[inline(always)]
+fn bg_u8(bg: i32) -> i32 {
+    (bg.max(0).saturating_add(1 << (BG_BITS - 1)) >> BG_BITS).min(255)
+}
+
+/// IFEVIP of an aligned VIS/TIR pair into `out` (see the module docs). Returns the guards that
+/// fired. Errors: invalid parameters, frames of different sizes, scratch planes shorter than
+/// [`scratch_pixels`].
+pub fn fuse_ifevip(
+    vis: FrameRef<'_, u8>,
+    tir: FrameRef<'_, u8>,
+    mut out: FrameMut<'_, u8>,
+    params: &IfevipParams,
+    scratch: &mut ScratchMut<'_>,
+) -> Result<Guards, Error> {
+    params.validate()?;
+    let (w, h) = vis.size();
+    if tir.size() != (w, h) {
+        return Err(Error::SizeMismatch { expected: (w, h), got: tir.size() });
+    }
+    if out.size() != (w, h) {
+        return Err(Error::SizeMismatch { expected: (w, h), got: out.size() });
+    }
+    let needed = scratch_pixels(w, h, params);
+    if scratch.capacity() < needed {
+        return Err(Error::ScratchTooSmall { needed, capacity: scratch.capacity() });
+    }
+    let flight = params.variant == Variant::Flight;
+    let mut guards = Guards::NONE;
+    let n = (w * h) as u64;
+
+    // Entropy ratio (step 8) first: classic with H(VIS) = 0 needs nothing else.
+    let (nh_ir, _) = entropy::weighted_entropy(&histogram(tir));
+    let (nh_vis, vis_bins) = entropy::weighted_entropy(&histogram(vis));
+    let ratio_q32 = if vis_bins <= 1 {
+        guards |= Guards::IFEVIP_ZERO_ENTROPY;
+        if !flight {
+            for (o, v) in out.rows_mut().zip(vis.rows()) {
+                o.copy_from_slice(v);
+            }
+            return Ok(guards);
+        }
+        1u64 << 32
+    } else {
+        entropy::ratio_q32(nh_ir, nh_vis)
+    };
+    let ratio_q24 = ((ratio_q32 >> 7) + 1) >> 1;
+    let ratio_q24 = i64::try_from(ratio_q24).unwrap_or(i64::MAX);
+
+    background(tir, params, scratch)?;
+    let [a, b, c] = scratch.planes(needed)?;
+
+    // 7 + 9. R = IR ⊖ uint8(bg) in place in C; keys max(Feat, 0) + VIS (Q24) into A (low
+    // 32 bits) and B (high 32 bits).
+    for (((rr, ir), vv), (ka, kb)) in
+        c.chunks_exact_mut(w).zip(tir.rows()).zip(vis.rows()).zip(a.chunks_exact_mut(w).zip(b.chunks_exact_mut(w)))
+    {
+        for ((((r, &t), &v), ka), kb) in rr.iter_mut().zip(ir).zip(vv).zip(ka.iter_mut()).zip(kb.iter_mut()) {
+            let feat_r = (i32::from(t) - bg_u8(*r)).max(0);
+            *r = feat_r;
+            let feat = (i64::from(feat_r) << peak::KEY_BITS)
+                .saturating_add((i64::from(t) - i64::from(v)).saturating_mul(ratio_q24));
+            let key = (i64::from(v) << peak::KEY_BITS).saturating_add(feat.max(0));
+            peak::store(key, ka, kb);
+        }
+    }
+    let r_plane: &[i32] = c;
+
+    // 10. Peak m·k: sum of the top k keys.
+    let ppm = u64::from(params.top_ppm);
+    if n * ppm < 1_000_000 {
+        guards |= Guards::IFEVIP_FEW_PIXELS;
+    }
+    let mut k = (n * ppm + 500_000) / 1_000_000;
+    if flight {
+        k = k.max(1);
+    }
+    let top = peak::top_k_sum(a, b, w * h, k);
+
+    // 11. Gains in Q40.
+    let cap = u128::from(params.gain_cap_percent);
+    let gain_q40: u128 = if k == 0 || top <= 0 {
+        if k > 0 {
+            guards |= Guards::IFEVIP_ZERO_PEAK;
+        }
+        ((cap << GAIN_BITS) + 50) / 100
+    } else {
+        let top = top as u128;
+        // g = 255·k/m' with m' = top/2²⁴; capped when that is ≥ cap/100.
+        let num = (255u128 * u128::from(k)) << peak::KEY_BITS;
+        if num * 100 >= cap * top {
+            ((cap << GAIN_BITS) + 50) / 100
+        } else {
+            ((num << GAIN_BITS) + top / 2) / top
+        }
+    };
+    let ratio_gain = ((gain_q40 * u128::from(ratio_q32)) + (1 << 31)) >> 32;
+    let g_q = i64::try_from(gain_q40).unwrap_or(i64::MAX);
+    let b_q = i64::try_from(ratio_gain.min(1 << 52)).unwrap_or(1 << 52);
+
+    // 12. F = VIS ⊕ uint8(g·Feat).
+    let half = 1i64 << (GAIN_BITS - 1);
+    let mut saturated = false;
+    for (((o, v), t), rr) in out.rows_mut().zip(vis.rows()).zip(tir.rows()).zip(r_plane.chunks_exact(w)) {
+        for (((o, &v), &t), &r) in o.iter_mut().zip(v).zip(t).zip(rr) {
+            let val = i64::from(r) * g_q + (i64::from(t) - i64::from(v)) * b_q;
+            let add = if val <= 0 { 0 } else { (val + half) >> GAIN_BITS };
+            saturated |= add > 255;
+            let add = add.min(255);
+            let sum = i64::from(v) + add;
+            saturated |= sum > 255;
+            *o = sum.min(255) as u8;
+        }
+    }
+    if saturated {
+        guards |= Guards::OUTPUT_SATURATED;
+    }
+    Ok(guards)
+}

@@ -1,0 +1,103 @@
+//! `qtdecomp(I, 0.2, 32)` on the `D×D` grid without recursion or allocation.
+//!
+//! One pass over the grid records the minimum and maximum of every smallest block
+//! (`min_dim` side, at most 16 × 16 of them); a block's range is then the combination of its
+//! smallest blocks. The tree is walked depth first with an explicit `heapless` stack (depth
+//! ≤ 4 levels, so at most 3·4 + 1 entries) and the leaves are collected in a `heapless::Vec`
+//! of at most 256, then put in the published write order: largest side first, column-major
+//! by top-left corner within a side (MATLAB `find` order).
+
+use crate::{Error, FrameRef};
+use heapless::Vec;
+
+/// Most smallest blocks per side (`quad_norm_dim / quad_min_dim ≤ 16`).
+pub const MAX_GRID: usize = 16;
+/// Most leaves.
+pub const MAX_LEAVES: usize = MAX_GRID * MAX_GRID;
+
+/// One quadtree leaf: top-left corner (0-based) and side.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Leaf {
+    /// Top row.
+    pub row: u16,
+    /// Left column.
+    pub col: u16,
+    /// Side in pixels.
+    pub side: u16,
+}
+
+/// Leaves of the quadtree of the square `grid` (values 0..=255), split while
+/// `max − min > threshold` and the side is at least `2·min_dim`, in write order.
+pub fn decompose(
+    grid: FrameRef<'_, i32>,
+    min_dim: usize,
+    threshold: i32,
+) -> Result<Vec<Leaf, MAX_LEAVES>, Error> {
+    let d = grid.width();
+    let cells = d / min_dim.max(1);
+    if grid.height() != d || min_dim == 0 || cells == 0 || cells > MAX_GRID || cells * min_dim != d {
+        return Err(Error::InvalidParameter { name: "quad_min_dim" });
+    }
+    // (min, max) of every smallest block.
+    let mut range = [[(i32::MAX, i32::MIN); MAX_GRID]; MAX_GRID];
+    for (y, row) in grid.rows().enumerate() {
+        let cells_row = range.get_mut(y / min_dim).ok_or(Error::InvalidParameter { name: "quad_min_dim" })?;
+        for (cell, seg) in cells_row.iter_mut().zip(row.chunks_exact(min_dim)) {
+            let (lo, hi) = seg.iter().fold(*cell, |(lo, hi), &v| (lo.min(v), hi.max(v)));
+            *cell = (lo, hi);
+        }
+    }
+    let block_range = |r: usize, c: usize, n: usize| {
+        let (r0, c0, k) = (r / min_dim, c / min_dim, n / min_dim);
+        range
+            .iter()
+            .skip(r0)
+            .take(k)
+            .flat_map(|row| row.iter().skip(c0).take(k))
+            .fold((i32::MAX, i32::MIN), |(lo, hi), &(a, b)| (lo.min(a), hi.max(b)))
+    };
+    let mut leaves: Vec<Leaf, MAX_LEAVES> = Vec::new();
+    let mut stack: Vec<(usize, usize, usize), 16> = Vec::new();
+    let overflow = Error::InvalidParameter { name: "quad_min_dim" };
+    stack.push((0, 0, d)).map_err(|_| overflow)?;
+    while let Some((r, c, n)) = stack.pop() {
+        let (lo, hi) = block_range(r, c, n);
+        if hi - lo > threshold && n / 2 >= min_dim {
+            let h = n / 2;
+            for (dr, dc) in [(h, h), (0, h), (h, 0), (0, 0)] {
+                stack.push((r + dr, c + dc, h)).map_err(|_| overflow)?;
+            }
+        } else {
+            let leaf = Leaf { row: r as u16, col: c as u16, side: n as u16 };
+            leaves.push(leaf).map_err(|_| overflow)?;
+        }
+    }
+    leaves.sort_unstable_by_key(|l| (core::cmp::Reverse(l.side), l.col, l.row));
+    Ok(leaves)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn flat_grid_is_one_leaf_and_a_spike_splits_to_the_minimum() -> Result<(), Error> {
+        let mut g = [10i32; 64 * 64];
+        let leaves = decompose(FrameRef::new(&g, 64, 64)?, 8, 51)?;
+        assert_eq!(leaves.as_slice(), &[Leaf { row: 0, col: 0, side: 64 }]);
+        g[64 * 10 + 10] = 62; // range 52 > 51
+        let leaves = decompose(FrameRef::new(&g, 64, 64)?, 8, 51)?;
+        // 3 of side 32, 3 of side 16, 4 of side 8, column-major within a side.
+        assert_eq!(leaves.len(), 10);
+        assert_eq!(leaves[0], Leaf { row: 32, col: 0, side: 32 });
+        assert_eq!(leaves[1], Leaf { row: 0, col: 32, side: 32 });
+        assert_eq!(leaves[2], Leaf { row: 32, col: 32, side: 32 });
+        assert_eq!(leaves[3], Leaf { row: 16, col: 0, side: 16 });
+        assert_eq!(leaves[4], Leaf { row: 0, col: 16, side: 16 });
+        assert!(leaves[6..].iter().all(|l| l.side == 8));
+        assert!(leaves[6..].iter().any(|l| l.row == 8 && l.col == 8));
+        g[64 * 10 + 10] = 61; // range 51: no split
+        assert_eq!(decompose(FrameRef::new(&g, 64, 64)?, 8, 51)?.len(), 1);
+        Ok(())
+    }
+}

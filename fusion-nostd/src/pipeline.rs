@@ -1,0 +1,130 @@
+//! The one entry point a firmware calls per frame pair: align the two bands on one grid, fuse.
+//!
+//! ```text
+//! VIS (e.g. 1024²) ─┐                       ┌─ rescale TIR up (bicubic)  ─┐
+//!                   ├─ RescalePolicy ───────┼─ rescale VIS down (area)   ─┼─ Method ─→ fused u8
+//! TIR (e.g. 512²)  ─┘                       └─ none (sizes must match)   ─┘
+//! ```
+//!
+//! The rescaled band goes into the scratch's `u8` band plane; the method borrows the `i32`
+//! work planes. When both frames already share a grid the rescale is skipped whatever the
+//! policy says (and [`FuseReport::rescaled`] says so).
+
+use crate::fuse::Guards;
+use crate::fuse::adf::{AdfParams, fuse_adf};
+use crate::fuse::ifevip::{IfevipParams, fuse_ifevip};
+use crate::fuse::tsifsd::{TsifsdParams, fuse_tsifsd};
+use crate::{Error, Filter, FrameMut, FrameRef, ScratchMut, rescale};
+
+/// Which band is rescaled onto the other's grid.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub enum RescalePolicy {
+    /// Upscale TIR to the VIS grid with bicubic (the study's recommendation; default).
+    #[default]
+    TirUp,
+    /// Downscale VIS to the TIR grid with area.
+    VisDown,
+    /// No rescale: the frames must already have the same size.
+    None,
+}
+
+/// The fusion method and its parameters.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Method {
+    /// Anisotropic diffusion + Karhunen–Loève fusion.
+    Adf(AdfParams),
+    /// Two-scale image fusion with saliency detection.
+    Tsifsd(TsifsdParams),
+    /// Infrared feature extraction + visual information preservation.
+    Ifevip(IfevipParams),
+}
+
+impl Default for Method {
+    fn default() -> Self {
+        Method::Tsifsd(TsifsdParams::default())
+    }
+}
+
+/// A whole per-frame configuration.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Pipeline {
+    /// How the two bands are brought onto one grid.
+    pub rescale: RescalePolicy,
+    /// How they are fused.
+    pub method: Method,
+}
+
+/// What one [`fuse`] call did.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct FuseReport {
+    /// Width and height of the grid the frames were fused on (= the output size).
+    pub grid: (usize, usize),
+    /// Whether a band was rescaled (false when the sizes already matched).
+    pub rescaled: bool,
+    /// The guards the method fired.
+    pub guards: Guards,
+}
+
+/// The grid `policy` fuses on, given the two input sizes.
+pub fn fusion_grid(
+    vis: (usize, usize),
+    tir: (usize, usize),
+    policy: RescalePolicy,
+) -> Result<(usize, usize), Error> {
+    match policy {
+        RescalePolicy::TirUp => Ok(vis),
+        RescalePolicy::VisDown => Ok(tir),
+        RescalePolicy::None if vis == tir => Ok(vis),
+        RescalePolicy::None => Err(Error::SizeMismatch { expected: vis, got: tir }),
+    }
+}
+
+/// Runs one method on two frames of the same size.
+pub fn fuse_method(
+    vis: FrameRef<'_, u8>,
+    tir: FrameRef<'_, u8>,
+    out: FrameMut<'_, u8>,
+    method: &Method,
+    scratch: &mut ScratchMut<'_>,
+) -> Result<Guards, Error> {
+    match method {
+        Method::Adf(p) => fuse_adf(vis, tir, out, p, scratch),
+        Method::Tsifsd(p) => fuse_tsifsd(vis, tir, out, p, scratch),
+        Method::Ifevip(p) => fuse_ifevip(vis, tir, out, p, scratch),
+    }
+}
+
+/// Fuses a VIS/TIR pair into `out`: rescale by `pipeline.rescale`, then `pipeline.method`.
+///
+/// `out` must have the size of the fusion grid (the VIS size for [`RescalePolicy::TirUp`],
+/// the TIR size for [`RescalePolicy::VisDown`]). Errors: [`Error::SizeMismatch`] for a wrong
+/// output size or (policy `None`) different input sizes, [`Error::ScratchTooSmall`], and any
+/// error of the method. On error `out` may hold a partial result and must not be used.
+pub fn fuse(
+    vis: FrameRef<'_, u8>,
+    tir: FrameRef<'_, u8>,
+    out: FrameMut<'_, u8>,
+    scratch: &mut ScratchMut<'_>,
+    pipeline: &Pipeline,
+) -> Result<FuseReport, Error> {
+    let grid = fusion_grid(vis.size(), tir.size(), pipeline.rescale)?;
+    if out.size() != grid {
+        return Err(Error::SizeMismatch { expected: grid, got: out.size() });
+    }
+    if vis.size() == tir.size() {
+        let guards = fuse_method(vis, tir, out, &pipeline.method, scratch)?;
+        return Ok(FuseReport { grid, rescaled: false, guards });
+    }
+    let (band, mut planes) = scratch.split_band(grid.0 * grid.1)?;
+    let guards = match pipeline.rescale {
+        RescalePolicy::TirUp => {
+            rescale(tir, FrameMut::new(band, grid.0, grid.1)?, Filter::Cubic)?;
+            fuse_method(vis, FrameRef::new(band, grid.0, grid.1)?, out, &pipeline.method, &mut planes)?
+        }
+        RescalePolicy::VisDown | RescalePolicy::None => {
+            rescale(vis, FrameMut::new(band, grid.0, grid.1)?, Filter::Area)?;
+            fuse_method(FrameRef::new(band, grid.0, grid.1)?, tir, out, &pipeline.method, &mut planes)?
+        }
+    };
+    Ok(FuseReport { grid, rescaled: true, guards })
+}

@@ -1,0 +1,89 @@
+//! Host timing of ADF and TSIFSD (single thread): the integer core in both variants and the
+//! f64 references, at 512² and 1024².
+//!
+//! `cargo bench -p host-harness --bench fuse_adf_tsifsd` (all), or filter, e.g.
+//! `cargo bench -p host-harness --bench fuse_adf_tsifsd -- core/` for the core only.
+
+use criterion::{Criterion, criterion_group, criterion_main};
+use fusion_nostd::fuse::Variant;
+use fusion_nostd::fuse::adf::{AdfParams, fuse_adf};
+use fusion_nostd::fuse::tsifsd::{TsifsdParams, fuse_tsifsd};
+use fusion_nostd::{FrameMut, FrameRef};
+use host_harness::CoreScratch;
+use host_harness::io::Gray;
+use host_harness::reference;
+use std::hint::black_box;
+use std::time::Duration;
+
+/// A smooth scene with texture and a bright blob (not constant: constant frames would flatter
+/// the kernels), different for the two bands.
+fn frame(n: usize, seed: usize) -> Vec<u8> {
+    (0..n * n)
+        .map(|i| {
+            let (x, y) = (i % n, i / n);
+            let (dx, dy) = (x as f64 - n as f64 * 0.4, y as f64 - n as f64 * 0.55);
+            let blob = 180.0 * (-(dx * dx + dy * dy) / (0.02 * (n * n) as f64)).exp();
+            let texture = ((x * 7 + y * 13 + seed) ^ (i.wrapping_mul(2654435761) >> 7)) % 23;
+            (blob + 20.0 + texture as f64 + (x * seed % 31) as f64).min(255.0) as u8
+        })
+        .collect()
+}
+
+fn bench(c: &mut Criterion) {
+    let mut g = c.benchmark_group("fuse_adf_tsifsd");
+    g.sample_size(20).measurement_time(Duration::from_secs(4)).warm_up_time(Duration::from_secs(1));
+    for n in [512usize, 1024] {
+        let (vis, tir) = (frame(n, 3), frame(n, 11));
+        let mut out = vec![0u8; n * n];
+        let mut scratch = CoreScratch::new(n * n);
+        for variant in [Variant::Classic, Variant::Flight] {
+            let adf = AdfParams { variant, ..AdfParams::default() };
+            let tsifsd = TsifsdParams { variant, ..TsifsdParams::default() };
+            g.bench_function(format!("core/adf/{variant:?}/{n}"), |b| {
+                b.iter(|| {
+                    let v = FrameRef::new(black_box(&vis), n, n).unwrap();
+                    let t = FrameRef::new(black_box(&tir), n, n).unwrap();
+                    fuse_adf(v, t, FrameMut::new(&mut out, n, n).unwrap(), &adf, &mut scratch.view_mut())
+                        .unwrap()
+                })
+            });
+            g.bench_function(format!("core/tsifsd/{variant:?}/{n}"), |b| {
+                b.iter(|| {
+                    let v = FrameRef::new(black_box(&vis), n, n).unwrap();
+                    let t = FrameRef::new(black_box(&tir), n, n).unwrap();
+                    fuse_tsifsd(
+                        v,
+                        t,
+                        FrameMut::new(&mut out, n, n).unwrap(),
+                        &tsifsd,
+                        &mut scratch.view_mut(),
+                    )
+                    .unwrap()
+                })
+            });
+        }
+    }
+    g.finish();
+
+    // The f64 references are ~100× slower: fewer samples.
+    let mut g = c.benchmark_group("fuse_adf_tsifsd");
+    g.sample_size(10).measurement_time(Duration::from_secs(5)).warm_up_time(Duration::from_millis(500));
+    for n in [512usize, 1024] {
+        let to_f64 = |d: Vec<u8>| Gray { width: n, height: n, data: d.into_iter().map(f64::from).collect() };
+        let (vis, tir) = (to_f64(frame(n, 3)), to_f64(frame(n, 11)));
+        for variant in [Variant::Classic, Variant::Flight] {
+            let adf = AdfParams { variant, ..AdfParams::default() };
+            let tsifsd = TsifsdParams { variant, ..TsifsdParams::default() };
+            g.bench_function(format!("reference/adf/{variant:?}/{n}"), |b| {
+                b.iter(|| reference::adf::fuse_adf(black_box(&vis), black_box(&tir), &adf))
+            });
+            g.bench_function(format!("reference/tsifsd/{variant:?}/{n}"), |b| {
+                b.iter(|| reference::tsifsd::fuse_tsifsd(black_box(&vis), black_box(&tir), &tsifsd))
+            });
+        }
+    }
+    g.finish();
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);

@@ -1,0 +1,32 @@
+//! The `fusion` command-line tool: one verb per module.
+
+use clap::{Parser, Subcommand};
+
+pub mod eval;
+pub mod rescale;
+
+/// VIS/TIR image fusion for spacecraft proximity navigation: host tools.
+#[derive(Debug, Parser)]
+#[command(name = "fusion", version, about)]
+pub struct Cli {
+    /// What to do.
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+/// The verbs of the tool.
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Rescale a grey PNG with the core's bicubic or area rescaler (8-bit or 16-bit).
+    Rescale(rescale::RescaleArgs),
+    /// Fusion metrics (AG, MI, FMI, SSIM, RMSE) of a fused image; noise metrics with --ref.
+    Eval(eval::EvalArgs),
+}
+
+/// Runs one parsed command line.
+pub fn run(cli: Cli) -> anyhow::Result<()> {
+    match cli.command {
+        Command::Rescale(args) => rescale::run(&args),
+        Command::Eval(args) => eval::run(&args),
+    }
+}

@@ -1,0 +1,254 @@
+//! Image and array I/O for the host tools: 8/16-bit grey PNG, float32 `.npy`.
+//!
+//! Outputs are written to a temporary file in the target folder and renamed into place, so a
+//! failed run never leaves a partial file behind.
+
+use anyhow::{Context, Result, bail};
+use std::path::Path;
+
+/// An owned grey image, row-major, tightly packed.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Gray<T> {
+    /// Pixels per row.
+    pub width: usize,
+    /// Rows.
+    pub height: usize,
+    /// `width * height` samples.
+    pub data: Vec<T>,
+}
+
+impl<T: Copy + Default> Gray<T> {
+    /// A `width × height` image filled with `T::default()`.
+    pub fn new(width: usize, height: usize) -> Self {
+        Self { width, height, data: vec![T::default(); width * height] }
+    }
+
+    /// A core view of the pixels.
+    pub fn view(&self) -> Result<fusion_nostd::FrameRef<'_, T>> {
+        Ok(fusion_nostd::FrameRef::new(&self.data, self.width, self.height)?)
+    }
+
+    /// A writable core view of the pixels.
+    pub fn view_mut(&mut self) -> Result<fusion_nostd::FrameMut<'_, T>> {
+        Ok(fusion_nostd::FrameMut::new(&mut self.data, self.width, self.height)?)
+    }
+
+    /// The sample at `(x, y)` (panics outside; host-side convenience).
+    pub fn at(&self, x: usize, y: usize) -> T {
+        self.data[y * self.width + x]
+    }
+}
+
+/// A PNG as it was stored: 8-bit or 16-bit grey.
+#[derive(Debug, Clone, PartialEq)]
+pub enum GrayPng {
+    /// 8-bit grey.
+    U8(Gray<u8>),
+    /// 16-bit grey.
+    U16(Gray<u16>),
+}
+
+/// What to do with a colour PNG.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ColorPolicy {
+    /// Refuse it with an error.
+    Refuse,
+    /// Convert to grey with MATLAB `rgb2gray` weights (BT.601: 0.2989, 0.5870, 0.1140),
+    /// rounded half away from zero; alpha is dropped.
+    Bt601,
+}
+
+fn decode(path: &Path) -> Result<image::DynamicImage> {
+    let reader = image::ImageReader::open(path)
+        .with_context(|| format!("cannot open {}", path.display()))?
+        .with_guessed_format()
+        .with_context(|| format!("cannot read {}", path.display()))?;
+    if reader.format() != Some(image::ImageFormat::Png) {
+        bail!("{} is not a PNG file", path.display());
+    }
+    reader.decode().with_context(|| format!("{} is not a valid PNG", path.display()))
+}
+
+/// `rgb2gray` on 8-bit samples: round(0.2989 R + 0.5870 G + 0.1140 B).
+pub fn rgb_to_gray_bt601(r: u8, g: u8, b: u8) -> u8 {
+    let v = 0.2989 * f64::from(r) + 0.5870 * f64::from(g) + 0.1140 * f64::from(b);
+    v.round().clamp(0.0, 255.0) as u8
+}
+
+/// Loads a PNG as 8- or 16-bit grey.
+pub fn load_png(path: &Path, color: ColorPolicy) -> Result<GrayPng> {
+    let img = decode(path)?;
+    let (w, h) = (img.width() as usize, img.height() as usize);
+    if w == 0 || h == 0 {
+        bail!("{} has zero size", path.display());
+    }
+    use image::DynamicImage as D;
+    Ok(match img {
+        D::ImageLuma8(buf) => GrayPng::U8(Gray { width: w, height: h, data: buf.into_raw() }),
+        D::ImageLuma16(buf) => GrayPng::U16(Gray { width: w, height: h, data: buf.into_raw() }),
+        D::ImageLumaA8(buf) => {
+            GrayPng::U8(Gray { width: w, height: h, data: buf.pixels().map(|p| p.0[0]).collect() })
+        }
+        D::ImageLumaA16(buf) => {
+            GrayPng::U16(Gray { width: w, height: h, data: buf.pixels().map(|p| p.0[0]).collect() })
+        }
+        other => match color {
+            ColorPolicy::Refuse => bail!(
+                "{} is a colour image ({:?}); give an 8- or 16-bit grey PNG",
+                path.display(),
+                other.color()
+            ),
+            ColorPolicy::Bt601 => {
+                let rgb = other.to_rgb8();
+                GrayPng::U8(Gray {
+                    width: w,
+                    height: h,
+                    data: rgb.pixels().map(|p| rgb_to_gray_bt601(p.0[0], p.0[1], p.0[2])).collect(),
+                })
+            }
+        },
+    })
+}
+
+/// Loads an 8-bit grey PNG (colour converted with BT.601 if `color` allows it; 16-bit refused).
+pub fn load_gray_u8(path: &Path, color: ColorPolicy) -> Result<Gray<u8>> {
+    match load_png(path, color)? {
+        GrayPng::U8(g) => Ok(g),
+        GrayPng::U16(_) => bail!("{} is a 16-bit PNG; an 8-bit one is needed here", path.display()),
+    }
+}
+
+/// Writes `bytes` to `path` through a temporary file in the same folder and a rename.
+pub fn write_atomically(path: &Path, write: impl FnOnce(&Path) -> Result<()>) -> Result<()> {
+    let dir = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
+    let name = path.file_name().with_context(|| format!("{} is not a file path", path.display()))?;
+    let tmp = dir.join(format!(".{}.tmp-{}", name.to_string_lossy(), std::process::id()));
+    let result = write(&tmp).and_then(|()| {
+        std::fs::rename(&tmp, path).with_context(|| format!("cannot write {}", path.display()))
+    });
+    if result.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    result
+}
+
+/// Saves an 8-bit grey PNG (atomically).
+pub fn save_gray_u8(path: &Path, img: &Gray<u8>) -> Result<()> {
+    save_png(path, img.width, img.height, image::ExtendedColorType::L8, &img.data)
+}
+
+/// Saves a 16-bit grey PNG (atomically).
+pub fn save_gray_u16(path: &Path, img: &Gray<u16>) -> Result<()> {
+    let bytes: Vec<u8> = img.data.iter().flat_map(|v| v.to_ne_bytes()).collect();
+    save_png(path, img.width, img.height, image::ExtendedColorType::L16, &bytes)
+}
+
+fn save_png(path: &Path, w: usize, h: usize, color: image::ExtendedColorType, bytes: &[u8]) -> Result<()> {
+    write_atomically(path, |tmp| {
+        image::save_buffer_with_format(tmp, bytes, w as u32, h as u32, color, image::ImageFormat::Png)
+            .with_context(|| format!("cannot write {}", path.display()))
+    })
+}
+
+/// Reads a float32 or float64 `.npy` array of shape `(H, W)` (C or Fortran order) as `f64`,
+/// row-major.
+pub fn read_npy_2d(path: &Path) -> Result<Gray<f64>> {
+    let bytes = std::fs::read(path).with_context(|| format!("cannot read {}", path.display()))?;
+    let npy =
+        npyz::NpyFile::new(&bytes[..]).with_context(|| format!("{} is not a .npy file", path.display()))?;
+    let shape = npy.shape().to_vec();
+    let [h, w] = shape[..] else { bail!("{}: expected a 2-D array, got shape {shape:?}", path.display()) };
+    let (h, w) = (h as usize, w as usize);
+    let fortran = npy.order() == npyz::Order::Fortran;
+    let data: Vec<f64> = match npy.dtype() {
+        npyz::DType::Plain(t) if t.type_char() == npyz::TypeChar::Float && t.size_field() == 4 => {
+            npy.into_vec::<f32>()?.into_iter().map(f64::from).collect()
+        }
+        npyz::DType::Plain(t) if t.type_char() == npyz::TypeChar::Float && t.size_field() == 8 => {
+            npy.into_vec::<f64>()?
+        }
+        other => bail!("{}: unsupported dtype {other:?}", path.display()),
+    };
+    if data.len() != w * h {
+        bail!("{}: {} values for shape ({h}, {w})", path.display(), data.len());
+    }
+    let data = if fortran {
+        // Column-major storage: element (r, c) sits at c·H + r.
+        (0..h).flat_map(|r| (0..w).map(move |c| (r, c))).map(|(r, c)| data[c * h + r]).collect()
+    } else {
+        data
+    };
+    Ok(Gray { width: w, height: h, data })
+}
+
+/// Writes a 2-D float32 `.npy` array of shape `(H, W)` (atomically).
+pub fn write_npy_f32(path: &Path, width: usize, height: usize, data: &[f32]) -> Result<()> {
+    if data.len() != width * height {
+        bail!("array of {} values does not have shape {height}x{width}", data.len());
+    }
+    write_atomically(path, |tmp| {
+        let file = std::fs::File::create(tmp).with_context(|| format!("cannot create {}", path.display()))?;
+        use npyz::WriterBuilder;
+        let mut writer = npyz::WriteOptions::<f32>::new()
+            .default_dtype()
+            .shape(&[height as u64, width as u64])
+            .writer(std::io::BufWriter::new(file))
+            .begin_nd()?;
+        writer.extend(data.iter().copied())?;
+        writer.finish()?;
+        Ok(())
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn png_and_npy_round_trip() -> Result<()> {
+        let dir = tempfile::tempdir()?;
+        let img = Gray { width: 3, height: 2, data: vec![0u8, 1, 2, 253, 254, 255] };
+        let p = dir.path().join("a.png");
+        save_gray_u8(&p, &img)?;
+        assert_eq!(load_png(&p, ColorPolicy::Refuse)?, GrayPng::U8(img));
+        let img16 = Gray { width: 2, height: 2, data: vec![0u16, 1000, 40000, 65535] };
+        save_gray_u16(&p, &img16)?;
+        assert_eq!(load_png(&p, ColorPolicy::Refuse)?, GrayPng::U16(img16));
+        let n = dir.path().join("a.npy");
+        write_npy_f32(&n, 3, 2, &[0.5, -1.0, 2.0, 3.0, 4.0, 262.25])?;
+        let back = read_npy_2d(&n)?;
+        assert_eq!((back.width, back.height), (3, 2));
+        assert_eq!(back.data, vec![0.5, -1.0, 2.0, 3.0, 4.0, 262.25]);
+        let names: Vec<_> = std::fs::read_dir(dir.path())?.collect();
+        assert_eq!(names.len(), 2, "no temporary files left behind");
+        Ok(())
+    }
+
+    #[test]
+    fn colour_is_refused_or_converted() -> Result<()> {
+        let dir = tempfile::tempdir()?;
+        let p = dir.path().join("rgb.png");
+        image::save_buffer(&p, &[255, 0, 0, 0, 255, 0], 2, 1, image::ExtendedColorType::Rgb8)?;
+        assert!(load_png(&p, ColorPolicy::Refuse).is_err());
+        let g = load_gray_u8(&p, ColorPolicy::Bt601)?;
+        assert_eq!(g.data, vec![76, 150]); // 0.2989·255 = 76.2, 0.5870·255 = 149.7
+        let bad = dir.path().join("bad.png");
+        std::fs::write(&bad, b"not an image")?;
+        assert!(load_png(&bad, ColorPolicy::Refuse).is_err());
+        assert!(load_png(&dir.path().join("missing.png"), ColorPolicy::Refuse).is_err());
+        Ok(())
+    }
+
+    #[test]
+    fn reads_the_shared_reference_arrays() -> Result<()> {
+        let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/data/vifb/fight_ADF_ref.npy");
+        let a = read_npy_2d(&p)?;
+        assert_eq!((a.width, a.height), (452, 332));
+        assert!(a.data.iter().any(|v| *v > 255.0), "ADF keeps values above 255 before the cast");
+        // The published 8-bit output is the array after MATLAB's uint8 cast.
+        let png = load_gray_u8(&p.with_extension("png"), ColorPolicy::Refuse)?;
+        let cast = |v: f64| v.round().clamp(0.0, 255.0) as u8;
+        assert!(a.data.iter().zip(&png.data).all(|(v, p)| cast(*v) == *p));
+        Ok(())
+    }
+}

@@ -1,0 +1,33 @@
+//! # host-harness
+//!
+//! The host side of the fusion project: f64 reference implementations, image I/O, metrics,
+//! reports and the `fusion` command-line tool.
+
+pub mod cli;
+pub mod io;
+pub mod metrics;
+pub mod reference;
+
+/// Path of the shared read-only project material (`../shared` beside the checkout).
+pub fn shared_dir() -> std::path::PathBuf {
+    std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared")
+}
+
+/// A host-side scratch for the core: the `i32` work planes and the `u8` band plane, on the heap.
+pub struct CoreScratch {
+    planes: [Vec<i32>; fusion_nostd::SCRATCH_PLANES],
+    band: Vec<u8>,
+}
+
+impl CoreScratch {
+    /// Scratch for frames of up to `pixels` pixels.
+    pub fn new(pixels: usize) -> Self {
+        Self { planes: std::array::from_fn(|_| vec![0; pixels]), band: vec![0; pixels] }
+    }
+
+    /// The core view of the planes.
+    pub fn view_mut(&mut self) -> fusion_nostd::ScratchMut<'_> {
+        let [a, b, c] = &mut self.planes;
+        fusion_nostd::ScratchMut::with_band([a, b, c], &mut self.band)
+    }
+}

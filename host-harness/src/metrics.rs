@@ -1,0 +1,425 @@
+//! Fusion-quality and noise metrics in `f64` (definitions: `shared/reference/metrics.md`).
+//!
+//! All take 8-bit images as `Gray<u8>` (0..255 units). "1:2" metrics compare a fused image with
+//! both sources, "1:1" metrics compare one image with one reference. Where a metric is
+//! undefined (constant images, images smaller than a window) it returns a defined value and
+//! the function says which.
+
+use crate::io::Gray;
+
+fn same_size<T, U>(a: &Gray<T>, b: &Gray<U>) {
+    assert_eq!((a.width, a.height), (b.width, b.height), "metric inputs must have the same size");
+}
+
+/// Shannon entropy (bits) of a normalised histogram.
+fn entropy(p: &[f64]) -> f64 {
+    p.iter().filter(|&&v| v > 0.0).map(|&v| -v * v.log2()).sum()
+}
+
+/// Entropy (bits) of an 8-bit image's 256-bin histogram.
+pub fn entropy_u8(a: &Gray<u8>) -> f64 {
+    let mut h = [0f64; 256];
+    for &v in &a.data {
+        h[v as usize] += 1.0;
+    }
+    let n = a.data.len() as f64;
+    h.iter_mut().for_each(|v| *v /= n);
+    entropy(&h)
+}
+
+/// Mutual information (bits) of two 8-bit images over the 256 × 256 joint histogram.
+/// MI(X, X) = H(X); MI of a constant image with anything is 0.
+pub fn mutual_information(a: &Gray<u8>, b: &Gray<u8>) -> f64 {
+    same_size(a, b);
+    let mut joint = vec![0f64; 256 * 256];
+    let mut pa = [0f64; 256];
+    let mut pb = [0f64; 256];
+    for (&x, &y) in a.data.iter().zip(&b.data) {
+        joint[x as usize * 256 + y as usize] += 1.0;
+        pa[x as usize] += 1.0;
+        pb[y as usize] += 1.0;
+    }
+    let n = a.data.len() as f64;
+    let mut mi = 0.0;
+    for (i, row) in joint.chunks_exact(256).enumerate() {
+        for (j, &c) in row.iter().enumerate() {
+            if c > 0.0 {
+                mi += c / n * ((c * n) / (pa[i] * pb[j])).log2();
+            }
+        }
+    }
+    mi.max(0.0)
+}
+
+/// The 11 × 11 Gaussian window (σ = 1.5) of SSIM, normalised to sum 1.
+fn ssim_window() -> [[f64; 11]; 11] {
+    let mut w = [[0f64; 11]; 11];
+    let mut sum = 0.0;
+    for (i, row) in w.iter_mut().enumerate() {
+        for (j, v) in row.iter_mut().enumerate() {
+            let (y, x) = (i as f64 - 5.0, j as f64 - 5.0);
+            *v = (-(x * x + y * y) / (2.0 * 1.5 * 1.5)).exp();
+            sum += *v;
+        }
+    }
+    w.iter_mut().flatten().for_each(|v| *v /= sum);
+    w
+}
+
+/// SSIM (Wang et al. 2004): 11 × 11 Gaussian window σ 1.5, K1 = 0.01, K2 = 0.03, L = 255,
+/// mean over the valid windows (no padding). Images smaller than 11 × 11 use one window over
+/// the whole image with uniform weights. SSIM(X, X) = 1.
+pub fn ssim(a: &Gray<u8>, b: &Gray<u8>) -> f64 {
+    same_size(a, b);
+    let (c1, c2) = ((0.01f64 * 255.0).powi(2), (0.03f64 * 255.0).powi(2));
+    let index = |ma: f64, mb: f64, va: f64, vb: f64, cov: f64| {
+        ((2.0 * ma * mb + c1) * (2.0 * cov + c2)) / ((ma * ma + mb * mb + c1) * (va + vb + c2))
+    };
+    let (w, h) = (a.width, a.height);
+    if w < 11 || h < 11 {
+        let n = (w * h) as f64;
+        let ma = a.data.iter().map(|&v| f64::from(v)).sum::<f64>() / n;
+        let mb = b.data.iter().map(|&v| f64::from(v)).sum::<f64>() / n;
+        let (mut va, mut vb, mut cov) = (0.0, 0.0, 0.0);
+        for (&x, &y) in a.data.iter().zip(&b.data) {
+            let (dx, dy) = (f64::from(x) - ma, f64::from(y) - mb);
+            va += dx * dx;
+            vb += dy * dy;
+            cov += dx * dy;
+        }
+        return index(ma, mb, va / n, vb / n, cov / n);
+    }
+    let win = ssim_window();
+    let mut total = 0.0;
+    for y0 in 0..=h - 11 {
+        for x0 in 0..=w - 11 {
+            let (mut ma, mut mb, mut saa, mut sbb, mut sab) = (0.0, 0.0, 0.0, 0.0, 0.0);
+            for (i, row) in win.iter().enumerate() {
+                let base = (y0 + i) * w + x0;
+                for (j, &g) in row.iter().enumerate() {
+                    let (x, y) = (f64::from(a.data[base + j]), f64::from(b.data[base + j]));
+                    ma += g * x;
+                    mb += g * y;
+                    saa += g * x * x;
+                    sbb += g * y * y;
+                    sab += g * x * y;
+                }
+            }
+            total += index(ma, mb, saa - ma * ma, sbb - mb * mb, sab - ma * mb);
+        }
+    }
+    total / ((h - 10) * (w - 10)) as f64
+}
+
+/// Mean squared error in 0..255 units.
+pub fn mse(a: &Gray<u8>, b: &Gray<u8>) -> f64 {
+    same_size(a, b);
+    let s: f64 = a.data.iter().zip(&b.data).map(|(&x, &y)| (f64::from(x) - f64::from(y)).powi(2)).sum();
+    s / a.data.len() as f64
+}
+
+/// Root mean squared error in 0..255 units.
+pub fn rmse(a: &Gray<u8>, b: &Gray<u8>) -> f64 {
+    mse(a, b).sqrt()
+}
+
+/// Average gradient: mean over pixels of `sqrt((∇x² + ∇y²)/2)` with forward differences, over
+/// the (W−1) × (H−1) pixels that have both; 0 for an image with a side of 1.
+pub fn average_gradient(a: &Gray<u8>) -> f64 {
+    let (w, h) = (a.width, a.height);
+    if w < 2 || h < 2 {
+        return 0.0;
+    }
+    let mut s = 0.0;
+    for y in 0..h - 1 {
+        for x in 0..w - 1 {
+            let p = f64::from(a.at(x, y));
+            let gx = f64::from(a.at(x + 1, y)) - p;
+            let gy = f64::from(a.at(x, y + 1)) - p;
+            s += ((gx * gx + gy * gy) / 2.0).sqrt();
+        }
+    }
+    s / ((w - 1) * (h - 1)) as f64
+}
+
+/// Sobel gradient magnitude of an image (replicate border), the feature map of [`fmi`].
+pub fn sobel_magnitude(a: &Gray<u8>) -> Vec<f64> {
+    let (w, h) = (a.width as isize, a.height as isize);
+    let px = |x: isize, y: isize| f64::from(a.at(x.clamp(0, w - 1) as usize, y.clamp(0, h - 1) as usize));
+    let mut out = Vec::with_capacity(a.data.len());
+    for y in 0..h {
+        for x in 0..w {
+            let gx = (px(x + 1, y - 1) + 2.0 * px(x + 1, y) + px(x + 1, y + 1))
+                - (px(x - 1, y - 1) + 2.0 * px(x - 1, y) + px(x - 1, y + 1));
+            let gy = (px(x - 1, y + 1) + 2.0 * px(x, y + 1) + px(x + 1, y + 1))
+                - (px(x - 1, y - 1) + 2.0 * px(x, y - 1) + px(x + 1, y - 1));
+            out.push((gx * gx + gy * gy).sqrt());
+        }
+    }
+    out
+}
+
+/// A window's feature values as a probability vector: shifted to a zero minimum and
+/// normalised; a flat window becomes the uniform distribution.
+fn window_pdf(v: &[f64]) -> Vec<f64> {
+    let min = v.iter().cloned().fold(f64::INFINITY, f64::min);
+    let shifted: Vec<f64> = v.iter().map(|x| x - min).collect();
+    let sum: f64 = shifted.iter().sum();
+    if sum <= 0.0 { vec![1.0 / v.len() as f64; v.len()] } else { shifted.iter().map(|x| x / sum).collect() }
+}
+
+/// Normalised mutual information `2·I / (H_a + H_f)` of two windows (Fast-FMI model): the joint
+/// CDF is the correlation-weighted mix of the Fréchet bound and independence,
+/// `H = c·min(F, G) + (1 − c)·F·G` for `c ≥ 0` and `H = |c|·max(F + G − 1, 0) + (1 − |c|)·F·G`
+/// for `c < 0`, with `c` the Pearson correlation of the two pdf vectors; the joint pdf is its
+/// mixed second difference. Identical windows give 1; two flat windows give 1.
+fn window_nmi(a: &[f64], f: &[f64]) -> f64 {
+    if a == f {
+        return 1.0;
+    }
+    let (pa, pf) = (window_pdf(a), window_pdf(f));
+    let n = pa.len();
+    let (ha, hf) = (entropy(&pa), entropy(&pf));
+    let mean = 1.0 / n as f64;
+    let (mut sab, mut saa, mut sff) = (0.0, 0.0, 0.0);
+    for (x, y) in pa.iter().zip(&pf) {
+        sab += (x - mean) * (y - mean);
+        saa += (x - mean) * (x - mean);
+        sff += (y - mean) * (y - mean);
+    }
+    if saa == 0.0 && sff == 0.0 {
+        return 1.0; // both flat: the same (uniform) feature distribution
+    }
+    let c = if saa == 0.0 || sff == 0.0 { 0.0 } else { sab / (saa * sff).sqrt() };
+    let cdf = |p: &[f64]| {
+        let mut acc = 0.0;
+        p.iter()
+            .map(|v| {
+                acc += v;
+                acc
+            })
+            .collect::<Vec<_>>()
+    };
+    let (fa, ff) = (cdf(&pa), cdf(&pf));
+    let joint_cdf = |i: usize, j: usize| -> f64 {
+        let (u, v) = (fa[i], ff[j]);
+        if c >= 0.0 {
+            c * u.min(v) + (1.0 - c) * u * v
+        } else {
+            -c * (u + v - 1.0).max(0.0) + (1.0 + c) * u * v
+        }
+    };
+    let at = |i: isize, j: isize| if i < 0 || j < 0 { 0.0 } else { joint_cdf(i as usize, j as usize) };
+    let mut mi = 0.0;
+    for i in 0..n as isize {
+        for j in 0..n as isize {
+            let p = at(i, j) - at(i - 1, j) - at(i, j - 1) + at(i - 1, j - 1);
+            let q = pa[i as usize] * pf[j as usize];
+            if p > 1e-15 && q > 0.0 {
+                mi += p * (p / q).log2();
+            }
+        }
+    }
+    if ha + hf <= 0.0 { 1.0 } else { (2.0 * mi / (ha + hf)).clamp(0.0, 1.0) }
+}
+
+/// Feature mutual information of `f` with one source `a`: the mean over all 3 × 3 windows of
+/// the windows' normalised MI on Sobel gradient-magnitude features. In [0, 1]; FMI(X, X) = 1.
+pub fn fmi_pair(a: &Gray<u8>, f: &Gray<u8>) -> f64 {
+    fmi_pair_with(a, f, FmiFeature::Gradient)
+}
+
+/// The feature map FMI compares.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum FmiFeature {
+    /// Sobel gradient magnitude (the default, "edge features" of metrics.md).
+    Gradient,
+    /// Raw pixel values (FMI_pixel in the literature).
+    Pixels,
+}
+
+/// [`fmi_pair`] on a chosen feature map.
+pub fn fmi_pair_with(a: &Gray<u8>, f: &Gray<u8>, feature: FmiFeature) -> f64 {
+    same_size(a, f);
+    let (w, h) = (a.width, a.height);
+    if w < 3 || h < 3 {
+        return if a.data == f.data { 1.0 } else { 0.0 };
+    }
+    let (ga, gf) = match feature {
+        FmiFeature::Gradient => (sobel_magnitude(a), sobel_magnitude(f)),
+        FmiFeature::Pixels => {
+            let raw = |g: &Gray<u8>| g.data.iter().map(|&v| f64::from(v)).collect::<Vec<_>>();
+            (raw(a), raw(f))
+        }
+    };
+    let mut total = 0.0;
+    let mut wa = [0f64; 9];
+    let mut wf = [0f64; 9];
+    for y in 0..h - 2 {
+        for x in 0..w - 2 {
+            for k in 0..9 {
+                let idx = (y + k / 3) * w + x + k % 3;
+                wa[k] = ga[idx];
+                wf[k] = gf[idx];
+            }
+            total += window_nmi(&wa, &wf);
+        }
+    }
+    total / ((w - 2) * (h - 2)) as f64
+}
+
+/// FMI of a fused image: the mean of [`fmi_pair`] against VIS and against TIR (so in [0, 1]).
+/// Variant: Fast-FMI (Haghighat & Razian 2014) on Sobel gradient magnitudes, 3 × 3 windows.
+pub fn fmi(vis: &Gray<u8>, tir: &Gray<u8>, fused: &Gray<u8>) -> f64 {
+    (fmi_pair(vis, fused) + fmi_pair(tir, fused)) / 2.0
+}
+
+/// The study's 1:2 fusion metrics of a fused image against its two sources.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct FusionMetrics {
+    /// Average gradient of the fused image.
+    pub ag: f64,
+    /// MI(VIS, F) + MI(TIR, F), bits.
+    pub mi: f64,
+    /// Feature mutual information (see [`fmi`]), in [0, 1].
+    pub fmi: f64,
+    /// SSIM(VIS, F) + SSIM(TIR, F), up to 2.
+    pub ssim: f64,
+    /// (RMSE(VIS, F) + RMSE(TIR, F)) / 2, 0..255 units.
+    pub rmse: f64,
+}
+
+/// Computes the 1:2 metrics (sources already on the fused image's grid).
+pub fn fusion_metrics(vis: &Gray<u8>, tir: &Gray<u8>, fused: &Gray<u8>) -> FusionMetrics {
+    FusionMetrics {
+        ag: average_gradient(fused),
+        mi: mutual_information(vis, fused) + mutual_information(tir, fused),
+        fmi: fmi(vis, tir, fused),
+        ssim: ssim(vis, fused) + ssim(tir, fused),
+        rmse: (rmse(vis, fused) + rmse(tir, fused)) / 2.0,
+    }
+}
+
+/// The 1:1 noise metrics of an image against its reference.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct NoiseMetrics {
+    /// MSE on [0, 1] images.
+    pub mse_s: f64,
+    /// 10·log10(1 / MSE_S) dB; `f64::INFINITY` for identical images (reported as "inf").
+    pub psnr_s: f64,
+    /// SSIM against the reference.
+    pub ssim_s: f64,
+}
+
+/// Computes the 1:1 metrics of `img` against `reference`.
+pub fn noise_metrics(img: &Gray<u8>, reference: &Gray<u8>) -> NoiseMetrics {
+    let mse_s = mse(img, reference) / (255.0 * 255.0);
+    let psnr_s = if mse_s == 0.0 { f64::INFINITY } else { 10.0 * (1.0 / mse_s).log10() };
+    NoiseMetrics { mse_s, psnr_s, ssim_s: ssim(img, reference) }
+}
+
+/// Formats a PSNR for tables: "inf" for identical images.
+pub fn format_psnr(p: f64) -> String {
+    if p.is_infinite() { "inf".to_string() } else { format!("{p:.2}") }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn img(w: usize, h: usize, data: Vec<u8>) -> Gray<u8> {
+        Gray { width: w, height: h, data }
+    }
+
+    fn pattern(w: usize, h: usize, seed: u64) -> Gray<u8> {
+        let mut s = seed;
+        img(
+            w,
+            h,
+            (0..w * h)
+                .map(|_| {
+                    s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+                    (s >> 56) as u8
+                })
+                .collect(),
+        )
+    }
+
+    #[test]
+    fn mi_of_an_image_with_itself_is_its_entropy() {
+        let a = pattern(40, 30, 1);
+        assert!((mutual_information(&a, &a) - entropy_u8(&a)).abs() < 1e-12);
+        // Hand case: two values, equally likely, perfectly dependent → 1 bit; independent → 0.
+        let x = img(4, 1, vec![0, 0, 255, 255]);
+        assert!((mutual_information(&x, &x) - 1.0).abs() < 1e-12);
+        let y = img(4, 1, vec![0, 255, 0, 255]);
+        assert!(mutual_information(&x, &y).abs() < 1e-12);
+        let c = img(4, 1, vec![7; 4]);
+        assert_eq!(mutual_information(&c, &x), 0.0);
+    }
+
+    #[test]
+    fn ssim_properties() {
+        let a = pattern(32, 24, 2);
+        assert!((ssim(&a, &a) - 1.0).abs() < 1e-12);
+        let b = pattern(32, 24, 3);
+        let s = ssim(&a, &b);
+        assert!(s < 0.2 && s > -1.0, "independent noise: {s}");
+        // Symmetric.
+        assert!((ssim(&a, &b) - ssim(&b, &a)).abs() < 1e-12);
+        // Constant images: defined (the constants keep it finite), 1 when equal.
+        let c = img(12, 12, vec![100; 144]);
+        assert!((ssim(&c, &c) - 1.0).abs() < 1e-12);
+        // Small images use one global window: hand case with means 0 and 255, no variance.
+        let z = img(3, 3, vec![0; 9]);
+        let f = img(3, 3, vec![255; 9]);
+        let c1 = (0.01f64 * 255.0).powi(2);
+        assert!((ssim(&z, &f) - c1 / (255.0 * 255.0 + c1)).abs() < 1e-12);
+    }
+
+    #[test]
+    #[ignore = "prints FMI variants on a VIFB pair; run with --ignored --nocapture"]
+    fn fmi_variants_on_vifb() {
+        let d = crate::shared_dir().join("data/vifb");
+        let load = |n: &str| crate::io::load_gray_u8(&d.join(n), crate::io::ColorPolicy::Refuse).unwrap();
+        let (v, t, f) = (load("fight_VIS.png"), load("fight_IR.png"), load("fight_ADF_ref.png"));
+        for feature in [FmiFeature::Gradient, FmiFeature::Pixels] {
+            let x = (fmi_pair_with(&v, &f, feature) + fmi_pair_with(&t, &f, feature)) / 2.0;
+            println!("{feature:?}: {x:.4}");
+        }
+    }
+
+    #[test]
+    fn fmi_properties() {
+        let a = pattern(20, 16, 4);
+        assert!((fmi_pair(&a, &a) - 1.0).abs() < 1e-12);
+        let b = pattern(20, 16, 5);
+        let v = fmi_pair(&a, &b);
+        assert!((0.0..1.0).contains(&v), "{v}");
+        // A fused image equal to one source scores higher against it than an unrelated one.
+        assert!(fmi(&a, &b, &a) > fmi_pair(&b, &a));
+        // Hand case: perfectly correlated non-identical windows (scaled copies) have c = 1, the
+        // joint pdf is the diagonal of the common pdf, so the normalised MI is 1.
+        let w1 = [0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0];
+        let w2: Vec<f64> = w1.iter().map(|v| 2.0 * v).collect();
+        assert!((window_nmi(&w1, &w2) - 1.0).abs() < 1e-9);
+        // A flat window against a structured one carries no information.
+        assert!(window_nmi(&[3.0; 9], &w1).abs() < 1e-12);
+    }
+
+    #[test]
+    fn rmse_ag_psnr_hand_cases() {
+        let a = img(2, 2, vec![0, 0, 0, 0]);
+        let b = img(2, 2, vec![3, 4, 0, 0]);
+        assert_eq!(rmse(&a, &a), 0.0);
+        assert!((rmse(&a, &b) - (25.0f64 / 4.0).sqrt()).abs() < 1e-12);
+        assert_eq!(average_gradient(&a), 0.0);
+        // One pixel with both forward differences: ∇x = 4 − 3 = 1, ∇y = 0 − 3 = −3.
+        assert!((average_gradient(&b) - ((1.0 + 9.0) / 2.0f64).sqrt()).abs() < 1e-12);
+        let n = noise_metrics(&a, &a);
+        assert_eq!(format_psnr(n.psnr_s), "inf");
+        let n = noise_metrics(&a, &img(2, 2, vec![255, 0, 0, 0]));
+        assert!((n.mse_s - 0.25).abs() < 1e-12);
+        assert!((n.psnr_s - 10.0 * 4.0f64.log10()).abs() < 1e-12);
+    }
+}

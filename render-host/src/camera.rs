@@ -1,0 +1,147 @@
+//! Pinhole cameras and poses.
+//!
+//! Both cameras of the study share one pose and the 35.45° field of view (SPEED's 17.6 mm lens
+//! on an 11.25 mm square sensor): f = 1601.9 px at 1024², 800.95 px at 512², principal point at
+//! the image centre. Pixel `(x, y)` covers `[x, x+1) × [y, y+1)` and its centre is at
+//! `(x + 0.5, y + 0.5)`, so a 512² pixel covers exactly a 2 × 2 block of the 1024² image.
+//! Camera axes: x right, y down, z forward (optical axis).
+
+use glam::{Mat3, Quat, Vec3};
+use serde::{Deserialize, Serialize};
+
+/// Field of view of both cameras, degrees.
+pub const FOV_DEG: f64 = 35.45;
+/// Focal length in pixels at 1024² (scaled linearly with the image width).
+pub const FOCAL_PX_1024: f64 = 1601.9;
+
+/// Position and orientation of a camera in the target frame.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Pose {
+    /// Camera centre, metres.
+    pub position: Vec3,
+    /// Camera-to-target rotation: its columns are the camera x (right), y (down) and z
+    /// (forward) axes in the target frame.
+    pub rotation: Mat3,
+}
+
+impl Pose {
+    /// A camera at `eye` looking at `target`, with the image "up" (−y) as close to `up` as
+    /// possible. Falls back to another up vector when `up` is parallel to the view direction.
+    pub fn look_at(eye: Vec3, target: Vec3, up: Vec3) -> Pose {
+        let z = (target - eye).normalize();
+        let mut x = z.cross(up);
+        if x.length_squared() < 1e-10 {
+            x = z.cross(z.any_orthogonal_vector());
+        }
+        let x = x.normalize();
+        let y = z.cross(x);
+        Pose { position: eye, rotation: Mat3::from_cols(x, y, z) }
+    }
+
+    /// The optical axis (camera +z) in the target frame.
+    pub fn forward(&self) -> Vec3 {
+        self.rotation.z_axis
+    }
+
+    /// Camera-to-target rotation as a unit quaternion.
+    pub fn quaternion(&self) -> Quat {
+        Quat::from_mat3(&self.rotation)
+    }
+}
+
+/// A pinhole camera: intrinsics plus a [`Pose`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Camera {
+    /// Image width, pixels.
+    pub width: u32,
+    /// Image height, pixels.
+    pub height: u32,
+    /// Focal length, pixels.
+    pub focal_px: f32,
+    /// Principal point x, pixels (continuous coordinates: pixel centres at `x + 0.5`).
+    pub cx: f32,
+    /// Principal point y, pixels.
+    pub cy: f32,
+    /// Pose in the target frame.
+    pub pose: Pose,
+}
+
+impl Camera {
+    /// The study's camera for a square `size`² image: f = 1601.9 × size / 1024 px, principal
+    /// point at the centre.
+    pub fn study(size: u32, pose: Pose) -> Camera {
+        Camera {
+            width: size,
+            height: size,
+            focal_px: (FOCAL_PX_1024 * f64::from(size) / 1024.0) as f32,
+            cx: size as f32 / 2.0,
+            cy: size as f32 / 2.0,
+            pose,
+        }
+    }
+
+    /// Unit ray direction (target frame) through continuous image point `(u, v)`.
+    pub fn ray_dir(&self, u: f32, v: f32) -> Vec3 {
+        let d = Vec3::new((u - self.cx) / self.focal_px, (v - self.cy) / self.focal_px, 1.0);
+        (self.pose.rotation * d).normalize()
+    }
+
+    /// Unit ray direction through the centre of pixel `(x, y)`.
+    pub fn pixel_ray(&self, x: u32, y: u32) -> Vec3 {
+        self.ray_dir(x as f32 + 0.5, y as f32 + 0.5)
+    }
+
+    /// Continuous image coordinates of a target-frame point, or `None` behind the camera.
+    pub fn project(&self, p: Vec3) -> Option<(f32, f32)> {
+        let c = self.pose.rotation.transpose() * (p - self.pose.position);
+        if c.z <= 0.0 {
+            return None;
+        }
+        Some((self.cx + self.focal_px * c.x / c.z, self.cy + self.focal_px * c.y / c.z))
+    }
+
+    /// Full field of view in degrees across the width.
+    pub fn fov_deg(&self) -> f64 {
+        2.0 * (f64::from(self.width) / 2.0 / f64::from(self.focal_px)).atan().to_degrees()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn intrinsics_match_the_study() {
+        let pose = Pose::look_at(Vec3::new(0.0, -5.0, 0.0), Vec3::ZERO, Vec3::Z);
+        let vis = Camera::study(1024, pose);
+        let tir = Camera::study(512, pose);
+        assert!((vis.focal_px - 1601.9).abs() < 1e-3);
+        assert!((tir.focal_px - 800.95).abs() < 1e-3);
+        assert!((vis.fov_deg() - FOV_DEG).abs() < 0.01, "{}", vis.fov_deg());
+    }
+
+    #[test]
+    fn pairs_align_to_the_pixel() {
+        let pose = Pose::look_at(Vec3::new(3.0, -4.0, 2.0), Vec3::ZERO, Vec3::Z);
+        let vis = Camera::study(1024, pose);
+        let tir = Camera::study(512, pose);
+        for (x, y) in [(0, 0), (100, 300), (511, 511), (255, 17)] {
+            // The centre of a TIR pixel is the shared corner of its 2 × 2 VIS block.
+            let a = tir.pixel_ray(x, y);
+            let b = vis.ray_dir(2.0 * x as f32 + 1.0, 2.0 * y as f32 + 1.0);
+            assert!((a - b).length() < 1e-6);
+        }
+    }
+
+    #[test]
+    fn project_inverts_ray() {
+        let pose = Pose::look_at(Vec3::new(3.0, -4.0, 2.0), Vec3::ZERO, Vec3::Z);
+        let cam = Camera::study(1024, pose);
+        let d = cam.pixel_ray(700, 200);
+        let (u, v) = cam.project(pose.position + 6.0 * d).unwrap();
+        assert!((u - 700.5).abs() < 1e-2 && (v - 200.5).abs() < 1e-2);
+        // Image up is world up here: a point above the target projects above the centre.
+        let (_, v) = cam.project(Vec3::new(0.0, 0.0, 1.0)).unwrap();
+        assert!(v < cam.cy);
+    }
+}

@@ -1,0 +1,465 @@
+//! Datasets in the study's layout: a camera on a tilted ellipse around the target, VIS in light
+//! and in eclipse, TIR at 512² and 1024², noiseless and noisy, PNGs plus a JSON manifest.
+
+use crate::camera::{Camera, Pose};
+use crate::image::Image;
+use crate::noise::{Band, NoiseParams, apply_sensor_noise, rng_for};
+use crate::output::{write_json, write_png8, write_png16};
+use crate::scene::{Material, Scene};
+use crate::thermal::{ThermalParams, eclipse_transient, face_temperatures, steady_state};
+use crate::tir::{TirParams, render_tir};
+use crate::vis::{Illumination, VisParams, render_vis};
+use anyhow::{Context, Result, bail};
+use glam::{Mat3, Vec3};
+use indicatif::{ProgressBar, ProgressStyle};
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+/// Everything that defines a dataset. `Default` is the study's layout.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct DatasetConfig {
+    /// Frames per set.
+    pub frames: usize,
+    /// Seed of every random draw.
+    pub seed: u64,
+    /// Target mesh (OBJ); `None` = the procedural Tango-like target.
+    pub mesh: Option<PathBuf>,
+    /// Scale applied to the OBJ mesh's coordinates (to metres).
+    pub mesh_scale: f32,
+    /// Material of OBJ faces whose names give no hint.
+    pub mesh_default_material: Material,
+    /// VIS image size (square), pixels.
+    pub vis_size: u32,
+    /// TIR image sizes (square), pixels; one set each.
+    pub tir_sizes: Vec<u32>,
+    /// Full axes of the camera's ellipse (major, minor), m.
+    pub ellipse_full_axes_m: [f64; 2],
+    /// Tilt of the ellipse plane about its major axis added every `frames_per_tilt` frames, °.
+    pub tilt_step_deg: f64,
+    /// Frames on one ellipse before it tilts.
+    pub frames_per_tilt: usize,
+    /// VIS lighting (its illumination field is overridden per set).
+    pub vis: VisParams,
+    /// Thermal environment (its sun direction is overridden by `vis.sun_dir`).
+    pub thermal: ThermalParams,
+    /// TIR radiometry and DN mapping.
+    pub tir: TirParams,
+    /// Also write TIR sets after this many minutes in eclipse (lumped transient).
+    pub tir_eclipse_minutes: Option<f64>,
+    /// Sensor noise.
+    pub noise: NoiseParams,
+    /// Write the noiseless images.
+    pub write_clean: bool,
+    /// Write the noisy images.
+    pub write_noisy: bool,
+    /// Also write 16-bit TIR PNGs.
+    pub tir_16bit: bool,
+    /// Thumbnail size of the contact sheet (0 = no contact sheet).
+    pub contact_sheet_thumb: u32,
+}
+
+impl Default for DatasetConfig {
+    fn default() -> Self {
+        DatasetConfig {
+            frames: 20,
+            seed: 1,
+            mesh: None,
+            mesh_scale: 1.0,
+            mesh_default_material: Material::MliKapton,
+            vis_size: 1024,
+            tir_sizes: vec![512, 1024],
+            ellipse_full_axes_m: [14.5, 8.0],
+            tilt_step_deg: 45.0,
+            frames_per_tilt: 5,
+            vis: VisParams::light(),
+            thermal: ThermalParams::default(),
+            tir: TirParams::default(),
+            tir_eclipse_minutes: None,
+            noise: NoiseParams::default(),
+            write_clean: true,
+            write_noisy: true,
+            tir_16bit: false,
+            contact_sheet_thumb: 128,
+        }
+    }
+}
+
+impl DatasetConfig {
+    /// A quick demo: the study's layout with 4 frames.
+    pub fn demo() -> Self {
+        DatasetConfig { frames: 4, ..Self::default() }
+    }
+
+    /// A tiny layout for tests: `frames` frames, VIS `size`², TIR `size/2`² and `size`².
+    pub fn small(frames: usize, size: u32) -> Self {
+        DatasetConfig { frames, vis_size: size, tir_sizes: vec![size / 2, size], contact_sheet_thumb: 32, ..Self::default() }
+    }
+
+    /// Loads the target this configuration names.
+    pub fn scene(&self) -> Result<Scene> {
+        match &self.mesh {
+            None => Scene::tango(),
+            Some(p) => Scene::from_obj(p, self.mesh_default_material, self.mesh_scale),
+        }
+    }
+}
+
+/// One camera position of a dataset.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TrajectoryPoint {
+    /// The camera pose.
+    pub pose: Pose,
+    /// Eccentric anomaly on the ellipse, °.
+    pub anomaly_deg: f64,
+    /// Tilt of the ellipse plane, °.
+    pub tilt_deg: f64,
+}
+
+/// The camera trajectory: frame `i` sits on the ellipse `x = a cos θ`, `y' = b sin θ` around
+/// `centre` (`a`, `b` the semi-axes, major axis along the target's x), whose plane is tilted about
+/// the major axis by `tilt_step × ⌊i / frames_per_tilt⌋`; `θ = 360° (j + g/2) / frames_per_tilt`
+/// with `j = i mod frames_per_tilt`, `g` the tilt index (each ellipse is visited at offset
+/// anomalies). The camera looks at `centre` with image-up along the ellipse plane's normal.
+pub fn trajectory(cfg: &DatasetConfig, centre: Vec3) -> Vec<TrajectoryPoint> {
+    let k = cfg.frames_per_tilt.max(1);
+    let (a, b) = (cfg.ellipse_full_axes_m[0] / 2.0, cfg.ellipse_full_axes_m[1] / 2.0);
+    (0..cfg.frames)
+        .map(|i| {
+            let (g, j) = (i / k, i % k);
+            let tilt = cfg.tilt_step_deg * g as f64;
+            let theta = std::f64::consts::TAU * (j as f64 + 0.5 * g as f64) / k as f64;
+            let rot = Mat3::from_rotation_x(tilt.to_radians() as f32);
+            let local = Vec3::new((a * theta.cos()) as f32, (b * theta.sin()) as f32, 0.0);
+            let eye = centre + rot * local;
+            TrajectoryPoint {
+                pose: Pose::look_at(eye, centre, rot * Vec3::Z),
+                anomaly_deg: theta.to_degrees(),
+                tilt_deg: tilt,
+            }
+        })
+        .collect()
+}
+
+/// What one set of a dataset shows.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case", tag = "kind")]
+pub enum SetKind {
+    /// VIS under an illumination.
+    Vis {
+        /// Light or eclipse.
+        illumination: Illumination,
+    },
+    /// TIR of the sunlit steady state.
+    Tir,
+    /// TIR after `tir_eclipse_minutes` in eclipse.
+    TirEclipse,
+}
+
+/// One set of a dataset as recorded in the manifest.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SetInfo {
+    /// Name, also the folder: `vis_light`, `vis_eclipse`, `tir512`, `tir1024`, `tir512_eclipse` ….
+    pub name: String,
+    /// What it shows.
+    pub kind: SetKind,
+    /// Sensor band.
+    pub band: Band,
+    /// Image width, px.
+    pub width: u32,
+    /// Image height, px.
+    pub height: u32,
+    /// Focal length, px.
+    pub focal_px: f32,
+    /// Principal point (x, y), px (pixel centres at `i + 0.5`).
+    pub principal_point: [f32; 2],
+}
+
+/// The files of one frame of one set (paths relative to the dataset folder).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct FrameFiles {
+    /// Noiseless 8-bit PNG.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub clean: Option<String>,
+    /// Noisy 8-bit PNG.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub noisy: Option<String>,
+    /// Noiseless 16-bit PNG (TIR with `tir_16bit`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub clean16: Option<String>,
+    /// Noisy 16-bit PNG (TIR with `tir_16bit`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub noisy16: Option<String>,
+}
+
+/// One frame in the manifest.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct FrameInfo {
+    /// Frame index.
+    pub index: usize,
+    /// Camera position in the target frame, m.
+    pub position_m: [f32; 3],
+    /// Camera-to-target rotation, row-major; columns are the camera x (right), y (down), z
+    /// (optical axis) in the target frame.
+    pub rotation_cam_to_target: [[f32; 3]; 3],
+    /// The same rotation as a unit quaternion (w, x, y, z).
+    pub quaternion_wxyz: [f32; 4],
+    /// Distance from the camera to the target centre, m.
+    pub range_m: f32,
+    /// Eccentric anomaly on the ellipse, °.
+    pub anomaly_deg: f64,
+    /// Tilt of the ellipse plane, °.
+    pub tilt_deg: f64,
+    /// Files per set name.
+    pub files: BTreeMap<String, FrameFiles>,
+}
+
+/// The JSON manifest of a dataset (`manifest.json` in its folder).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Manifest {
+    /// Program and version that wrote it.
+    pub generator: String,
+    /// Seed of every random draw.
+    pub seed: u64,
+    /// Target: `tango` or the OBJ path.
+    pub target: String,
+    /// Target centre the cameras look at (target frame), m.
+    pub target_centre_m: [f32; 3],
+    /// Unit vector towards the sun (target frame).
+    pub sun_direction: [f32; 3],
+    /// Unit vector towards the Earth (earthshine).
+    pub earth_direction: [f32; 3],
+    /// TIR DN range: temperatures mapped to 0 and to full scale, K.
+    pub temperature_range_k: [f64; 2],
+    /// Sunlit steady-state temperature per thermal node, K.
+    pub node_temperatures_k: Vec<f64>,
+    /// Node temperatures after the eclipse transient, K (if rendered).
+    pub eclipse_node_temperatures_k: Option<Vec<f64>>,
+    /// Face → thermal node and material.
+    pub faces: Vec<(u32, Material)>,
+    /// The configuration that produced the dataset (noise parameters, radiometry, …).
+    pub config: DatasetConfig,
+    /// The sets.
+    pub sets: Vec<SetInfo>,
+    /// The frames.
+    pub frames: Vec<FrameInfo>,
+    /// Contact-sheet file, if written.
+    pub contact_sheet: Option<String>,
+    /// Rows of the contact sheet, top to bottom (`set/clean`, `set/noisy`); columns are frames.
+    pub contact_sheet_rows: Vec<String>,
+}
+
+/// The sets a configuration produces, in order.
+pub fn sets(cfg: &DatasetConfig) -> Vec<SetInfo> {
+    let mut out = Vec::new();
+    let mut push = |name: String, kind: SetKind, band: Band, size: u32| {
+        let cam = Camera::study(size, Pose::look_at(Vec3::X, Vec3::ZERO, Vec3::Z));
+        out.push(SetInfo {
+            name,
+            kind,
+            band,
+            width: size,
+            height: size,
+            focal_px: cam.focal_px,
+            principal_point: [cam.cx, cam.cy],
+        });
+    };
+    for ill in [Illumination::Light, Illumination::Eclipse] {
+        let name = match ill {
+            Illumination::Light => "vis_light",
+            Illumination::Eclipse => "vis_eclipse",
+        };
+        push(name.into(), SetKind::Vis { illumination: ill }, Band::Vis, cfg.vis_size);
+    }
+    for &s in &cfg.tir_sizes {
+        push(format!("tir{s}"), SetKind::Tir, Band::Tir, s);
+    }
+    if cfg.tir_eclipse_minutes.is_some() {
+        for &s in &cfg.tir_sizes {
+            push(format!("tir{s}_eclipse"), SetKind::TirEclipse, Band::Tir, s);
+        }
+    }
+    out
+}
+
+fn arr(v: Vec3) -> [f32; 3] {
+    v.to_array()
+}
+
+/// Files per set of one frame, and its contact-sheet thumbnails.
+type FrameOutput = (BTreeMap<String, FrameFiles>, Vec<Image>);
+
+/// Renders a dataset into `out_dir` (created if missing): per set a folder with `clean/` and
+/// `noisy/` PNGs named `frame_NNN.png`, plus `manifest.json` and `contact_sheet.png`.
+pub fn render_dataset(cfg: &DatasetConfig, out_dir: &Path, progress: bool) -> Result<Manifest> {
+    if cfg.frames == 0 {
+        bail!("a dataset needs at least one frame");
+    }
+    if cfg.vis_size == 0 || cfg.tir_sizes.contains(&0) {
+        bail!("image sizes must be positive");
+    }
+    let scene = cfg.scene()?;
+    let sun = cfg.vis.sun_dir.normalize();
+    let thermal = ThermalParams { sun_dir: sun, ..cfg.thermal };
+    let node_t = steady_state(&scene, &thermal);
+    let eclipse_t = cfg.tir_eclipse_minutes.map(|m| eclipse_transient(&scene, &thermal, &node_t, m * 60.0));
+    let face_t = face_temperatures(&scene, &node_t);
+    let face_t_eclipse = eclipse_t.as_ref().map(|t| face_temperatures(&scene, t));
+    let set_list = sets(cfg);
+    let traj = trajectory(cfg, scene.centre);
+
+    std::fs::create_dir_all(out_dir).with_context(|| format!("cannot create {}", out_dir.display()))?;
+    for s in &set_list {
+        for sub in ["clean", "noisy", "clean16", "noisy16"] {
+            let wanted = match sub {
+                "clean" => cfg.write_clean,
+                "noisy" => cfg.write_noisy,
+                "clean16" => cfg.write_clean && cfg.tir_16bit && s.band == Band::Tir,
+                _ => cfg.write_noisy && cfg.tir_16bit && s.band == Band::Tir,
+            };
+            if wanted {
+                let d = out_dir.join(&s.name).join(sub);
+                std::fs::create_dir_all(&d).with_context(|| format!("cannot create {}", d.display()))?;
+            }
+        }
+    }
+
+    let bar = if progress { ProgressBar::new((cfg.frames * set_list.len()) as u64) } else { ProgressBar::hidden() };
+    if let Ok(style) = ProgressStyle::with_template("{msg} [{elapsed_precise}] {wide_bar} {pos}/{len} images (eta {eta})") {
+        bar.set_style(style);
+    }
+    bar.set_message("rendering");
+
+    let thumb = cfg.contact_sheet_thumb;
+    // Per frame: the files per set and the thumbnails (set-major: clean, noisy).
+    let results: Vec<Result<FrameOutput>> = traj
+        .par_iter()
+        .enumerate()
+        .map(|(i, tp)| {
+            let mut files = BTreeMap::new();
+            let mut thumbs = Vec::new();
+            for (si, s) in set_list.iter().enumerate() {
+                let cam = Camera::study(s.width, tp.pose);
+                let clean = match s.kind {
+                    SetKind::Vis { illumination } => {
+                        render_vis(&scene, &cam, &VisParams { sun_dir: sun, ..cfg.vis }.with_illumination(illumination))
+                    }
+                    SetKind::Tir => render_tir(&scene, &cam, &face_t, &cfg.tir),
+                    SetKind::TirEclipse => {
+                        render_tir(&scene, &cam, face_t_eclipse.as_deref().unwrap_or(&face_t), &cfg.tir)
+                    }
+                };
+                let mut rng = rng_for(cfg.seed, ((si as u64) << 32) | i as u64);
+                let noisy = apply_sensor_noise(&clean, &cfg.noise, s.band, &mut rng);
+                let mut ff = FrameFiles::default();
+                let name = format!("frame_{i:03}.png");
+                let sixteen = cfg.tir_16bit && s.band == Band::Tir;
+                for (img, wanted, sub, sub16, slot, slot16) in [
+                    (&clean, cfg.write_clean, "clean", "clean16", &mut ff.clean, &mut ff.clean16),
+                    (&noisy, cfg.write_noisy, "noisy", "noisy16", &mut ff.noisy, &mut ff.noisy16),
+                ] {
+                    if !wanted {
+                        continue;
+                    }
+                    let rel = format!("{}/{sub}/{name}", s.name);
+                    write_png8(&out_dir.join(&rel), &img.to_gray8())?;
+                    *slot = Some(rel);
+                    if sixteen {
+                        let rel = format!("{}/{sub16}/{name}", s.name);
+                        write_png16(&out_dir.join(&rel), &img.to_gray16())?;
+                        *slot16 = Some(rel);
+                    }
+                }
+                if thumb > 0 {
+                    let mut c = clean;
+                    c.clip();
+                    thumbs.push(c.thumbnail(thumb));
+                    thumbs.push(noisy.thumbnail(thumb));
+                }
+                files.insert(s.name.clone(), ff);
+                bar.inc(1);
+            }
+            Ok((files, thumbs))
+        })
+        .collect();
+    bar.finish_and_clear();
+
+    let mut frames = Vec::with_capacity(cfg.frames);
+    let mut thumbs = Vec::with_capacity(cfg.frames);
+    for (i, (r, tp)) in results.into_iter().zip(&traj).enumerate() {
+        let (files, th) = r?;
+        let q = tp.pose.quaternion();
+        frames.push(FrameInfo {
+            index: i,
+            position_m: arr(tp.pose.position),
+            rotation_cam_to_target: rows_of(tp.pose.rotation),
+            quaternion_wxyz: [q.w, q.x, q.y, q.z],
+            range_m: (tp.pose.position - scene.centre).length(),
+            anomaly_deg: tp.anomaly_deg,
+            tilt_deg: tp.tilt_deg,
+            files,
+        });
+        thumbs.push(th);
+    }
+
+    let mut rows = Vec::new();
+    for s in &set_list {
+        rows.push(format!("{}/clean", s.name));
+        rows.push(format!("{}/noisy", s.name));
+    }
+    let contact_sheet = if thumb > 0 {
+        let sheet = contact_sheet(&thumbs, rows.len(), thumb);
+        write_png8(&out_dir.join("contact_sheet.png"), &sheet.to_gray8())?;
+        Some("contact_sheet.png".to_string())
+    } else {
+        None
+    };
+
+    let manifest = Manifest {
+        generator: format!("render-host {}", env!("CARGO_PKG_VERSION")),
+        seed: cfg.seed,
+        target: cfg.mesh.as_ref().map_or_else(|| "tango".to_string(), |p| p.display().to_string()),
+        target_centre_m: arr(scene.centre),
+        sun_direction: arr(sun),
+        earth_direction: arr(cfg.vis.earth_dir.normalize()),
+        temperature_range_k: [cfg.tir.t_min, cfg.tir.t_max],
+        node_temperatures_k: node_t,
+        eclipse_node_temperatures_k: eclipse_t,
+        faces: scene.faces.iter().map(|f| (f.node, f.material)).collect(),
+        config: cfg.clone(),
+        sets: set_list,
+        frames,
+        contact_sheet,
+        contact_sheet_rows: if thumb > 0 { rows } else { Vec::new() },
+    };
+    write_json(&out_dir.join("manifest.json"), &manifest)?;
+    Ok(manifest)
+}
+
+/// Row-major entries of a 3 × 3 matrix.
+fn rows_of(m: Mat3) -> [[f32; 3]; 3] {
+    let t = m.transpose();
+    [t.x_axis.to_array(), t.y_axis.to_array(), t.z_axis.to_array()]
+}
+
+/// Tiles thumbnails into one image: `per_frame[c]` holds the `rows` thumbnails of column
+/// (frame) `c`, top to bottom; 2-px mid-grey gutters.
+pub fn contact_sheet(per_frame: &[Vec<Image>], rows: usize, thumb: u32) -> Image {
+    let gap = 2u32;
+    let cols = per_frame.len() as u32;
+    let w = cols * (thumb + gap) + gap;
+    let h = rows as u32 * (thumb + gap) + gap;
+    let mut sheet = Image { width: w, height: h, data: vec![0.25; (w * h) as usize] };
+    for (c, col) in per_frame.iter().enumerate() {
+        for (r, t) in col.iter().enumerate().take(rows) {
+            let (ox, oy) = (gap + c as u32 * (thumb + gap), gap + r as u32 * (thumb + gap));
+            for y in 0..t.height.min(thumb) {
+                for x in 0..t.width.min(thumb) {
+                    sheet.data[((oy + y) * w + ox + x) as usize] = t.at(x, y);
+                }
+            }
+        }
+    }
+    sheet
+}

@@ -1,0 +1,22 @@
+#![doc = include_str!("../README.md")]
+
+pub mod camera;
+pub mod cli;
+pub mod dataset;
+pub mod image;
+pub mod noise;
+pub mod output;
+pub mod scene;
+pub mod thermal;
+pub mod tir;
+pub mod vis;
+
+pub use camera::{Camera, FOCAL_PX_1024, FOV_DEG, Pose};
+pub use dataset::{DatasetConfig, Manifest, render_dataset, trajectory};
+pub use glam;
+pub use image::Image;
+pub use noise::{Band, NoiseParams, apply_sensor_noise};
+pub use scene::{Material, Scene};
+pub use thermal::{ThermalParams, eclipse_transient, face_temperatures, steady_state};
+pub use tir::{DnMapping, Radiometry, TirParams, render_tir};
+pub use vis::{Illumination, VisParams, render_vis};

@@ -1,0 +1,488 @@
+//! Geometry: materials, the procedural Tango-like target, OBJ meshes and the BVH.
+//!
+//! A [`Scene`] is a triangle soup grouped into *faces* (one flat part with one material, e.g. a
+//! side of the bus: two triangles) and *thermal nodes* (one temperature: a bus side is its own
+//! node, the whole solar-panel slab is one node, each antenna rod is one node). Ray queries go
+//! through an `obvhs` compressed wide BVH (CWBVH): [`Scene::intersect`] is the closest hit for
+//! primary rays, [`Scene::occluded`] the any-hit query for shadow rays.
+
+use anyhow::{Context, Result, bail};
+use glam::{Vec3, Vec3A};
+use obvhs::{
+    BvhBuildParams,
+    cwbvh::{CwBvh, builder::build_cwbvh_from_tris},
+    ray::{Ray, RayHit},
+    triangle::Triangle,
+};
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+use std::time::Duration;
+
+/// Surface materials of the target (optical and thermal properties in [`MaterialProps`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Material {
+    /// Triple-junction GaAs solar cells under a cover glass.
+    GaAsCell,
+    /// Multi-layer insulation with an outer Kapton layer.
+    MliKapton,
+    /// White-paint radiator.
+    WhitePaint,
+    /// Polished aluminium (antenna rods, panel frame).
+    PolishedAluminium,
+}
+
+/// Optical (VIS) and thermal properties of a [`Material`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MaterialProps {
+    /// Solar absorptance α.
+    pub solar_absorptance: f64,
+    /// Infrared (hemispherical) emittance ε; also the IR absorptance (Kirchhoff).
+    pub ir_emittance: f64,
+    /// Fraction of the incident solar flux leaving as electrical power (cells only).
+    pub electrical_efficiency: f64,
+    /// Conductive coupling to the bus interior, W/(m² K) of face area.
+    pub bus_coupling: f64,
+    /// Areal heat capacity, J/(m² K), for the lumped transient.
+    pub areal_heat_capacity: f64,
+    /// Diffuse (Lambertian) VIS albedo.
+    pub diffuse_albedo: f32,
+    /// Weight of the Blinn–Phong specular lobe.
+    pub specular: f32,
+    /// Blinn–Phong exponent.
+    pub shininess: f32,
+}
+
+impl Material {
+    /// All materials, in a fixed order.
+    pub const ALL: [Material; 4] =
+        [Material::GaAsCell, Material::MliKapton, Material::WhitePaint, Material::PolishedAluminium];
+
+    /// Properties of this material. α/ε follow Fortescue, *Spacecraft Systems Engineering*; the
+    /// couplings, heat capacities and VIS reflectances are engineering estimates (README).
+    pub fn props(self) -> MaterialProps {
+        match self {
+            Material::GaAsCell => MaterialProps {
+                solar_absorptance: 0.88,
+                ir_emittance: 0.80,
+                electrical_efficiency: 0.25,
+                bus_coupling: 0.5,
+                areal_heat_capacity: 1800.0,
+                diffuse_albedo: 0.08,
+                specular: 0.35,
+                shininess: 60.0,
+            },
+            Material::MliKapton => MaterialProps {
+                solar_absorptance: 0.40,
+                ir_emittance: 0.63,
+                electrical_efficiency: 0.0,
+                bus_coupling: 0.05,
+                areal_heat_capacity: 100.0,
+                diffuse_albedo: 0.45,
+                specular: 0.25,
+                shininess: 15.0,
+            },
+            Material::WhitePaint => MaterialProps {
+                solar_absorptance: 0.12,
+                ir_emittance: 0.90,
+                electrical_efficiency: 0.0,
+                bus_coupling: 1.0,
+                areal_heat_capacity: 3000.0,
+                diffuse_albedo: 0.85,
+                specular: 0.02,
+                shininess: 8.0,
+            },
+            Material::PolishedAluminium => MaterialProps {
+                solar_absorptance: 0.24,
+                ir_emittance: 0.08,
+                electrical_efficiency: 0.0,
+                bus_coupling: 0.5,
+                areal_heat_capacity: 7300.0,
+                diffuse_albedo: 0.15,
+                specular: 0.8,
+                shininess: 200.0,
+            },
+        }
+    }
+
+    /// Guesses a material from an OBJ/MTL material or object name ("solar", "panel", "cell" →
+    /// cells; "radiator", "paint", "white" → paint; "antenna", "alu", "metal" → aluminium).
+    pub fn from_name_hint(name: &str) -> Option<Material> {
+        let n = name.to_ascii_lowercase();
+        let has = |keys: &[&str]| keys.iter().any(|k| n.contains(k));
+        if has(&["solar", "panel", "cell", "gaas"]) {
+            Some(Material::GaAsCell)
+        } else if has(&["radiator", "paint", "white"]) {
+            Some(Material::WhitePaint)
+        } else if has(&["antenna", "alu", "metal", "rod"]) {
+            Some(Material::PolishedAluminium)
+        } else if has(&["mli", "kapton", "foil", "blanket"]) {
+            Some(Material::MliKapton)
+        } else {
+            None
+        }
+    }
+}
+
+/// One flat part of the target with one material.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Face {
+    /// Surface material.
+    pub material: Material,
+    /// Outward unit normal.
+    pub normal: Vec3,
+    /// Area, m².
+    pub area: f32,
+    /// Thermal node this face belongs to.
+    pub node: u32,
+    /// Internal (electronics) heat dumped through this face, W/m².
+    pub internal_heat: f64,
+}
+
+/// A ray–scene intersection.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Hit {
+    /// Distance along the (unit) ray direction.
+    pub t: f32,
+    /// Index into [`Scene::faces`].
+    pub face: u32,
+    /// Index of the triangle in the scene's input order ([`Scene::triangles`]).
+    pub triangle: u32,
+    /// Outward geometric normal of the face hit.
+    pub normal: Vec3,
+    /// World-space hit point.
+    pub point: Vec3,
+}
+
+/// Triangles, faces, thermal nodes and the BVH over them.
+pub struct Scene {
+    /// Triangles in input order.
+    pub triangles: Vec<Triangle>,
+    /// Face index of each triangle (input order).
+    pub triangle_face: Vec<u32>,
+    /// Faces.
+    pub faces: Vec<Face>,
+    /// Number of thermal nodes (faces refer to them by [`Face::node`]).
+    pub node_count: usize,
+    /// Centre of the bounding box; the cameras of a dataset look here.
+    pub centre: Vec3,
+    /// Half the bounding-box diagonal, m.
+    pub radius: f32,
+    bvh: CwBvh,
+    /// Triangles laid out in BVH order (`bvh.primitive_indices`), with their input index.
+    bvh_tris: Vec<(Triangle, u32)>,
+}
+
+impl std::fmt::Debug for Scene {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Scene")
+            .field("triangles", &self.triangles.len())
+            .field("faces", &self.faces.len())
+            .field("node_count", &self.node_count)
+            .field("centre", &self.centre)
+            .field("radius", &self.radius)
+            .finish()
+    }
+}
+
+/// Collects triangles, faces and nodes; [`MeshBuilder::build`] makes the [`Scene`].
+#[derive(Debug, Default, Clone)]
+pub struct MeshBuilder {
+    tris: Vec<Triangle>,
+    tri_face: Vec<u32>,
+    faces: Vec<Face>,
+    nodes: u32,
+}
+
+fn tri(a: Vec3, b: Vec3, c: Vec3) -> Triangle {
+    Triangle { v0: a.into(), v1: b.into(), v2: c.into() }
+}
+
+impl MeshBuilder {
+    /// An empty builder.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// A new thermal node id.
+    pub fn new_node(&mut self) -> u32 {
+        self.nodes += 1;
+        self.nodes - 1
+    }
+
+    /// Adds one face made of `triangles` (counter-clockwise seen from outside). Degenerate
+    /// triangles are dropped; returns the face index, or `None` if nothing was left.
+    pub fn add_face(
+        &mut self,
+        triangles: &[[Vec3; 3]],
+        material: Material,
+        node: u32,
+        internal_heat: f64,
+    ) -> Option<u32> {
+        let mut area = 0.0f32;
+        let mut normal = Vec3::ZERO;
+        let face = self.faces.len() as u32;
+        for &[a, b, c] in triangles {
+            let cr = (b - a).cross(c - a);
+            let len = cr.length();
+            if len <= 1e-12 || !len.is_finite() {
+                continue;
+            }
+            area += 0.5 * len;
+            normal += cr;
+            self.tris.push(tri(a, b, c));
+            self.tri_face.push(face);
+        }
+        if area <= 0.0 {
+            return None;
+        }
+        self.nodes = self.nodes.max(node + 1);
+        self.faces.push(Face { material, normal: normal.normalize(), area, node, internal_heat });
+        Some(face)
+    }
+
+    /// Adds a planar quad `a b c d` (counter-clockwise seen from outside) as one face.
+    pub fn add_quad(&mut self, q: [Vec3; 4], material: Material, node: u32, internal_heat: f64) {
+        let [a, b, c, d] = q;
+        self.add_face(&[[a, b, c], [a, c, d]], material, node, internal_heat);
+    }
+
+    /// Adds the sides of an axis-aligned box. `sides` gives material, node and internal heat per
+    /// side in the order −x, +x, −y, +y, −z, +z; `None` leaves that side open.
+    pub fn add_box(&mut self, min: Vec3, max: Vec3, sides: [Option<(Material, u32, f64)>; 6]) {
+        let centre = 0.5 * (min + max);
+        let half = 0.5 * (max - min);
+        for (i, side) in sides.iter().enumerate() {
+            let Some((material, node, heat)) = *side else { continue };
+            let axis = i / 2;
+            let sign = if i % 2 == 0 { -1.0 } else { 1.0 };
+            let e = [Vec3::X, Vec3::Y, Vec3::Z];
+            let n = e[axis] * sign;
+            // u × v = +axis; swap for the negative side so u × v = n.
+            let (mut u, mut v) = (e[(axis + 1) % 3], e[(axis + 2) % 3]);
+            if sign < 0.0 {
+                std::mem::swap(&mut u, &mut v);
+            }
+            let hu = u * half.dot(u).abs();
+            let hv = v * half.dot(v).abs();
+            let c = centre + n * half.dot(n).abs();
+            self.add_quad([c - hu - hv, c + hu - hv, c + hu + hv, c - hu + hv], material, node, heat);
+        }
+    }
+
+    /// Adds a closed prism ("rod") of `sides` facets and circumradius `radius` from `start` to
+    /// `end`; every facet is its own face, all on thermal node `node`.
+    pub fn add_rod(&mut self, start: Vec3, end: Vec3, radius: f32, sides: u32, material: Material, node: u32) {
+        let d = (end - start).normalize();
+        let (e1, _) = d.any_orthonormal_pair();
+        // A right-handed (e1, e2, d) frame, so the facets below wind outward.
+        let e2 = d.cross(e1);
+        let ring: Vec<Vec3> = (0..sides)
+            .map(|k| {
+                let phi = std::f32::consts::TAU * k as f32 / sides as f32;
+                radius * (phi.cos() * e1 + phi.sin() * e2)
+            })
+            .collect();
+        for k in 0..ring.len() {
+            let (p0, p1) = (ring[k], ring[(k + 1) % ring.len()]);
+            self.add_quad([start + p0, start + p1, end + p1, end + p0], material, node, 0.0);
+        }
+        let end_cap: Vec<[Vec3; 3]> =
+            (1..ring.len() - 1).map(|k| [end + ring[0], end + ring[k], end + ring[k + 1]]).collect();
+        let start_cap: Vec<[Vec3; 3]> =
+            (1..ring.len() - 1).map(|k| [start + ring[0], start + ring[k + 1], start + ring[k]]).collect();
+        self.add_face(&end_cap, material, node, 0.0);
+        self.add_face(&start_cap, material, node, 0.0);
+    }
+
+    /// Builds the BVH and the scene. Fails on an empty mesh or non-finite vertices.
+    pub fn build(self) -> Result<Scene> {
+        if self.tris.is_empty() {
+            bail!("the mesh has no (non-degenerate) triangles");
+        }
+        let mut lo = Vec3::splat(f32::INFINITY);
+        let mut hi = Vec3::splat(f32::NEG_INFINITY);
+        for t in &self.tris {
+            for v in [t.v0, t.v1, t.v2] {
+                let v = Vec3::from(v);
+                if !v.is_finite() {
+                    bail!("the mesh has a non-finite vertex");
+                }
+                lo = lo.min(v);
+                hi = hi.max(v);
+            }
+        }
+        let bvh = build_cwbvh_from_tris(&self.tris, BvhBuildParams::medium_build(), &mut Duration::default());
+        let bvh_tris = bvh.primitive_indices.iter().map(|&i| (self.tris[i as usize], i)).collect();
+        Ok(Scene {
+            triangles: self.tris,
+            triangle_face: self.tri_face,
+            faces: self.faces,
+            node_count: self.nodes as usize,
+            centre: 0.5 * (lo + hi),
+            radius: 0.5 * (hi - lo).length(),
+            bvh,
+            bvh_tris,
+        })
+    }
+}
+
+/// Dimensions of the procedural Tango-like target, metres.
+pub mod tango {
+    /// Bus size (x, y, z).
+    pub const BUS: [f32; 3] = [0.74, 0.57, 0.30];
+    /// Solar-panel slab size (x, y) and thickness.
+    pub const PANEL: [f32; 3] = [0.74, 0.77, 0.02];
+    /// Antenna rod circumradius.
+    pub const ROD_RADIUS: f32 = 0.006;
+}
+
+impl Scene {
+    /// The procedural Tango-like target, in its body frame (metres): an MLI-covered bus
+    /// 0.74 × 0.57 × 0.30 m centred at the origin with a white-paint radiator on −y (dumping
+    /// the internal heat), a 0.74 × 0.77 × 0.02 m solar-panel slab on top (+z: GaAs cells,
+    /// underside white paint, polished-aluminium edges; one thermal node) and three polished
+    /// aluminium antenna rods (two on +x, one under the bus).
+    pub fn tango() -> Result<Scene> {
+        use Material::*;
+        let [bx, by, bz] = tango::BUS;
+        let [px, py, pt] = tango::PANEL;
+        let mut m = MeshBuilder::new();
+        // Bus: one node per side; the top is covered by the panel, so it is left open.
+        let mut bus = [None; 6];
+        for (i, side) in bus.iter_mut().enumerate().take(5) {
+            let node = m.new_node();
+            *side = Some(match i {
+                // −y: radiator, 30 W of electronics over 0.74 × 0.30 m.
+                2 => (WhitePaint, node, 30.0 / (f64::from(bx) * f64::from(bz))),
+                _ => (MliKapton, node, 0.0),
+            });
+        }
+        let bmin = Vec3::new(-bx / 2.0, -by / 2.0, -bz / 2.0);
+        m.add_box(bmin, -bmin, bus);
+        // Solar panel: one node (a thin conductive slab).
+        let panel = m.new_node();
+        let pmin = Vec3::new(-px / 2.0, -py / 2.0, bz / 2.0);
+        let pmax = Vec3::new(px / 2.0, py / 2.0, bz / 2.0 + pt);
+        let edge = Some((PolishedAluminium, panel, 0.0));
+        m.add_box(pmin, pmax, [edge, edge, edge, edge, Some((WhitePaint, panel, 0.0)), Some((GaAsCell, panel, 0.0))]);
+        // Antenna rods, rooted 5 mm inside the bus.
+        let rods = [
+            (Vec3::new(bx / 2.0, 0.20, -0.08), Vec3::new(1.0, 0.35, -0.5), 0.26),
+            (Vec3::new(bx / 2.0, -0.20, -0.08), Vec3::new(1.0, -0.35, -0.5), 0.26),
+            (Vec3::new(-0.22, 0.0, -bz / 2.0), Vec3::new(-0.45, 0.0, -1.0), 0.20),
+        ];
+        for (root, dir, len) in rods {
+            let d = dir.normalize();
+            let node = m.new_node();
+            m.add_rod(root - 0.005 * d, root + len * d, tango::ROD_RADIUS, 6, PolishedAluminium, node);
+        }
+        m.build()
+    }
+
+    /// Loads a Wavefront OBJ mesh (triangulated on load), scaled by `scale`. Each triangle is its
+    /// own face and thermal node; its material comes from the MTL material or object name
+    /// ([`Material::from_name_hint`]) or else `default_material`. Winding should be
+    /// counter-clockwise seen from outside (the thermal model uses the normal's sign).
+    pub fn from_obj(path: &Path, default_material: Material, scale: f32) -> Result<Scene> {
+        let opts = tobj::LoadOptions { triangulate: true, ignore_points: true, ignore_lines: true, ..Default::default() };
+        let (models, materials) =
+            tobj::load_obj(path, &opts).with_context(|| format!("cannot load OBJ mesh {}", path.display()))?;
+        let materials = materials.unwrap_or_default();
+        let mut m = MeshBuilder::new();
+        for model in &models {
+            let mesh = &model.mesh;
+            let material = mesh
+                .material_id
+                .and_then(|id| materials.get(id))
+                .and_then(|mt| Material::from_name_hint(&mt.name))
+                .or_else(|| Material::from_name_hint(&model.name))
+                .unwrap_or(default_material);
+            let p = &mesh.positions;
+            let vertex = |i: u32| -> Result<Vec3> {
+                let i = i as usize * 3;
+                match p.get(i..i + 3) {
+                    Some(v) => Ok(Vec3::new(v[0], v[1], v[2]) * scale),
+                    None => bail!("{}: vertex index out of range", path.display()),
+                }
+            };
+            for idx in mesh.indices.chunks_exact(3) {
+                let t = [vertex(idx[0])?, vertex(idx[1])?, vertex(idx[2])?];
+                let node = m.nodes;
+                m.add_face(&[t], material, node, 0.0);
+            }
+        }
+        m.build().with_context(|| format!("OBJ mesh {}", path.display()))
+    }
+
+    /// Closest hit along `dir` (unit) from `origin`, for `t` in `[tmin, ∞)`.
+    pub fn intersect(&self, origin: Vec3, dir: Vec3, tmin: f32) -> Option<Hit> {
+        let ray = Ray::new(Vec3A::from(origin), Vec3A::from(dir), tmin, f32::INFINITY);
+        let mut hit = RayHit::none();
+        if !self.bvh.ray_traverse(ray, &mut hit, |r, id| self.bvh_tris[id].0.intersect(r)) {
+            return None;
+        }
+        let (_, tri_index) = self.bvh_tris[hit.primitive_id as usize];
+        let face = self.triangle_face[tri_index as usize];
+        Some(Hit {
+            t: hit.t,
+            face,
+            triangle: tri_index,
+            normal: self.faces[face as usize].normal,
+            point: origin + hit.t * dir,
+        })
+    }
+
+    /// Any-hit query: is anything in the way along `dir` from `origin` for `t` in `(tmin, tmax)`?
+    pub fn occluded(&self, origin: Vec3, dir: Vec3, tmin: f32, tmax: f32) -> bool {
+        let ray = Ray::new(Vec3A::from(origin), Vec3A::from(dir), tmin, tmax);
+        !self.bvh.ray_traverse_miss(ray, |r, id| self.bvh_tris[id].0.intersect(r))
+    }
+
+    /// Ray offset that keeps a secondary ray off the surface it starts on.
+    pub fn epsilon(&self) -> f32 {
+        1e-5 * self.radius.max(1e-3) + 1e-5
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn box_normals_point_outward() {
+        let mut m = MeshBuilder::new();
+        let s = Some((Material::MliKapton, 0, 0.0));
+        m.add_box(Vec3::splat(-1.0), Vec3::splat(1.0), [s; 6]);
+        let sc = m.build().unwrap();
+        for (tri, &f) in sc.triangles.iter().zip(&sc.triangle_face) {
+            let c = Vec3::from(tri.v0 + tri.v1 + tri.v2) / 3.0;
+            let n = sc.faces[f as usize].normal;
+            assert!(c.dot(n) > 0.9, "face {f} normal {n} at {c}");
+            assert!((Vec3::from(tri.compute_normal()) - n).length() < 1e-5);
+        }
+        let area: f32 = sc.faces.iter().map(|f| f.area).sum();
+        assert!((area - 24.0).abs() < 1e-4);
+    }
+
+    #[test]
+    fn rod_normals_point_outward() {
+        let mut m = MeshBuilder::new();
+        m.add_rod(Vec3::ZERO, Vec3::new(0.0, 0.0, 1.0), 0.1, 6, Material::PolishedAluminium, 0);
+        let sc = m.build().unwrap();
+        for (tri, &f) in sc.triangles.iter().zip(&sc.triangle_face) {
+            let c = Vec3::from(tri.v0 + tri.v1 + tri.v2) / 3.0 - Vec3::new(0.0, 0.0, 0.5);
+            assert!(c.dot(sc.faces[f as usize].normal) > 0.0);
+        }
+        assert_eq!(sc.node_count, 1);
+    }
+
+    #[test]
+    fn tango_dimensions() {
+        let sc = Scene::tango().unwrap();
+        assert_eq!(sc.node_count, 5 + 1 + 3);
+        let area = |m: Material| -> f32 { sc.faces.iter().filter(|f| f.material == m).map(|f| f.area).sum() };
+        assert!((area(Material::GaAsCell) - 0.74 * 0.77).abs() < 1e-4);
+        assert!((area(Material::WhitePaint) - (0.74 * 0.30 + 0.74 * 0.77)).abs() < 1e-4);
+    }
+}

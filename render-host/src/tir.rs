@@ -1,0 +1,124 @@
+//! TIR rendering: every face is a Lambertian emitter at its temperature; no lights, no shadows.
+//!
+//! Two radiometric modes:
+//! - [`Radiometry::Radiometric`] (default): a resolved Lambertian emitter traced with one ray per
+//!   pixel is seen with radiance `L = ε σ T⁴ / π`, times the lens's `cos⁴ θ` fall-off off axis.
+//! - [`Radiometry::Study`]: the published facet-to-camera view-factor weighting,
+//!   `q = F ε σ T⁴` with `F ≈ (n̂_c·ŝ)(n̂_f·ŝ) A_c / (π S²)`. We report it as an equivalent
+//!   radiance `L = (n̂_c·ŝ)(n̂_f·ŝ) (S_ref/S)² ε σ T⁴ / π`, i.e. `F` normalised by its value for
+//!   a facet seen face-on, on axis, at the reference range `S_ref` (where both modes agree).
+//!   It counts distance and facet obliquity on top of what a pixel already integrates.
+//!
+//! DN: the radiance maps linearly onto a fixed temperature range, `v = (L − L(T_min)) /
+//! (L(T_max) − L(T_min))` with `L(T) = σT⁴/π` (a black body), or, with
+//! [`DnMapping::Temperature`], the brightness temperature `(πL/σ)^¼` maps linearly. Space (≈ 3 K)
+//! falls below `T_min` and clips to 0.
+
+use crate::camera::Camera;
+use crate::image::Image;
+use crate::scene::Scene;
+use crate::thermal::SIGMA;
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+use std::f64::consts::PI;
+
+/// How a pixel's value follows from the temperature of the face it sees.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "snake_case")]
+pub enum Radiometry {
+    /// Radiance `εσT⁴/π` with `cos⁴` fall-off (physically right).
+    Radiometric,
+    /// The study's view-factor weighting `F ε σ T⁴`.
+    Study,
+}
+
+/// How radiance becomes a [0, 1] value.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "snake_case")]
+pub enum DnMapping {
+    /// Linear in radiance between `L(T_min)` and `L(T_max)` (a microbolometer is linear in flux).
+    Radiance,
+    /// Linear in brightness temperature between `T_min` and `T_max`.
+    Temperature,
+}
+
+/// Parameters of a TIR render.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct TirParams {
+    /// Radiometric mode.
+    pub radiometry: Radiometry,
+    /// DN mapping.
+    pub dn_mapping: DnMapping,
+    /// Temperature mapped to 0, K.
+    pub t_min: f64,
+    /// Temperature mapped to 1 (full scale), K.
+    pub t_max: f64,
+    /// Reference range `S_ref` of the study mode, m.
+    pub study_reference_range: f64,
+}
+
+impl Default for TirParams {
+    fn default() -> Self {
+        TirParams {
+            radiometry: Radiometry::Radiometric,
+            dn_mapping: DnMapping::Radiance,
+            t_min: 150.0,
+            t_max: 400.0,
+            // The mean of the ellipse's semi-axes (7.25 m, 4 m).
+            study_reference_range: 5.625,
+        }
+    }
+}
+
+impl TirParams {
+    /// Black-body radiance `σT⁴/π`, W/(m² sr).
+    pub fn blackbody_radiance(t: f64) -> f64 {
+        SIGMA * t.powi(4) / PI
+    }
+
+    /// The [0, 1] value (unclipped) of radiance `l`.
+    pub fn value_of_radiance(&self, l: f64) -> f64 {
+        match self.dn_mapping {
+            DnMapping::Radiance => {
+                let (lo, hi) = (Self::blackbody_radiance(self.t_min), Self::blackbody_radiance(self.t_max));
+                (l - lo) / (hi - lo)
+            }
+            DnMapping::Temperature => {
+                let tb = (PI * l.max(0.0) / SIGMA).powf(0.25);
+                (tb - self.t_min) / (self.t_max - self.t_min)
+            }
+        }
+    }
+}
+
+/// Renders one TIR frame from per-face temperatures (K, indexed like [`Scene::faces`]).
+/// Values are in [0, 1] after the DN mapping, unclipped (the DN conversion clips).
+pub fn render_tir(scene: &Scene, camera: &Camera, face_temperatures: &[f32], params: &TirParams) -> Image {
+    let mut img = Image::new(camera.width, camera.height);
+    let w = camera.width as usize;
+    let background = params.value_of_radiance(0.0) as f32;
+    let axis = camera.pose.forward();
+    img.data.par_chunks_mut(w.max(1)).enumerate().for_each(|(y, row)| {
+        for (x, px) in row.iter_mut().enumerate() {
+            let d = camera.pixel_ray(x as u32, y as u32);
+            let Some(hit) = scene.intersect(camera.pose.position, d, 0.0) else {
+                *px = background;
+                continue;
+            };
+            let face = &scene.faces[hit.face as usize];
+            let t = f64::from(face_temperatures.get(hit.face as usize).copied().unwrap_or(0.0));
+            let eps = face.material.props().ir_emittance;
+            let cos_c = f64::from(axis.dot(d)).max(0.0);
+            let weight = match params.radiometry {
+                Radiometry::Radiometric => cos_c.powi(4),
+                Radiometry::Study => {
+                    let cos_f = f64::from(face.normal.dot(d)).abs();
+                    let s = f64::from(hit.t);
+                    cos_c * cos_f * (params.study_reference_range / s).powi(2)
+                }
+            };
+            *px = params.value_of_radiance(weight * eps * TirParams::blackbody_radiance(t)) as f32;
+        }
+    });
+    img
+}

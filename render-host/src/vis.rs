@@ -1,0 +1,113 @@
+//! VIS rendering: sun-lit Lambertian shading with an optional Blinn–Phong lobe, shadow rays,
+//! black space.
+
+use crate::camera::Camera;
+use crate::image::Image;
+use crate::scene::Scene;
+use glam::Vec3;
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+/// Illumination of a VIS frame.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "snake_case")]
+pub enum Illumination {
+    /// In sunlight.
+    Light,
+    /// In the Earth's shadow: no sun, only the (optional, weak) earthshine.
+    Eclipse,
+}
+
+/// Light sources and exposure of a VIS render.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct VisParams {
+    /// Light or eclipse.
+    pub illumination: Illumination,
+    /// Unit vector from the target towards the sun (target frame).
+    pub sun_dir: Vec3,
+    /// Unit vector from the target towards the Earth (source of the earthshine).
+    pub earth_dir: Vec3,
+    /// Earthshine irradiance relative to the sun's (0 = none). Applies in both illuminations.
+    pub earthshine: f32,
+    /// Scale from reflected irradiance (sun = 1) to the [0, 1] pixel value.
+    pub exposure: f32,
+    /// Add the specular lobe.
+    pub specular: bool,
+}
+
+impl VisParams {
+    /// In sunlight, with the default sun and earth directions.
+    pub fn light() -> VisParams {
+        VisParams {
+            illumination: Illumination::Light,
+            sun_dir: default_sun_dir(),
+            earth_dir: default_earth_dir(),
+            earthshine: 0.02,
+            exposure: 1.0,
+            specular: true,
+        }
+    }
+
+    /// In eclipse: the same geometry, sun blocked, weak earthshine.
+    pub fn eclipse() -> VisParams {
+        VisParams { illumination: Illumination::Eclipse, ..VisParams::light() }
+    }
+
+    /// Builder: the same parameters with another illumination.
+    pub fn with_illumination(self, illumination: Illumination) -> VisParams {
+        VisParams { illumination, ..self }
+    }
+}
+
+/// The default sun direction (target frame): above the solar panel, off to +x/+y, so the panel
+/// is lit and its overhang shadows the bus sides.
+pub fn default_sun_dir() -> Vec3 {
+    Vec3::new(0.45, 0.35, 0.82).normalize()
+}
+
+/// The default earth direction (target frame): below the bus (nadir-pointing panel up).
+pub fn default_earth_dir() -> Vec3 {
+    Vec3::new(-0.2, 0.1, -1.0).normalize()
+}
+
+/// Renders one VIS frame: one primary ray per pixel centre, a shadow ray per light per hit.
+/// Pixel values are linear in reflected radiance, `exposure × (albedo cos θ_s + specular)`,
+/// not clipped (the DN conversion clips).
+pub fn render_vis(scene: &Scene, camera: &Camera, params: &VisParams) -> Image {
+    let mut img = Image::new(camera.width, camera.height);
+    let w = camera.width as usize;
+    img.data.par_chunks_mut(w.max(1)).enumerate().for_each(|(y, row)| {
+        for (x, px) in row.iter_mut().enumerate() {
+            *px = shade(scene, camera, params, x as u32, y as u32);
+        }
+    });
+    img
+}
+
+fn shade(scene: &Scene, camera: &Camera, p: &VisParams, x: u32, y: u32) -> f32 {
+    let origin = camera.pose.position;
+    let d = camera.pixel_ray(x, y);
+    let Some(hit) = scene.intersect(origin, d, 0.0) else { return 0.0 };
+    let props = scene.faces[hit.face as usize].material.props();
+    // Two-sided shading: the normal facing the camera.
+    let n = if hit.normal.dot(d) > 0.0 { -hit.normal } else { hit.normal };
+    let start = hit.point + n * scene.epsilon();
+    let mut lights: [(Vec3, f32); 2] = [(p.sun_dir, 1.0), (p.earth_dir, p.earthshine)];
+    if p.illumination == Illumination::Eclipse {
+        lights[0].1 = 0.0;
+    }
+    let mut value = 0.0;
+    for (l, e) in lights {
+        let cos = n.dot(l);
+        if e <= 0.0 || cos <= 0.0 || scene.occluded(start, l, 0.0, f32::INFINITY) {
+            continue;
+        }
+        let mut v = props.diffuse_albedo * cos;
+        if p.specular {
+            let h = (l - d).normalize();
+            v += props.specular * n.dot(h).max(0.0).powf(props.shininess);
+        }
+        value += e * v;
+    }
+    p.exposure * value
+}

@@ -1,0 +1,87 @@
+//! Shared helpers for the cross-crate integration tests in `tests/tests/`.
+
+use host_harness::io::Gray;
+
+/// A small deterministic generator (SplitMix64) for test images; no external RNG needed.
+#[derive(Debug, Clone)]
+pub struct TestRng(u64);
+
+impl TestRng {
+    /// A generator from a seed.
+    pub fn new(seed: u64) -> Self {
+        Self(seed)
+    }
+
+    /// The next 64 random bits.
+    pub fn next_u64(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    }
+
+    /// A uniform random u8 image.
+    pub fn image_u8(&mut self, width: usize, height: usize) -> Gray<u8> {
+        Gray { width, height, data: (0..width * height).map(|_| self.next_u64() as u8).collect() }
+    }
+
+    /// A uniform random u16 image.
+    pub fn image_u16(&mut self, width: usize, height: usize) -> Gray<u16> {
+        Gray { width, height, data: (0..width * height).map(|_| self.next_u64() as u16).collect() }
+    }
+}
+
+/// Where two images differ: `(count, first differing (x, y, a, b))`.
+pub fn diff<T: PartialEq + Copy>(a: &Gray<T>, b: &Gray<T>) -> (usize, Option<(usize, usize, T, T)>) {
+    assert_eq!((a.width, a.height), (b.width, b.height), "image sizes differ");
+    let mut count = 0;
+    let mut first = None;
+    for (i, (p, q)) in a.data.iter().zip(&b.data).enumerate() {
+        if p != q {
+            count += 1;
+            first.get_or_insert((i % a.width, i / a.width, *p, *q));
+        }
+    }
+    (count, first)
+}
+
+/// Asserts two images are identical, printing the first differing coordinate.
+#[track_caller]
+pub fn assert_same<T: PartialEq + Copy + std::fmt::Debug>(a: &Gray<T>, b: &Gray<T>, what: &str) {
+    let (count, first) = diff(a, b);
+    assert_eq!(count, 0, "{what}: {count} pixels differ, first at (x, y, got, want) = {first:?}");
+}
+
+/// Mirrors an image left-right.
+pub fn flip_lr<T: Copy + Default>(g: &Gray<T>) -> Gray<T> {
+    let mut out = Gray::new(g.width, g.height);
+    for y in 0..g.height {
+        for x in 0..g.width {
+            out.data[y * g.width + x] = g.at(g.width - 1 - x, y);
+        }
+    }
+    out
+}
+
+/// Mirrors an image top-bottom.
+pub fn flip_ud<T: Copy + Default>(g: &Gray<T>) -> Gray<T> {
+    let mut out = Gray::new(g.width, g.height);
+    for y in 0..g.height {
+        for x in 0..g.width {
+            out.data[y * g.width + x] = g.at(x, g.height - 1 - y);
+        }
+    }
+    out
+}
+
+/// Transposes an image.
+pub fn transpose<T: Copy + Default>(g: &Gray<T>) -> Gray<T> {
+    let mut out = Gray::new(g.height, g.width);
+    for y in 0..g.height {
+        for x in 0..g.width {
+            out.data[x * g.height + y] = g.at(x, y);
+        }
+    }
+    out
+}

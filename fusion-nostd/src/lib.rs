@@ -10,6 +10,7 @@
 //! * [`scratch`] — caller-owned work planes ([`Scratch`], [`ScratchMut`]).
 //! * [`fuse`] — the fusion methods.
 //! * [`filters`] — integer filters shared by the methods.
+//! * [`pipeline`] — the per-frame entry point: rescale one band onto the other's grid, fuse.
 //! * [`Error`] — the one small `Copy` error type; bad input is an `Err`, never a panic.
 #![no_std]
 #![cfg_attr(
@@ -31,11 +32,16 @@ pub mod error;
 pub mod filters;
 pub mod frame;
 pub mod fuse;
+pub mod pipeline;
 pub mod rescale;
 pub mod scratch;
 
 pub use error::Error;
 pub use frame::{Frame, Frame512, Frame1024, FrameMut, FrameRef, MAX_DIMENSION};
-pub use fuse::Variant;
+pub use fuse::adf::AdfParams;
+pub use fuse::ifevip::IfevipParams;
+pub use fuse::tsifsd::TsifsdParams;
+pub use fuse::{Guards, Variant};
+pub use pipeline::{FuseReport, Method, Pipeline, RescalePolicy, fuse};
 pub use rescale::{Filter, Sample, rescale};
 pub use scratch::{SCRATCH_PLANES, Scratch, Scratch512, Scratch1024, ScratchMut};

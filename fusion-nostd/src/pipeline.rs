@@ -11,9 +11,9 @@
 //! policy says (and [`FuseReport::rescaled`] says so).
 
 use crate::fuse::Guards;
-use crate::fuse::adf::{AdfParams, fuse_adf};
+use crate::fuse::adf::{AdfParams, fuse_adf, fuse_adf_raw};
 use crate::fuse::ifevip::{IfevipParams, fuse_ifevip};
-use crate::fuse::tsifsd::{TsifsdParams, fuse_tsifsd};
+use crate::fuse::tsifsd::{TsifsdParams, fuse_tsifsd, fuse_tsifsd_raw};
 use crate::{Error, Filter, FrameMut, FrameRef, ScratchMut, rescale};
 
 /// Which band is rescaled onto the other's grid.
@@ -52,6 +52,20 @@ pub struct Pipeline {
     pub rescale: RescalePolicy,
     /// How they are fused.
     pub method: Method,
+}
+
+impl Pipeline {
+    /// Pixels each scratch plane (the three `i32` planes and the `u8` band plane) must hold to
+    /// fuse a `vis`-sized frame with a `tir`-sized one, or [`Error::SizeMismatch`] when the
+    /// policy cannot align them.
+    pub fn scratch_pixels(&self, vis: (usize, usize), tir: (usize, usize)) -> Result<usize, Error> {
+        let (w, h) = fusion_grid(vis, tir, self.rescale)?;
+        let pixels = w.checked_mul(h).ok_or(Error::DimensionTooLarge { value: w.max(h) })?;
+        Ok(match &self.method {
+            Method::Adf(_) | Method::Tsifsd(_) => pixels,
+            Method::Ifevip(p) => crate::fuse::ifevip::scratch_pixels(w, h, p).max(pixels),
+        })
+    }
 }
 
 /// What one [`fuse`] call did.
@@ -107,23 +121,59 @@ pub fn fuse(
     scratch: &mut ScratchMut<'_>,
     pipeline: &Pipeline,
 ) -> Result<FuseReport, Error> {
-    let grid = fusion_grid(vis.size(), tir.size(), pipeline.rescale)?;
-    if out.size() != grid {
-        return Err(Error::SizeMismatch { expected: grid, got: out.size() });
+    on_grid(vis, tir, out.size(), scratch, pipeline.rescale, |v, t, s| {
+        fuse_method(v, t, out, &pipeline.method, s)
+    })
+}
+
+/// Like [`fuse`], but writes the method's real-valued result before the 8-bit cast, in Q16
+/// (`raw / 65536.0` grey levels); [`fuse`] is this value cast with
+/// [`crate::fuse::round_away_sat_u8`]`(raw, 16)`.
+///
+/// ADF and TSIFSD only: IFEVIP's published arithmetic saturates to `uint8` at every step, so
+/// its pre-cast value is its output; for it this returns [`Error::InvalidParameter`]
+/// (`name: "method"`).
+pub fn fuse_raw(
+    vis: FrameRef<'_, u8>,
+    tir: FrameRef<'_, u8>,
+    raw: FrameMut<'_, i32>,
+    scratch: &mut ScratchMut<'_>,
+    pipeline: &Pipeline,
+) -> Result<FuseReport, Error> {
+    on_grid(vis, tir, raw.size(), scratch, pipeline.rescale, |v, t, s| match &pipeline.method {
+        Method::Adf(p) => fuse_adf_raw(v, t, raw, p, s),
+        Method::Tsifsd(p) => fuse_tsifsd_raw(v, t, raw, p, s),
+        Method::Ifevip(_) => Err(Error::InvalidParameter { name: "method" }),
+    })
+}
+
+/// Brings both bands onto the fusion grid of `policy` (rescaling one into the scratch's band
+/// plane when the sizes differ) and runs `fuse_on_grid` there with the remaining planes.
+fn on_grid(
+    vis: FrameRef<'_, u8>,
+    tir: FrameRef<'_, u8>,
+    out_size: (usize, usize),
+    scratch: &mut ScratchMut<'_>,
+    policy: RescalePolicy,
+    fuse_on_grid: impl FnOnce(FrameRef<'_, u8>, FrameRef<'_, u8>, &mut ScratchMut<'_>) -> Result<Guards, Error>,
+) -> Result<FuseReport, Error> {
+    let grid = fusion_grid(vis.size(), tir.size(), policy)?;
+    if out_size != grid {
+        return Err(Error::SizeMismatch { expected: grid, got: out_size });
     }
     if vis.size() == tir.size() {
-        let guards = fuse_method(vis, tir, out, &pipeline.method, scratch)?;
+        let guards = fuse_on_grid(vis, tir, scratch)?;
         return Ok(FuseReport { grid, rescaled: false, guards });
     }
     let (band, mut planes) = scratch.split_band(grid.0 * grid.1)?;
-    let guards = match pipeline.rescale {
+    let guards = match policy {
         RescalePolicy::TirUp => {
             rescale(tir, FrameMut::new(band, grid.0, grid.1)?, Filter::Cubic)?;
-            fuse_method(vis, FrameRef::new(band, grid.0, grid.1)?, out, &pipeline.method, &mut planes)?
+            fuse_on_grid(vis, FrameRef::new(band, grid.0, grid.1)?, &mut planes)?
         }
         RescalePolicy::VisDown | RescalePolicy::None => {
             rescale(vis, FrameMut::new(band, grid.0, grid.1)?, Filter::Area)?;
-            fuse_method(FrameRef::new(band, grid.0, grid.1)?, tir, out, &pipeline.method, &mut planes)?
+            fuse_on_grid(FrameRef::new(band, grid.0, grid.1)?, tir, &mut planes)?
         }
     };
     Ok(FuseReport { grid, rescaled: true, guards })

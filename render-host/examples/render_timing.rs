@@ -6,8 +6,8 @@
 //! ```
 
 use render_host::{
-    Camera, DatasetConfig, Scene, TirParams, VisParams, face_temperatures, render_dataset, render_tir, render_vis,
-    steady_state, trajectory,
+    Camera, DatasetConfig, Scene, TirParams, VisParams, face_temperatures, render_dataset, render_tir,
+    render_vis, steady_state, trajectory,
 };
 use std::time::Instant;
 
@@ -29,7 +29,12 @@ fn main() -> anyhow::Result<()> {
             std::hint::black_box(render_vis(&scene, &Camera::study(1024, tp.pose), &VisParams::light()));
             vis.push(t.elapsed().as_secs_f64());
             let t = Instant::now();
-            std::hint::black_box(render_tir(&scene, &Camera::study(512, tp.pose), &temps, &TirParams::default()));
+            std::hint::black_box(render_tir(
+                &scene,
+                &Camera::study(512, tp.pose),
+                &temps,
+                &TirParams::default(),
+            ));
             tir.push(t.elapsed().as_secs_f64());
         }
     });

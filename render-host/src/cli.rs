@@ -67,7 +67,8 @@ impl RenderArgs {
             }
             cfg.frames = n;
         }
-        if !(self.t_min.is_finite() && self.t_max.is_finite() && self.t_min >= 0.0 && self.t_max > self.t_min) {
+        if !(self.t_min.is_finite() && self.t_max.is_finite() && self.t_min >= 0.0 && self.t_max > self.t_min)
+        {
             bail!("need 0 <= --t-min < --t-max");
         }
         if !(self.mesh_scale.is_finite() && self.mesh_scale > 0.0) {

@@ -94,7 +94,13 @@ impl DatasetConfig {
 
     /// A tiny layout for tests: `frames` frames, VIS `size`², TIR `size/2`² and `size`².
     pub fn small(frames: usize, size: u32) -> Self {
-        DatasetConfig { frames, vis_size: size, tir_sizes: vec![size / 2, size], contact_sheet_thumb: 32, ..Self::default() }
+        DatasetConfig {
+            frames,
+            vis_size: size,
+            tir_sizes: vec![size / 2, size],
+            contact_sheet_thumb: 32,
+            ..Self::default()
+        }
     }
 
     /// Loads the target this configuration names.
@@ -325,8 +331,11 @@ pub fn render_dataset(cfg: &DatasetConfig, out_dir: &Path, progress: bool) -> Re
         }
     }
 
-    let bar = if progress { ProgressBar::new((cfg.frames * set_list.len()) as u64) } else { ProgressBar::hidden() };
-    if let Ok(style) = ProgressStyle::with_template("{msg} [{elapsed_precise}] {wide_bar} {pos}/{len} images (eta {eta})") {
+    let bar =
+        if progress { ProgressBar::new((cfg.frames * set_list.len()) as u64) } else { ProgressBar::hidden() };
+    if let Ok(style) =
+        ProgressStyle::with_template("{msg} [{elapsed_precise}] {wide_bar} {pos}/{len} images (eta {eta})")
+    {
         bar.set_style(style);
     }
     bar.set_message("rendering");
@@ -342,9 +351,11 @@ pub fn render_dataset(cfg: &DatasetConfig, out_dir: &Path, progress: bool) -> Re
             for (si, s) in set_list.iter().enumerate() {
                 let cam = Camera::study(s.width, tp.pose);
                 let clean = match s.kind {
-                    SetKind::Vis { illumination } => {
-                        render_vis(&scene, &cam, &VisParams { sun_dir: sun, ..cfg.vis }.with_illumination(illumination))
-                    }
+                    SetKind::Vis { illumination } => render_vis(
+                        &scene,
+                        &cam,
+                        &VisParams { sun_dir: sun, ..cfg.vis }.with_illumination(illumination),
+                    ),
                     SetKind::Tir => render_tir(&scene, &cam, &face_t, &cfg.tir),
                     SetKind::TirEclipse => {
                         render_tir(&scene, &cam, face_t_eclipse.as_deref().unwrap_or(&face_t), &cfg.tir)

@@ -68,7 +68,8 @@ impl Image {
         let sx = self.width as f32 / size as f32;
         let sy = self.height as f32 / size as f32;
         for ty in 0..size {
-            let (y0, y1) = ((ty as f32 * sy) as u32, (((ty + 1) as f32 * sy) as u32).max(ty + 1).min(self.height));
+            let (y0, y1) =
+                ((ty as f32 * sy) as u32, (((ty + 1) as f32 * sy) as u32).max(ty + 1).min(self.height));
             for tx in 0..size {
                 let (x0, x1) =
                     ((tx as f32 * sx) as u32, (((tx + 1) as f32 * sx) as u32).max(tx + 1).min(self.width));

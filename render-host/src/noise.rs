@@ -72,7 +72,11 @@ pub fn gaussian_blur(img: &Image, sigma: f32) -> Image {
         let out = &mut tmp.data[(y * w) as usize..((y + 1) * w) as usize];
         for (x, o) in out.iter_mut().enumerate() {
             let x = x as isize;
-            *o = k.iter().enumerate().map(|(j, kv)| kv * row[(x + j as isize - r).clamp(0, w - 1) as usize]).sum();
+            *o = k
+                .iter()
+                .enumerate()
+                .map(|(j, kv)| kv * row[(x + j as isize - r).clamp(0, w - 1) as usize])
+                .sum();
         }
     }
     let mut out = Image::new(img.width, img.height);
@@ -135,7 +139,8 @@ pub fn pink_noise(width: u32, height: u32, alpha: f64, rng: &mut NoiseRng) -> Ve
     if w == 0 || h == 0 {
         return Vec::new();
     }
-    let mut buf: Vec<Complex<f64>> = (0..w * h).map(|_| Complex::new(StandardNormal.sample(rng), 0.0)).collect();
+    let mut buf: Vec<Complex<f64>> =
+        (0..w * h).map(|_| Complex::new(StandardNormal.sample(rng), 0.0)).collect();
     fft2(&mut buf, w, h, false);
     for y in 0..h {
         let fy = fft_freq(y, h);

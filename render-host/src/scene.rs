@@ -272,7 +272,15 @@ impl MeshBuilder {
 
     /// Adds a closed prism ("rod") of `sides` facets and circumradius `radius` from `start` to
     /// `end`; every facet is its own face, all on thermal node `node`.
-    pub fn add_rod(&mut self, start: Vec3, end: Vec3, radius: f32, sides: u32, material: Material, node: u32) {
+    pub fn add_rod(
+        &mut self,
+        start: Vec3,
+        end: Vec3,
+        radius: f32,
+        sides: u32,
+        material: Material,
+        node: u32,
+    ) {
         let d = (end - start).normalize();
         let (e1, _) = d.any_orthonormal_pair();
         // A right-handed (e1, e2, d) frame, so the facets below wind outward.
@@ -365,7 +373,11 @@ impl Scene {
         let pmin = Vec3::new(-px / 2.0, -py / 2.0, bz / 2.0);
         let pmax = Vec3::new(px / 2.0, py / 2.0, bz / 2.0 + pt);
         let edge = Some((PolishedAluminium, panel, 0.0));
-        m.add_box(pmin, pmax, [edge, edge, edge, edge, Some((WhitePaint, panel, 0.0)), Some((GaAsCell, panel, 0.0))]);
+        m.add_box(
+            pmin,
+            pmax,
+            [edge, edge, edge, edge, Some((WhitePaint, panel, 0.0)), Some((GaAsCell, panel, 0.0))],
+        );
         // Antenna rods, rooted 5 mm inside the bus.
         let rods = [
             (Vec3::new(bx / 2.0, 0.20, -0.08), Vec3::new(1.0, 0.35, -0.5), 0.26),
@@ -385,9 +397,14 @@ impl Scene {
     /// ([`Material::from_name_hint`]) or else `default_material`. Winding should be
     /// counter-clockwise seen from outside (the thermal model uses the normal's sign).
     pub fn from_obj(path: &Path, default_material: Material, scale: f32) -> Result<Scene> {
-        let opts = tobj::LoadOptions { triangulate: true, ignore_points: true, ignore_lines: true, ..Default::default() };
-        let (models, materials) =
-            tobj::load_obj(path, &opts).with_context(|| format!("cannot load OBJ mesh {}", path.display()))?;
+        let opts = tobj::LoadOptions {
+            triangulate: true,
+            ignore_points: true,
+            ignore_lines: true,
+            ..Default::default()
+        };
+        let (models, materials) = tobj::load_obj(path, &opts)
+            .with_context(|| format!("cannot load OBJ mesh {}", path.display()))?;
         let materials = materials.unwrap_or_default();
         let mut m = MeshBuilder::new();
         for model in &models {

@@ -116,8 +116,10 @@ impl NodeBalance {
             let i = face.node as usize;
             let cos = f64::from(face.normal.dot(params.sun_dir)).max(0.0);
             b.solar[i] += a * (m.solar_absorptance - m.electrical_efficiency) * params.solar_flux * cos * lit;
-            b.constant[i] +=
-                a * (m.ir_emittance * params.earth_ir_flux + face.internal_heat + m.bus_coupling * params.bus_temperature);
+            b.constant[i] += a
+                * (m.ir_emittance * params.earth_ir_flux
+                    + face.internal_heat
+                    + m.bus_coupling * params.bus_temperature);
             b.radiative[i] += a * m.ir_emittance * SIGMA;
             b.conductive[i] += a * m.bus_coupling;
             b.capacity[i] += a * m.areal_heat_capacity;
@@ -183,7 +185,11 @@ pub fn eclipse_transient(scene: &Scene, params: &ThermalParams, start: &[f64], s
 
 /// Face temperatures from node temperatures (each face takes its node's).
 pub fn face_temperatures(scene: &Scene, node_temperatures: &[f64]) -> Vec<f32> {
-    scene.faces.iter().map(|f| node_temperatures.get(f.node as usize).copied().unwrap_or(0.0) as f32).collect()
+    scene
+        .faces
+        .iter()
+        .map(|f| node_temperatures.get(f.node as usize).copied().unwrap_or(0.0) as f32)
+        .collect()
 }
 
 #[cfg(test)]
@@ -218,8 +224,13 @@ mod tests {
             assert!(t_long[i] > 150.0, "node {i} has no floor: {} K", t_long[i]);
         }
         // Light MLI cools much faster than the heavy panel.
-        let mli = sc.faces.iter().find(|f| f.material == Material::MliKapton && f.normal.x > 0.5).unwrap().node as usize;
+        let mli =
+            sc.faces.iter().find(|f| f.material == Material::MliKapton && f.normal.x > 0.5).unwrap().node
+                as usize;
         let panel = sc.faces.iter().find(|f| f.material == Material::GaAsCell).unwrap().node as usize;
-        assert!((t0[mli] - t10[mli]) / (t0[mli] - t_long[mli]) > (t0[panel] - t10[panel]) / (t0[panel] - t_long[panel]));
+        assert!(
+            (t0[mli] - t10[mli]) / (t0[mli] - t_long[mli])
+                > (t0[panel] - t10[panel]) / (t0[panel] - t_long[panel])
+        );
     }
 }

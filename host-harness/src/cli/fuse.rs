@@ -110,11 +110,14 @@ pub struct Fused {
     pub guards: Guards,
 }
 
-/// Fuses `vis` and `tir` with the core pipeline.
-pub fn fuse_core(vis: &Gray<u8>, tir: &Gray<u8>, pipeline: &Pipeline) -> Result<Fused> {
+/// Fuses `vis` and `tir` with the core pipeline; with `with_raw`, through the core's pre-cast
+/// entry ([`fusion_nostd::pipeline::fuse_raw`]) so the Q16 value comes back too (IFEVIP saturates
+/// to 8 bits at every step, so its raw value is its output).
+pub fn fuse_core(vis: &Gray<u8>, tir: &Gray<u8>, pipeline: &Pipeline, with_raw: bool) -> Result<Fused> {
     let (w, h) = fusion_grid((vis.width, vis.height), (tir.width, tir.height), pipeline.rescale)?;
+    let mut scratch =
+        CoreScratch::new(pipeline.scratch_pixels((vis.width, vis.height), (tir.width, tir.height))?);
     let mut out = Gray::new(w, h);
-    let mut scratch = CoreScratch::new(w * h);
     let report = fusion_nostd::pipeline::fuse(
         vis.view()?,
         tir.view()?,
@@ -122,7 +125,23 @@ pub fn fuse_core(vis: &Gray<u8>, tir: &Gray<u8>, pipeline: &Pipeline) -> Result<
         &mut scratch.view_mut(),
         pipeline,
     )?;
-    Ok(Fused { image: out, raw: None, guards: report.guards })
+    let raw = match (with_raw, &pipeline.method) {
+        (false, _) => None,
+        (true, Method::Ifevip(_)) => Some(to_f64(&out)),
+        (true, _) => {
+            let mut raw = Gray::<i32>::new(w, h);
+            fusion_nostd::pipeline::fuse_raw(
+                vis.view()?,
+                tir.view()?,
+                raw.view_mut()?,
+                &mut scratch.view_mut(),
+                pipeline,
+            )?;
+            let scale = f64::from(1u32 << fusion_nostd::fuse::adf::RAW_FRAC_BITS);
+            Some(Gray { width: w, height: h, data: raw.data.iter().map(|&v| f64::from(v) / scale).collect() })
+        }
+    };
+    Ok(Fused { image: out, raw, guards: report.guards })
 }
 
 /// Fuses `vis` and `tir` with the f64 references (rescale and method).
@@ -162,13 +181,11 @@ pub fn run(args: &FuseArgs) -> Result<()> {
     let tir = load_gray_u8(&args.tir, ColorPolicy::Bt601).context("thermal image")?;
     let pipeline = Pipeline { rescale: args.rescale.into(), method: method_for(args.method, args.variant) };
     let fused = match args.engine {
-        EngineArg::Core => fuse_core(&vis, &tir, &pipeline)?,
+        EngineArg::Core => fuse_core(&vis, &tir, &pipeline, args.raw.is_some())?,
         EngineArg::Reference => fuse_reference(&vis, &tir, &pipeline)?,
     };
     if let Some(raw_path) = &args.raw {
-        let Some(raw) = &fused.raw else {
-            bail!("--raw is not available for this engine and method");
-        };
+        let Some(raw) = &fused.raw else { bail!("no pre-cast value for this engine and method") };
         let data: Vec<f32> = raw.data.iter().map(|&v| v as f32).collect();
         write_npy_f32(raw_path, raw.width, raw.height, &data)?;
     }

@@ -3,6 +3,7 @@
 use clap::{Parser, Subcommand};
 
 pub mod eval;
+pub mod fuse;
 pub mod rescale;
 
 /// VIS/TIR image fusion for spacecraft proximity navigation: host tools.
@@ -19,6 +20,10 @@ pub struct Cli {
 pub enum Command {
     /// Rescale a grey PNG with the core's bicubic or area rescaler (8-bit or 16-bit).
     Rescale(rescale::RescaleArgs),
+    /// Fuse a VIS/TIR pair (ADF, TSIFSD, IFEVIP) with the core or the f64 reference.
+    Fuse(fuse::FuseArgs),
+    /// Render a dataset of aligned VIS/TIR pairs of a spacecraft target (ray traced).
+    Render(render_host::cli::RenderArgs),
     /// Fusion metrics (AG, MI, FMI, SSIM, RMSE) of a fused image; noise metrics with --ref.
     Eval(eval::EvalArgs),
 }
@@ -28,5 +33,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Rescale(args) => rescale::run(&args),
         Command::Eval(args) => eval::run(&args),
+        Command::Fuse(args) => fuse::run(&args),
+        Command::Render(args) => render_host::cli::run(&args),
     }
 }

@@ -161,7 +161,7 @@ pub fn quadtree(img: &Gray<f64>, threshold: f64, min: usize) -> Vec<(usize, usiz
 
 /// `imerode` by a flat `size×size` square (origin at element `⌊(size+1)/2⌋`), outside ignored.
 pub fn erode(img: &Gray<f64>, size: usize) -> Gray<f64> {
-    let o = (size + 1) / 2;
+    let o = size.div_ceil(2);
     let (lo, hi) = (o as isize - 1, (size - o) as isize);
     let (w, h) = (img.width as isize, img.height as isize);
     let mut out = Gray::new(img.width, img.height);

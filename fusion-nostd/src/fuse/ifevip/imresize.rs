@@ -208,7 +208,9 @@ pub fn build_smoothed<'a>(
             *s = start as i32;
             *c = taps as i32;
         }
-        for (xx, &g) in (x.saturating_sub(r)..(x + r + 1).min(out_len)).zip(gauss.iter().skip(r.saturating_sub(x))) {
+        for (xx, &g) in
+            (x.saturating_sub(r)..(x + r + 1).min(out_len)).zip(gauss.iter().skip(r.saturating_sub(x)))
+        {
             if let Some((s, ws)) = resize.get(xx) {
                 for (k, &w) in ws.iter().enumerate() {
                     let term = (i64::from(g) * i64::from(w) + (1 << (WEIGHT_BITS - 1))) >> WEIGHT_BITS;

@@ -298,8 +298,11 @@ pub fn fuse_ifevip(
 
     // 7 + 9. R = IR ⊖ uint8(bg) in place in C; keys max(Feat, 0) + VIS (Q24) into A (low
     // 32 bits) and B (high 32 bits).
-    for (((rr, ir), vv), (ka, kb)) in
-        c.chunks_exact_mut(w).zip(tir.rows()).zip(vis.rows()).zip(a.chunks_exact_mut(w).zip(b.chunks_exact_mut(w)))
+    for (((rr, ir), vv), (ka, kb)) in c
+        .chunks_exact_mut(w)
+        .zip(tir.rows())
+        .zip(vis.rows())
+        .zip(a.chunks_exact_mut(w).zip(b.chunks_exact_mut(w)))
     {
         for ((((r, &t), &v), ka), kb) in rr.iter_mut().zip(ir).zip(vv).zip(ka.iter_mut()).zip(kb.iter_mut()) {
             let feat_r = (i32::from(t) - bg_u8(*r)).max(0);

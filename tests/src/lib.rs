@@ -85,3 +85,19 @@ pub fn transpose<T: Copy + Default>(g: &Gray<T>) -> Gray<T> {
     }
     out
 }
+
+/// A smooth synthetic scene with a target, texture and noise (not a VIFB image).
+pub fn scene(w: usize, h: usize, seed: u64) -> Gray<u8> {
+    let mut rng = TestRng::new(seed);
+    let data = (0..w * h)
+        .map(|i| {
+            let (x, y) = ((i % w) as f64, (i / w) as f64);
+            let (dx, dy) = (x - 0.45 * w as f64, y - 0.5 * h as f64);
+            let r2 = (dx * dx + dy * dy) / ((w * h) as f64 * 0.03 + 1.0);
+            let target = if r2 < 1.0 { 150.0 + 40.0 * (x * 0.7).sin() } else { 10.0 };
+            let noise = (rng.next_u64() % 13) as f64 - 6.0;
+            (target + 20.0 * (y * 0.05 + seed as f64).cos() + noise).clamp(0.0, 255.0) as u8
+        })
+        .collect();
+    Gray { width: w, height: h, data }
+}

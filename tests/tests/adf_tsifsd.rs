@@ -7,7 +7,7 @@ use fusion_nostd::fuse::adf::{AdfParams, fuse_adf, fuse_adf_raw};
 use fusion_nostd::fuse::tsifsd::{TsifsdParams, fuse_tsifsd, fuse_tsifsd_raw};
 use fusion_nostd::fuse::{Guards, Variant};
 use fusion_nostd::{Error, FrameMut, FrameRef};
-use fusion_tests::TestRng;
+use fusion_tests::{TestRng, scene};
 use host_harness::io::{ColorPolicy, Gray, load_gray_u8, read_npy_2d};
 use host_harness::reference;
 use host_harness::{CoreScratch, shared_dir};
@@ -229,22 +229,6 @@ fn core_matches_the_reference_on_the_vifb_pairs_in_both_variants() -> Result<(),
     Ok(())
 }
 
-/// A smooth synthetic scene with a target, texture and noise (not a VIFB image).
-fn scene(w: usize, h: usize, seed: u64) -> Gray<u8> {
-    let mut rng = TestRng::new(seed);
-    let data = (0..w * h)
-        .map(|i| {
-            let (x, y) = ((i % w) as f64, (i / w) as f64);
-            let (dx, dy) = (x - 0.45 * w as f64, y - 0.5 * h as f64);
-            let r2 = (dx * dx + dy * dy) / ((w * h) as f64 * 0.03 + 1.0);
-            let target = if r2 < 1.0 { 150.0 + 40.0 * (x * 0.7).sin() } else { 10.0 };
-            let noise = (rng.next_u64() % 13) as f64 - 6.0;
-            (target + 20.0 * (y * 0.05 + seed as f64).cos() + noise).clamp(0.0, 255.0) as u8
-        })
-        .collect();
-    Gray { width: w, height: h, data }
-}
-
 #[test]
 fn core_matches_the_reference_on_synthetic_frames() -> Result<(), Error> {
     let mut rng = TestRng::new(99);
@@ -462,7 +446,7 @@ mod properties {
     use proptest::prelude::*;
 
     proptest! {
-        #![proptest_config(ProptestConfig { cases: 48, ..ProptestConfig::default() })]
+        #![proptest_config(ProptestConfig { cases: 48, failure_persistence: None, ..ProptestConfig::default() })]
 
         /// Any size and content: `Ok`, the u8 output is the cast of the raw value, and it is
         /// within 2 levels of the f64 reference (where the reference is finite).

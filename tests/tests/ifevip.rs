@@ -3,11 +3,11 @@
 use fusion_nostd::fuse::ifevip::{IfevipParams, fuse_ifevip, scratch_pixels};
 use fusion_nostd::fuse::{Guards, Variant};
 use fusion_nostd::{Error, FrameMut, FrameRef};
+use fusion_tests::{TestRng, scene};
 use host_harness::CoreScratch;
 use host_harness::io::{ColorPolicy, Gray, load_gray_u8, read_npy_2d};
 use host_harness::reference;
 use host_harness::shared_dir;
-use fusion_tests::{TestRng, scene};
 
 const PAIRS: [&str; 4] = ["fight", "kettle", "manWalking", "peopleshadow"];
 
@@ -120,7 +120,10 @@ fn core_matches_the_reference_on_synthetic_frames() -> Result<(), Error> {
                 let (n, max) = diff(&u8_to_f64(&out), &want.data);
                 println!("synthetic #{k} {w}x{h} {variant:?}: {n} of {} differ, max {max}", w * h);
                 assert!(max <= 2.0, "{w}x{h} #{k} {variant:?}: max {max}");
-                assert!(n as f64 <= (0.001 * (w * h) as f64).max(1.0), "{w}x{h} #{k} {variant:?}: {n} differ");
+                assert!(
+                    n as f64 <= (0.001 * (w * h) as f64).max(1.0),
+                    "{w}x{h} #{k} {variant:?}: {n} differ"
+                );
             }
         }
     }

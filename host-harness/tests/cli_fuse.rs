@@ -1,0 +1,107 @@
+//! `fusion fuse` end to end: every method and engine, `--raw`, rescale policies, bad input.
+
+use host_harness::io::{ColorPolicy, Gray, load_gray_u8, read_npy_2d, save_gray_u8};
+use std::path::Path;
+use std::process::{Command, Output};
+
+fn fusion(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_fusion")).args(args).output().expect("run fusion")
+}
+
+fn p(path: &Path) -> &str {
+    path.to_str().unwrap()
+}
+
+/// A deterministic textured frame with a bright blob.
+fn frame(w: usize, h: usize, seed: usize) -> Gray<u8> {
+    let data = (0..w * h)
+        .map(|i| {
+            let (x, y) = (i % w, i / w);
+            let blob = if (x as f64 - 0.4 * w as f64).powi(2) + (y as f64 - 0.5 * h as f64).powi(2)
+                < (w * h / 20) as f64
+            {
+                150
+            } else {
+                20
+            };
+            (blob + (x * 7 + y * 13 + seed) % 40 + (i * seed) % 9) as u8
+        })
+        .collect();
+    Gray { width: w, height: h, data }
+}
+
+#[test]
+fn every_method_and_engine_writes_a_grid_sized_image_and_raw_values() {
+    let dir = tempfile::tempdir().unwrap();
+    let (vis, tir) = (dir.path().join("vis.png"), dir.path().join("tir.png"));
+    save_gray_u8(&vis, &frame(64, 48, 1)).unwrap();
+    save_gray_u8(&tir, &frame(32, 24, 2)).unwrap();
+    for method in ["adf", "tsifsd", "ifevip"] {
+        let mut images = Vec::new();
+        for engine in ["core", "reference"] {
+            for (rescale, size) in [("tir-up", (64, 48)), ("vis-down", (32, 24))] {
+                let out = dir.path().join(format!("{method}-{engine}-{rescale}.png"));
+                let raw = dir.path().join(format!("{method}-{engine}-{rescale}.npy"));
+                let o = fusion(&[
+                    "fuse",
+                    "--method",
+                    method,
+                    "--engine",
+                    engine,
+                    "--rescale",
+                    rescale,
+                    "--raw",
+                    p(&raw),
+                    p(&vis),
+                    p(&tir),
+                    p(&out),
+                ]);
+                assert!(
+                    o.status.success(),
+                    "{method} {engine} {rescale}: {}",
+                    String::from_utf8_lossy(&o.stderr)
+                );
+                let img = load_gray_u8(&out, ColorPolicy::Refuse).unwrap();
+                assert_eq!((img.width, img.height), size);
+                let raw = read_npy_2d(&raw).unwrap();
+                assert_eq!((raw.width, raw.height), size);
+                // The PNG is the MATLAB uint8 cast of the raw value (f32-rounded in the file).
+                for (&v, &r) in img.data.iter().zip(&raw.data) {
+                    assert!(
+                        (f64::from(v) - r.clamp(0.0, 255.0)).abs() <= 0.5 + 1e-3,
+                        "{method} {engine}: {v} vs {r}"
+                    );
+                }
+                if rescale == "tir-up" {
+                    images.push(img);
+                }
+            }
+        }
+        // core and reference agree within two grey levels
+        let max = images[0].data.iter().zip(&images[1].data).map(|(a, b)| a.abs_diff(*b)).max().unwrap();
+        assert!(max <= 2, "{method}: core vs reference max {max}");
+    }
+}
+
+#[test]
+fn bad_input_is_one_line_and_exit_1() {
+    let dir = tempfile::tempdir().unwrap();
+    let (vis, tir) = (dir.path().join("vis.png"), dir.path().join("tir.png"));
+    save_gray_u8(&vis, &frame(64, 48, 1)).unwrap();
+    save_gray_u8(&tir, &frame(32, 24, 2)).unwrap();
+    let out = dir.path().join("out.png");
+    let missing = dir.path().join("missing.png");
+    let cases: [(Vec<&str>, &str); 3] = [
+        (vec!["fuse", "--rescale", "none", p(&vis), p(&tir), p(&out)], "size"),
+        (vec!["fuse", p(&vis), p(&missing), p(&out)], "thermal"),
+        (vec!["fuse", "--method", "nope", p(&vis), p(&tir), p(&out)], "nope"),
+    ];
+    for (args, needle) in cases {
+        let o = fusion(&args);
+        assert!(!o.status.success(), "{args:?} must fail");
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(!err.contains("panicked"), "{err}");
+        assert!(err.to_lowercase().contains(needle), "{args:?}: {err}");
+        assert!(!out.exists(), "no output left behind");
+    }
+}

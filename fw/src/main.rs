@@ -1,40 +1,246 @@
-//! Firmware smoke image: upscales a TIR frame held in external SDRAM with the core's bicubic
-//! rescaler and reports a checksum over semihosting. Later stages (issue 7) add the fusion
-//! pipeline, instruction markers and the RV32 image.
+//! Firmware image that runs the `fusion-nostd` pipeline on an emulated Cortex-M7
+//! (`thumbv7em-none-eabihf`, QEMU `mps2-an500`) or RV32 (`riscv32imac-unknown-none-elf`,
+//! QEMU `virt`). See `fw/README.md`.
+//!
+//! Inputs come in and results go out through semihosting file I/O, relative to QEMU's working
+//! directory:
+//! * `job.bin` — frame sizes and the list of runs (layout in [`job`]); without it the image
+//!   runs a small built-in self-test and exits.
+//! * `vis.gray`, `tir.gray` — the input frames, row-major 8-bit.
+//! * `out<i>.gray` — the fused frame of run `i` (written by the image).
+//!
+//! Each run fuses the pair with one method through the pipeline entry
+//! ([`fusion_nostd::pipeline::fuse`]); with its `stages` flag it first runs the method's public
+//! stage functions one by one, each inside a measured region, and checks that the staged
+//! result equals the pipeline's. Regions are bracketed by the marker functions
+//! [`fw_region_begin`] / [`fw_region_end`]: on RV32 the image reads `minstret` around them, on
+//! Arm the TCG plugin `fw/plugin/insn_count.c` counts between them.
+//!
+//! Lines on the console start with `@fw `; a fault or an error exits QEMU with status 1.
 #![no_std]
 #![no_main]
+// The reduced `rescale-only` image leaves the job I/O and most buffers unused.
+#![cfg_attr(feature = "rescale-only", allow(dead_code))]
 
-use core::panic::PanicInfo;
-use cortex_m_rt::entry;
-use cortex_m_semihosting::{debug, hprintln};
-use fusion_nostd::{Filter, Frame512, Frame1024, rescale};
+mod arch;
+#[cfg(not(feature = "rescale-only"))]
+mod job;
+#[cfg(not(feature = "rescale-only"))]
+mod runner;
+mod semihosting;
+
+use core::fmt::Write;
+use semihosting::Console;
+
+/// Static buffer sizes of the image: the default image fuses on grids up to 1024²; with the
+/// `grid512` feature the image is sized for the 512² grid (VIS 1024² downscaled to the
+/// 512² TIR grid).
+#[cfg(not(feature = "grid512"))]
+mod sizes {
+    /// VIS input buffer, bytes.
+    pub const VIS: usize = 1024 * 1024;
+    /// TIR input buffer, bytes.
+    pub const TIR: usize = 1024 * 1024;
+    /// Output frame (the fusion grid), bytes.
+    pub const OUT: usize = 1024 * 1024;
+    /// Work planes for the grid.
+    pub type Scratch = fusion_nostd::Scratch1024;
+    /// Printed in the report.
+    pub const NAME: &str = "grid1024";
+}
+#[cfg(feature = "grid512")]
+mod sizes {
+    pub const VIS: usize = 1024 * 1024;
+    pub const TIR: usize = 512 * 512;
+    pub const OUT: usize = 512 * 512;
+    pub type Scratch = fusion_nostd::Scratch512;
+    pub const NAME: &str = "grid512";
+}
 
 #[unsafe(link_section = ".bigram")]
-static mut TIR: Frame512 = Frame512::filled(0);
+static mut VIS: [u8; sizes::VIS] = [0; sizes::VIS];
 #[unsafe(link_section = ".bigram")]
-static mut OUT: Frame1024 = Frame1024::filled(0);
+static mut TIR: [u8; sizes::TIR] = [0; sizes::TIR];
+#[unsafe(link_section = ".bigram")]
+static mut OUT: [u8; sizes::OUT] = [0; sizes::OUT];
+#[unsafe(link_section = ".bigram")]
+static mut SCRATCH: sizes::Scratch = sizes::Scratch::new();
 
-/// Calls every public entry point with sizes and data the optimiser cannot see, so the
-/// `panic-check` link covers all their code paths, not just the ones the demo sizes reach.
+/// Written by the marker functions so that they have distinct bodies (identical functions
+/// could be merged into one address) and a visible side effect.
+static mut MARK_BEGIN: u32 = 0;
+static mut MARK_END: u32 = 0;
+
+/// Start of a measured region (the Arm plugin finds this symbol in the ELF).
+#[unsafe(no_mangle)]
+#[inline(never)]
+pub extern "C" fn fw_region_begin(seq: u32) {
+    // SAFETY: single-threaded; a plain store.
+    unsafe { core::ptr::write_volatile(core::ptr::addr_of_mut!(MARK_BEGIN), seq) }
+}
+
+/// End of a measured region (the Arm plugin finds this symbol in the ELF).
+#[unsafe(no_mangle)]
+#[inline(never)]
+pub extern "C" fn fw_region_end(seq: u32) {
+    // SAFETY: single-threaded; a plain store.
+    unsafe { core::ptr::write_volatile(core::ptr::addr_of_mut!(MARK_END), seq) }
+}
+
+#[macro_export]
+macro_rules! say {
+    ($con:expr, $($arg:tt)*) => {{
+        let _ = writeln!($con, $($arg)*);
+    }};
+}
+
+/// The console plus the region counter.
+pub struct Meter {
+    /// The console.
+    pub con: Console,
+    seq: u32,
+}
+
+impl Meter {
+    /// Runs `f` inside a measured region and reports it as `@fw region <seq> <label> <count>`
+    /// (`-` for the count on Arm, where the plugin supplies it in the same order).
+    pub fn region<R>(&mut self, label: &str, f: impl FnOnce() -> R) -> R {
+        let seq = self.seq;
+        self.seq += 1;
+        let c0 = arch::instret();
+        fw_region_begin(seq);
+        let r = f();
+        fw_region_end(seq);
+        let c1 = arch::instret();
+        match (c0, c1) {
+            (Some(a), Some(b)) => say!(self.con, "@fw region {seq} {label} {}", b.wrapping_sub(a)),
+            _ => say!(self.con, "@fw region {seq} {label} -"),
+        }
+        r
+    }
+}
+
+/// FNV-1a over the bytes.
+pub fn fnv1a(data: &[u8]) -> u32 {
+    data.iter().fold(0x811c_9dc5u32, |h, &b| (h ^ u32::from(b)).wrapping_mul(0x0100_0193))
+}
+
+const STACK_PAINT: u32 = 0x5EED_F00D;
+
+unsafe extern "C" {
+    static mut _stack_end: u32;
+    static mut _stack_start: u32;
+}
+
+/// Fills the unused stack (from its lowest address to just below the current frame) with a
+/// pattern, so that [`stack_used`] can find the high-water mark.
+fn paint_stack() {
+    let lo = core::ptr::addr_of_mut!(_stack_end) as usize;
+    let limit = arch::sp().saturating_sub(256);
+    let mut p = (lo + 3) & !3;
+    while p < limit {
+        // SAFETY: [lo, sp − 256) is stack memory below every live frame.
+        unsafe { core::ptr::write_volatile(p as *mut u32, STACK_PAINT) };
+        p += 4;
+    }
+}
+
+/// Bytes of stack used since [`paint_stack`] (the deepest word overwritten).
+fn stack_used() -> usize {
+    let lo = (core::ptr::addr_of_mut!(_stack_end) as usize + 3) & !3;
+    let top = core::ptr::addr_of_mut!(_stack_start) as usize;
+    let mut p = lo;
+    // SAFETY: reads of stack memory below the live frames.
+    while p < top && unsafe { core::ptr::read_volatile(p as *const u32) } == STACK_PAINT {
+        p += 4;
+    }
+    top - p
+}
+
+/// Called by the start-up code of either target.
+pub fn main() -> ! {
+    paint_stack();
+    let mut m = Meter { con: Console::open(), seq: 0 };
+    say!(m.con, "@fw start {} {}", arch::NAME, sizes::NAME);
+    #[cfg(any(feature = "panic-check", feature = "exercise"))]
+    exercise_entry_points();
+    #[cfg(not(feature = "rescale-only"))]
+    let result = match semihosting::open("job.bin", semihosting::Mode::ReadBinary) {
+        Ok(h) => {
+            semihosting::close(h);
+            runner::run_job(&mut m)
+        }
+        Err(_) => runner::self_test(&mut m),
+    };
+    #[cfg(feature = "rescale-only")]
+    let result = rescale_smoke(&mut m);
+    let ok = match result {
+        Ok(()) => true,
+        Err(e) => {
+            say!(m.con, "@fw error {e}");
+            false
+        }
+    };
+    say!(m.con, "@fw stack {}", stack_used());
+    say!(m.con, "@fw done {}", if ok { "ok" } else { "failed" });
+    semihosting::exit(ok)
+}
+
+/// The `rescale-only` image: upscales a 512² TIR pattern to 1024² with the bicubic rescaler
+/// and prints a checksum (the scope of the CI panic-check gate until the fusion methods are
+/// panic-free, see README.md).
+#[cfg(feature = "rescale-only")]
+fn rescale_smoke(m: &mut Meter) -> Result<(), fusion_nostd::Error> {
+    use fusion_nostd::{Filter, FrameMut, FrameRef, rescale};
+    // SAFETY: single-threaded firmware; these are the only references to the frames.
+    let (tir, out) = unsafe { (&mut *core::ptr::addr_of_mut!(TIR), &mut *core::ptr::addr_of_mut!(OUT)) };
+    let tir = tir.get_mut(..512 * 512).unwrap_or(&mut []);
+    let out = out.get_mut(..1024 * 1024).unwrap_or(&mut []);
+    for (i, p) in tir.iter_mut().enumerate() {
+        *p = (i.wrapping_mul(2_654_435_761) >> 13) as u8;
+    }
+    let src = FrameRef::new(&tir[..], 512, 512)?;
+    m.region("rescale", || rescale(src, FrameMut::new(&mut *out, 1024, 1024)?, Filter::Cubic))?;
+    say!(m.con, "@fw smoke cubic 512->1024 fnv1a {:08x}", fnv1a(out));
+    Ok(())
+}
+
+/// A fault or trap: report it and make QEMU exit with status 1.
+pub fn fault(what: &str, pc: usize, cause: usize) -> ! {
+    let mut con = Console::open();
+    say!(con, "@fw fault {} pc 0x{:08x} cause 0x{:x}", what, pc, cause);
+    semihosting::exit(false)
+}
+
+/// Calls every public entry point with sizes, parameters and data the optimiser cannot see,
+/// so the `panic-check` link covers all their code paths, not just the ones the demo reaches.
 #[cfg(any(feature = "panic-check", feature = "exercise"))]
 fn exercise_entry_points() {
     use core::hint::black_box;
-    use fusion_nostd::{FrameMut, FrameRef};
+    use fusion_nostd::{Filter, FrameMut, FrameRef, rescale};
     static mut U8_IN: [u8; 4096] = [0; 4096];
+    static mut U8_IN2: [u8; 4096] = [0; 4096];
     static mut U8_OUT: [u8; 4096] = [0; 4096];
     static mut U16_IN: [u16; 1024] = [0; 1024];
     static mut U16_OUT: [u16; 1024] = [0; 1024];
     static mut F32_IN: [f32; 1024] = [0.0; 1024];
     static mut F32_OUT: [f32; 1024] = [0.0; 1024];
+    static mut I32_OUT: [i32; 4096] = [0; 4096];
+    static mut PLANES: [[i32; 4096]; 3] = [[0; 4096]; 3];
+    static mut BAND: [u8; 4096] = [0; 4096];
     // SAFETY: single-threaded; the only references to these buffers.
-    let (a, b, c, d, e, f) = unsafe {
+    let (a, a2, b, c, d, e, f, raw, planes, band) = unsafe {
         (
             &*core::ptr::addr_of!(U8_IN),
+            &*core::ptr::addr_of!(U8_IN2),
             &mut *core::ptr::addr_of_mut!(U8_OUT),
             &*core::ptr::addr_of!(U16_IN),
             &mut *core::ptr::addr_of_mut!(U16_OUT),
             &*core::ptr::addr_of!(F32_IN),
             &mut *core::ptr::addr_of_mut!(F32_OUT),
+            &mut *core::ptr::addr_of_mut!(I32_OUT),
+            &mut *core::ptr::addr_of_mut!(PLANES),
+            &mut *core::ptr::addr_of_mut!(BAND),
         )
     };
     let dims =
@@ -42,55 +248,64 @@ fn exercise_entry_points() {
     let (sw, sh, dw, dh, stride) = dims();
     for filter in [Filter::Cubic, Filter::Area] {
         let filter = black_box(filter);
-        if let (Ok(s), Ok(o)) = (FrameRef::with_stride(a, sw, sh, stride), FrameMut::new(b, dw, dh)) {
+        if let (Ok(s), Ok(o)) = (FrameRef::with_stride(a, sw, sh, stride), FrameMut::new(&mut *b, dw, dh)) {
             let _ = black_box(rescale(s, o, filter));
         }
-        if let (Ok(s), Ok(o)) = (FrameRef::new(c, sw, sh), FrameMut::new(d, dw, dh)) {
+        if let (Ok(s), Ok(o)) = (FrameRef::new(c, sw, sh), FrameMut::new(&mut *d, dw, dh)) {
             let _ = black_box(rescale(s, o, filter));
         }
-        if let (Ok(s), Ok(o)) = (FrameRef::new(e, sw, sh), FrameMut::new(f, dw, dh)) {
+        if let (Ok(s), Ok(o)) = (FrameRef::new(e, sw, sh), FrameMut::new(&mut *f, dw, dh)) {
             let _ = black_box(rescale(s, o, filter));
         }
     }
-}
-
-#[entry]
-fn main() -> ! {
-    #[cfg(any(feature = "panic-check", feature = "exercise"))]
-    exercise_entry_points();
-    // SAFETY: single-threaded firmware; these are the only references to the frames.
-    let (tir, out) = unsafe { (&mut *core::ptr::addr_of_mut!(TIR), &mut *core::ptr::addr_of_mut!(OUT)) };
-    for (i, p) in tir.pixels_mut().iter_mut().enumerate() {
-        *p = (i.wrapping_mul(2_654_435_761) >> 13) as u8;
-    }
-    let code = match rescale(tir.view(), out.view_mut(), Filter::Cubic) {
-        Ok(()) => {
-            let sum = out.pixels().iter().fold(0u32, |s, &p| s.wrapping_mul(31).wrapping_add(u32::from(p)));
-            hprintln!("cubic 512->1024 checksum {:08x}", sum);
-            debug::EXIT_SUCCESS
+    // The pipeline entry (and the pre-cast entry) with every method and rescale policy.
+    #[cfg(not(feature = "rescale-only"))]
+    {
+        use fusion_nostd::pipeline::{Method, Pipeline, RescalePolicy, fuse, fuse_raw};
+        use fusion_nostd::{AdfParams, IfevipParams, ScratchMut, TsifsdParams};
+        let methods = [
+            Method::Adf(AdfParams::default()),
+            Method::Tsifsd(TsifsdParams::default()),
+            Method::Ifevip(IfevipParams::default()),
+        ];
+        let policies = [RescalePolicy::TirUp, RescalePolicy::VisDown, RescalePolicy::None];
+        let (vw, vh, tw, th, ow, oh) =
+            (black_box(40usize), black_box(30usize), black_box(20usize), black_box(15usize), dw, dh);
+        for method in methods {
+            for policy in policies {
+                let pipeline = black_box(Pipeline { rescale: policy, method: black_box(method) });
+                let [p0, p1, p2] = &mut *planes;
+                let mut scratch = ScratchMut::with_band([p0, p1, p2], &mut *band);
+                if let (Ok(v), Ok(t), Ok(o)) =
+                    (FrameRef::new(a, vw, vh), FrameRef::new(a2, tw, th), FrameMut::new(&mut *b, ow, oh))
+                {
+                    let _ = black_box(fuse(v, t, o, &mut scratch, &pipeline));
+                }
+                if let (Ok(v), Ok(t), Ok(o)) =
+                    (FrameRef::new(a, vw, vh), FrameRef::new(a2, tw, th), FrameMut::new(&mut *raw, ow, oh))
+                {
+                    let _ = black_box(fuse_raw(v, t, o, &mut scratch, &pipeline));
+                }
+            }
         }
-        Err(_) => debug::EXIT_FAILURE,
-    };
-    debug::exit(code);
-    loop {
-        cortex_m::asm::wfi();
     }
+    #[cfg(feature = "rescale-only")]
+    let _ = (a2, raw, planes, band);
 }
 
 #[cfg(not(feature = "panic-check"))]
 #[panic_handler]
-fn panic(_: &PanicInfo) -> ! {
-    debug::exit(debug::EXIT_FAILURE);
-    loop {
-        cortex_m::asm::wfi();
-    }
+fn panic(_: &core::panic::PanicInfo) -> ! {
+    let mut con = Console::open();
+    say!(con, "@fw panic");
+    semihosting::exit(false)
 }
 
 /// With `--features panic-check` any panic path the optimiser could not remove from the linked
 /// image calls this undefined symbol, so the link fails: a build that links has no panic path.
 #[cfg(feature = "panic-check")]
 #[panic_handler]
-fn panic(_: &PanicInfo) -> ! {
+fn panic(_: &core::panic::PanicInfo) -> ! {
     unsafe extern "C" {
         fn fusion_core_has_a_reachable_panic_path() -> !;
     }

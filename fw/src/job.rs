@@ -1,0 +1,180 @@
+//! `job.bin`: what the host asks the image to do (all integers little-endian `u32`).
+//!
+//! ```text
+//! offset  field
+//!  0      magic "FWJ1"
+//!  4      VIS width, VIS height
+//! 12      TIR width, TIR height
+//! 20      number of runs n (1..=MAX_RUNS)
+//! 24      n × 4 bytes: method (0 ADF, 1 TSIFSD, 2 IFEVIP), variant (0 classic, 1 flight),
+//!         rescale policy (0 TIR up, 1 VIS down, 2 none), flags (bit 0: measure the stages)
+//! ```
+//! Method parameters are the core's defaults for the variant (the host builds the same
+//! [`Method`] for its comparison run).
+
+use fusion_nostd::pipeline::{Method, Pipeline, RescalePolicy};
+use fusion_nostd::{AdfParams, IfevipParams, TsifsdParams, Variant};
+
+/// Most runs in one job.
+pub const MAX_RUNS: usize = 32;
+/// Longest `job.bin`.
+pub const MAX_LEN: usize = 24 + 4 * MAX_RUNS;
+
+/// One run of a job.
+#[derive(Clone, Copy)]
+pub struct Run {
+    method: u8,
+    variant: Variant,
+    policy: RescalePolicy,
+    /// Measure the stages before the whole pipeline.
+    pub stages: bool,
+}
+
+/// A parsed job.
+pub struct Job {
+    /// VIS width, height.
+    pub vis: (usize, usize),
+    /// TIR width, height.
+    pub tir: (usize, usize),
+    runs: [Option<Run>; MAX_RUNS],
+    n: usize,
+}
+
+fn word(bytes: &[u8], at: usize) -> Result<usize, &'static str> {
+    match bytes.get(at..at + 4) {
+        Some(&[a, b, c, d]) => Ok(u32::from_le_bytes([a, b, c, d]) as usize),
+        _ => Err("job.bin is truncated"),
+    }
+}
+
+impl Job {
+    /// Parses and checks a job.
+    pub fn parse(bytes: &[u8]) -> Result<Job, &'static str> {
+        if bytes.get(..4) != Some(b"FWJ1".as_slice()) {
+            return Err("job.bin: bad magic");
+        }
+        let vis = (word(bytes, 4)?, word(bytes, 8)?);
+        let tir = (word(bytes, 12)?, word(bytes, 16)?);
+        let n = word(bytes, 20)?;
+        if n == 0 || n > MAX_RUNS {
+            return Err("job.bin: bad number of runs");
+        }
+        let mut runs = [None; MAX_RUNS];
+        for (i, slot) in runs.iter_mut().take(n).enumerate() {
+            let Some(&[method, variant, policy, flags]) = bytes.get(24 + 4 * i..28 + 4 * i) else {
+                return Err("job.bin is truncated");
+            };
+            let variant = match variant {
+                0 => Variant::Classic,
+                1 => Variant::Flight,
+                _ => return Err("job.bin: bad variant"),
+            };
+            let policy = match policy {
+                0 => RescalePolicy::TirUp,
+                1 => RescalePolicy::VisDown,
+                2 => RescalePolicy::None,
+                _ => return Err("job.bin: bad rescale policy"),
+            };
+            if method > 2 {
+                return Err("job.bin: bad method");
+            }
+            *slot = Some(Run { method, variant, policy, stages: flags & 1 != 0 });
+        }
+        Ok(Job { vis, tir, runs, n })
+    }
+
+    /// The runs, in order.
+    pub fn runs(&self) -> impl ExactSizeIterator<Item = Run> + '_ {
+        self.runs.iter().take(self.n).map(|r| r.unwrap_or(Run::EMPTY))
+    }
+}
+
+impl Run {
+    const EMPTY: Run =
+        Run { method: 1, variant: Variant::Flight, policy: RescalePolicy::None, stages: false };
+
+    /// The core configuration of this run.
+    pub fn pipeline(&self) -> Pipeline {
+        let v = self.variant;
+        let method = match self.method {
+            0 => Method::Adf(AdfParams { variant: v, ..AdfParams::default() }),
+            2 => Method::Ifevip(IfevipParams { variant: v, ..IfevipParams::default() }),
+            _ => Method::Tsifsd(TsifsdParams { variant: v, ..TsifsdParams::default() }),
+        };
+        Pipeline { rescale: self.policy, method }
+    }
+
+    /// Method name as printed.
+    pub fn method_name(&self) -> &'static str {
+        name_of(&self.pipeline().method)
+    }
+
+    /// Region label of the method's own call in a staged run (`adf.fuse`, …).
+    pub fn method_tag(&self) -> &'static str {
+        match self.method {
+            0 => "adf.fuse",
+            2 => "ifevip.fuse",
+            _ => "tsifsd.fuse",
+        }
+    }
+
+    /// Variant name as printed.
+    pub fn variant_name(&self) -> &'static str {
+        match self.variant {
+            Variant::Classic => "classic",
+            Variant::Flight => "flight",
+        }
+    }
+
+    /// Rescale policy as printed.
+    pub fn policy_name(&self) -> &'static str {
+        match self.policy {
+            RescalePolicy::TirUp => "tir-up",
+            RescalePolicy::VisDown => "vis-down",
+            RescalePolicy::None => "none",
+        }
+    }
+}
+
+/// Lower-case name of a method.
+pub fn name_of(method: &Method) -> &'static str {
+    match method {
+        Method::Adf(_) => "adf",
+        Method::Tsifsd(_) => "tsifsd",
+        Method::Ifevip(_) => "ifevip",
+    }
+}
+
+/// The three methods with default (flight) parameters.
+pub fn default_methods() -> [Method; 3] {
+    [
+        Method::Adf(AdfParams::default()),
+        Method::Tsifsd(TsifsdParams::default()),
+        Method::Ifevip(IfevipParams::default()),
+    ]
+}
+
+/// `out<i>.gray` written into `buf`.
+pub fn out_name(i: usize, buf: &mut [u8; 16]) -> &str {
+    let mut digits = [0u8; 10];
+    let mut n = i;
+    let mut k = 0;
+    loop {
+        if let Some(d) = digits.get_mut(k) {
+            *d = b'0' + (n % 10) as u8;
+        }
+        k += 1;
+        n /= 10;
+        if n == 0 || k >= digits.len() {
+            break;
+        }
+    }
+    let mut len = 0;
+    for &b in b"out".iter().chain(digits.iter().take(k).rev()).chain(b".gray".iter()) {
+        if let Some(slot) = buf.get_mut(len) {
+            *slot = b;
+            len += 1;
+        }
+    }
+    core::str::from_utf8(buf.get(..len).unwrap_or(&[])).unwrap_or("out.gray")
+}

@@ -1,0 +1,208 @@
+//! The job runner: reads `job.bin` and the frames, runs the pipeline (and, per run, its stages
+//! in measured regions), writes the fused frames; or, without a job, a small self-test.
+
+use crate::semihosting;
+use crate::{Meter, OUT, SCRATCH, TIR, VIS, fnv1a, job, say, sizes};
+use core::fmt::Write;
+use fusion_nostd::filters::box_sum::box_sum_u8;
+use fusion_nostd::fuse::adf::diffuse;
+use fusion_nostd::fuse::ifevip::background;
+use fusion_nostd::pipeline::{FuseReport, Method, Pipeline, RescalePolicy, fuse, fuse_method, fusion_grid};
+use fusion_nostd::{Filter, FrameMut, FrameRef, Guards, ScratchMut, rescale};
+
+/// What can stop a job.
+pub enum FwError {
+    /// A semihosting file operation on the named file failed.
+    Io(semihosting::IoError, &'static str),
+    /// The core returned an error.
+    Core(fusion_nostd::Error),
+    /// `job.bin` is malformed or does not fit the image.
+    Job(&'static str),
+    /// The staged run and the pipeline entry gave different frames.
+    StagedMismatch,
+}
+
+impl core::fmt::Display for FwError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            FwError::Io(e, file) => write!(f, "semihosting {e:?} on {file}"),
+            FwError::Core(e) => write!(f, "core error: {e}"),
+            FwError::Job(msg) => write!(f, "job: {msg}"),
+            FwError::StagedMismatch => write!(f, "the staged run and the pipeline differ"),
+        }
+    }
+}
+
+impl From<fusion_nostd::Error> for FwError {
+    fn from(e: fusion_nostd::Error) -> Self {
+        FwError::Core(e)
+    }
+}
+
+/// The staged run: the rescale and the method's public stage functions in measured regions,
+/// then the method itself (which repeats the stages: the host subtracts them to get the
+/// remainder). Writes the fused frame to `out`.
+fn staged(
+    m: &mut Meter,
+    vis: FrameRef<'_, u8>,
+    tir: FrameRef<'_, u8>,
+    out: &mut [u8],
+    scratch: &mut ScratchMut<'_>,
+    pipeline: &Pipeline,
+    tag: &str,
+) -> Result<Guards, FwError> {
+    let (w, h) = fusion_grid(vis.size(), tir.size(), pipeline.rescale)?;
+    let n = w * h;
+    let same = vis.size() == tir.size();
+    let (band, mut planes) = scratch.split_band(if same { 0 } else { n })?;
+    let out = FrameMut::new(out, w, h)?;
+    if !same {
+        let (src, filter) = match pipeline.rescale {
+            RescalePolicy::TirUp => (tir, Filter::Cubic),
+            RescalePolicy::VisDown | RescalePolicy::None => (vis, Filter::Area),
+        };
+        let dst = FrameMut::new(&mut *band, w, h)?;
+        m.region("rescale", || rescale(src, dst, filter))?;
+    }
+    let band = FrameRef::new(band, w, h);
+    let (vg, tg) = match (same, pipeline.rescale) {
+        (true, _) => (vis, tir),
+        (false, RescalePolicy::TirUp) => (vis, band?),
+        (false, _) => (band?, tir),
+    };
+    match &pipeline.method {
+        Method::Adf(p) => {
+            let [a, b, tmp] = planes.planes(n)?;
+            m.region("adf.diffuse_vis", || diffuse(vg, p, a, tmp))?;
+            m.region("adf.diffuse_tir", || diffuse(tg, p, b, tmp))?;
+        }
+        Method::Tsifsd(p) => {
+            let [tmp, sv, si] = planes.planes(n)?;
+            let radius = usize::from(p.mean_size / 2);
+            m.region("tsifsd.box_vis", || box_sum_u8(vg, radius, p.mean_border(), tmp, sv))?;
+            m.region("tsifsd.box_tir", || box_sum_u8(tg, radius, p.mean_border(), tmp, si))?;
+        }
+        Method::Ifevip(p) => {
+            m.region("ifevip.background", || background(tg, p, &mut planes))?;
+        }
+    }
+    let method = &pipeline.method;
+    let guards = m.region(tag, || fuse_method(vg, tg, out, method, &mut planes))?;
+    Ok(guards)
+}
+
+pub fn run_job(m: &mut Meter) -> Result<(), FwError> {
+    // SAFETY: single-threaded; these are the only references to the buffers.
+    let (vis_buf, tir_buf, out_buf, scratch) = unsafe {
+        (
+            &mut *core::ptr::addr_of_mut!(VIS),
+            &mut *core::ptr::addr_of_mut!(TIR),
+            &mut *core::ptr::addr_of_mut!(OUT),
+            &mut *core::ptr::addr_of_mut!(SCRATCH),
+        )
+    };
+    let mut raw = [0u8; job::MAX_LEN];
+    let len = semihosting::read_file("job.bin", &mut raw).map_err(|e| FwError::Io(e, "job.bin"))?;
+    let job = job::Job::parse(raw.get(..len).unwrap_or(&[])).map_err(FwError::Job)?;
+    let (vw, vh) = job.vis;
+    let (tw, th) = job.tir;
+    let vis_px = vw.checked_mul(vh).filter(|&n| n <= sizes::VIS).ok_or(FwError::Job("VIS too large"))?;
+    let tir_px = tw.checked_mul(th).filter(|&n| n <= sizes::TIR).ok_or(FwError::Job("TIR too large"))?;
+    let vis_slice = vis_buf.get_mut(..vis_px).ok_or(FwError::Job("VIS too large"))?;
+    let tir_slice = tir_buf.get_mut(..tir_px).ok_or(FwError::Job("TIR too large"))?;
+    if semihosting::read_file("vis.gray", vis_slice).map_err(|e| FwError::Io(e, "vis.gray"))? != vis_px {
+        return Err(FwError::Job("vis.gray has the wrong length"));
+    }
+    if semihosting::read_file("tir.gray", tir_slice).map_err(|e| FwError::Io(e, "tir.gray"))? != tir_px {
+        return Err(FwError::Job("tir.gray has the wrong length"));
+    }
+    let vis = FrameRef::new(&vis_slice[..], vw, vh)?;
+    let tir = FrameRef::new(&tir_slice[..], tw, th)?;
+    say!(m.con, "@fw job {}x{} {}x{} runs {}", vw, vh, tw, th, job.runs().len());
+    m.region("overhead", || core::hint::black_box(()));
+
+    for (i, run) in job.runs().enumerate() {
+        let pipeline = run.pipeline();
+        let (w, h) = fusion_grid(vis.size(), tir.size(), pipeline.rescale)?;
+        let out = out_buf.get_mut(..w * h).ok_or(FwError::Job("output too large for the image"))?;
+        say!(
+            m.con,
+            "@fw run {} {} {} {} {}x{}",
+            i,
+            run.method_name(),
+            run.variant_name(),
+            run.policy_name(),
+            w,
+            h
+        );
+        let mut staged_sum = None;
+        if run.stages {
+            let tag = run.method_tag();
+            staged(m, vis, tir, out, &mut scratch.view_mut(), &pipeline, tag)?;
+            staged_sum = Some(fnv1a(out));
+            out.fill(0);
+        }
+        let report: FuseReport = {
+            let out_frame = FrameMut::new(&mut *out, w, h)?;
+            let mut sv = scratch.view_mut();
+            m.region("pipeline", || fuse(vis, tir, out_frame, &mut sv, &pipeline))?
+        };
+        let sum = fnv1a(out);
+        if staged_sum.is_some_and(|s| s != sum) {
+            return Err(FwError::StagedMismatch);
+        }
+        let mut name = [0u8; 16];
+        let file = job::out_name(i, &mut name);
+        semihosting::write_file(file, out).map_err(|e| FwError::Io(e, "out<i>.gray"))?;
+        say!(
+            m.con,
+            "@fw result {} guards 0x{:02x} rescaled {} fnv1a {:08x} file {}",
+            i,
+            report.guards.0,
+            u8::from(report.rescaled),
+            sum,
+            file
+        );
+    }
+    Ok(())
+}
+
+/// No `job.bin`: fuse a small synthetic pair (256² VIS, 128² TIR upscaled) with every method
+/// and print the checksums, so a bare `qemu … -kernel fusion-fw` run checks the image works.
+pub fn self_test(m: &mut Meter) -> Result<(), FwError> {
+    // SAFETY: single-threaded; these are the only references to the buffers.
+    let (vis_buf, tir_buf, out_buf, scratch) = unsafe {
+        (
+            &mut *core::ptr::addr_of_mut!(VIS),
+            &mut *core::ptr::addr_of_mut!(TIR),
+            &mut *core::ptr::addr_of_mut!(OUT),
+            &mut *core::ptr::addr_of_mut!(SCRATCH),
+        )
+    };
+    let (vis_px, tir_px, out_px) = (256 * 256, 128 * 128, 256 * 256);
+    let (Some(vis), Some(tir), Some(out)) =
+        (vis_buf.get_mut(..vis_px), tir_buf.get_mut(..tir_px), out_buf.get_mut(..out_px))
+    else {
+        return Err(FwError::Job("self-test frames do not fit"));
+    };
+    for (i, p) in vis.iter_mut().enumerate() {
+        let (x, y) = (i % 256, i / 256);
+        *p = if (64..192).contains(&x) && (96..160).contains(&y) { (x + y) as u8 } else { 3 };
+    }
+    for (i, p) in tir.iter_mut().enumerate() {
+        *p = (i.wrapping_mul(2_654_435_761) >> 13) as u8 / 4 + 60;
+    }
+    let (vis, tir) = (FrameRef::new(&vis[..], 256, 256)?, FrameRef::new(&tir[..], 128, 128)?);
+    for method in job::default_methods() {
+        let pipeline = Pipeline { rescale: RescalePolicy::TirUp, method };
+        let report = fuse(vis, tir, FrameMut::new(&mut *out, 256, 256)?, &mut scratch.view_mut(), &pipeline)?;
+        say!(
+            m.con,
+            "@fw selftest {} guards 0x{:02x} fnv1a {:08x}",
+            job::name_of(&method),
+            report.guards.0,
+            fnv1a(out)
+        );
+    }
+    Ok(())
+}

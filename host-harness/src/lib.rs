@@ -7,6 +7,7 @@ pub mod cli;
 pub mod io;
 pub mod metrics;
 pub mod reference;
+pub mod study;
 
 /// Path of the shared read-only project material (`../shared` beside the checkout).
 pub fn shared_dir() -> std::path::PathBuf {

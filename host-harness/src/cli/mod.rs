@@ -2,6 +2,7 @@
 
 use clap::{Parser, Subcommand};
 
+pub mod demo;
 pub mod eval;
 pub mod fuse;
 pub mod rescale;
@@ -18,6 +19,8 @@ pub struct Cli {
 /// The verbs of the tool.
 #[derive(Debug, Subcommand)]
 pub enum Command {
+    /// The main job on the built-in default scene: render, fuse with every method, contact sheet, table.
+    Demo(demo::DemoArgs),
     /// Rescale a grey PNG with the core's bicubic or area rescaler (8-bit or 16-bit).
     Rescale(rescale::RescaleArgs),
     /// Fuse a VIS/TIR pair (ADF, TSIFSD, IFEVIP) with the core or the f64 reference.
@@ -31,6 +34,7 @@ pub enum Command {
 /// Runs one parsed command line.
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
+        Command::Demo(args) => demo::run(&args),
         Command::Rescale(args) => rescale::run(&args),
         Command::Eval(args) => eval::run(&args),
         Command::Fuse(args) => fuse::run(&args),

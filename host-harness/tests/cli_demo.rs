@@ -1,0 +1,43 @@
+//! `fusion demo` end to end on one frame: every promised output exists and makes sense.
+
+use host_harness::io::{ColorPolicy, load_gray_u8};
+use std::process::Command;
+
+#[test]
+fn demo_writes_fused_images_sheet_and_summary() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("demo");
+    let o = Command::new(env!("CARGO_BIN_EXE_fusion"))
+        .args(["demo", "--frames", "1", "--repeats", "1", "--out", out.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let methods = ["adf", "tsifsd-classic", "tsifsd", "ifevip"];
+    for ill in ["light", "eclipse"] {
+        for m in methods {
+            let f = load_gray_u8(&out.join(format!("fused/{ill}/{m}/frame_000.png")), ColorPolicy::Refuse)
+                .unwrap();
+            assert_eq!((f.width, f.height), (1024, 1024), "{ill} {m}: fused on the VIS grid");
+            assert!(f.data.iter().any(|&v| v > 40), "{ill} {m}: the target must show");
+        }
+    }
+    let sheet = load_gray_u8(&out.join("contact_sheet.png"), ColorPolicy::Refuse).unwrap();
+    assert_eq!((sheet.width, sheet.height), (6 * 256 + 7 * 4, 2 * 256 + 3 * 4), "2 rows x 6 tiles");
+    // In eclipse the VIS tile (row 2, column 1) is darker than in light (row 1, column 1).
+    let mean = |x0: usize, y0: usize| {
+        let mut s = 0u64;
+        for y in y0..y0 + 256 {
+            for x in x0..x0 + 256 {
+                s += u64::from(sheet.at(x, y));
+            }
+        }
+        s as f64 / 65536.0
+    };
+    assert!(mean(4, 264) < 0.5 * mean(4, 4), "eclipse VIS {} vs light {}", mean(4, 264), mean(4, 4));
+    let summary = std::fs::read_to_string(out.join("summary.csv")).unwrap();
+    assert_eq!(summary.lines().count(), 1 + 2 * methods.len());
+    for line in summary.lines().skip(1) {
+        let ms: f64 = line.split(',').nth(2).unwrap().parse().unwrap();
+        assert!(ms > 0.0 && ms.is_finite(), "{line}");
+    }
+}

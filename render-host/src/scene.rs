@@ -335,6 +335,15 @@ impl MeshBuilder {
     }
 }
 
+/// `dir` with every `-0.0` component turned into `+0.0` (`-0.0 + 0.0 = +0.0` in IEEE 754).
+///
+/// obvhs 0.4 picks a child box's near/far planes from `dir < 0` but inverts a zero component
+/// to `signum(x) / ε`, which is negative for `-0.0`: the two disagree and a ray such as `-X`
+/// (whose y and z are `-0.0`) misses every box. Found by this crate's tests.
+fn positive_zeros(dir: Vec3) -> Vec3A {
+    Vec3A::from(dir) + Vec3A::ZERO
+}
+
 /// Dimensions of the procedural Tango-like target, metres.
 pub mod tango {
     /// Bus size (x, y, z).
@@ -434,7 +443,7 @@ impl Scene {
 
     /// Closest hit along `dir` (unit) from `origin`, for `t` in `[tmin, ∞)`.
     pub fn intersect(&self, origin: Vec3, dir: Vec3, tmin: f32) -> Option<Hit> {
-        let ray = Ray::new(Vec3A::from(origin), Vec3A::from(dir), tmin, f32::INFINITY);
+        let ray = Ray::new(Vec3A::from(origin), positive_zeros(dir), tmin, f32::INFINITY);
         let mut hit = RayHit::none();
         if !self.bvh.ray_traverse(ray, &mut hit, |r, id| self.bvh_tris[id].0.intersect(r)) {
             return None;
@@ -452,7 +461,7 @@ impl Scene {
 
     /// Any-hit query: is anything in the way along `dir` from `origin` for `t` in `(tmin, tmax)`?
     pub fn occluded(&self, origin: Vec3, dir: Vec3, tmin: f32, tmax: f32) -> bool {
-        let ray = Ray::new(Vec3A::from(origin), Vec3A::from(dir), tmin, tmax);
+        let ray = Ray::new(Vec3A::from(origin), positive_zeros(dir), tmin, tmax);
         !self.bvh.ray_traverse_miss(ray, |r, id| self.bvh_tris[id].0.intersect(r))
     }
 

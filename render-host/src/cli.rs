@@ -19,6 +19,12 @@ pub struct RenderArgs {
     /// Seed of every random draw (same seed, same bytes).
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
+    /// VIS image size (square), px.
+    #[arg(long, default_value_t = 1024, value_name = "PX")]
+    pub vis_size: u32,
+    /// TIR image sizes (square), px, one set each (comma separated).
+    #[arg(long, value_delimiter = ',', default_values_t = [512, 1024], value_name = "PX,PX")]
+    pub tir_sizes: Vec<u32>,
     /// Render this OBJ mesh instead of the procedural Tango-like target.
     #[arg(long, value_name = "FILE.obj")]
     pub mesh: Option<PathBuf>,
@@ -29,7 +35,7 @@ pub struct RenderArgs {
     #[arg(long, value_enum, default_value_t = Radiometry::Radiometric)]
     pub radiometry: Radiometry,
     /// TIR DN mapping over the temperature range: linear in `radiance` or in `temperature`.
-    #[arg(long, value_enum, default_value_t = DnMapping::Radiance)]
+    #[arg(long, value_enum, default_value_t = DnMapping::Temperature)]
     pub tir_dn: DnMapping,
     /// TIR temperature mapped to DN 0, K.
     #[arg(long, default_value_t = 150.0)]
@@ -46,9 +52,18 @@ pub struct RenderArgs {
     /// Leave out the specular lobe in VIS.
     #[arg(long)]
     pub no_specular: bool,
+    /// VIS exposure: pixel value of a white Lambertian face lit by the sun at normal incidence.
+    #[arg(long, default_value_t = crate::vis::DEFAULT_EXPOSURE)]
+    pub exposure: f32,
     /// Earthshine relative to the sun (VIS, also lights the eclipse set).
     #[arg(long, default_value_t = 0.02)]
     pub earthshine: f32,
+    /// Contact-sheet tile size, px (0 = no contact sheet). Tiles crop the frame to the target.
+    #[arg(long, default_value_t = 160, value_name = "PX")]
+    pub sheet_thumb: u32,
+    /// Frames (columns) on the contact sheet, evenly spaced (0 = every frame).
+    #[arg(long, default_value_t = 5, value_name = "N")]
+    pub sheet_frames: usize,
     /// A quick demo: 4 frames unless --frames is given.
     #[arg(long)]
     pub demo: bool,
@@ -82,6 +97,14 @@ impl RenderArgs {
         if !(self.earthshine.is_finite() && self.earthshine >= 0.0) {
             bail!("--earthshine must be non-negative");
         }
+        if !(self.exposure.is_finite() && self.exposure > 0.0) {
+            bail!("--exposure must be positive");
+        }
+        if self.vis_size == 0 || self.tir_sizes.is_empty() || self.tir_sizes.contains(&0) {
+            bail!("--vis-size and --tir-sizes must be positive");
+        }
+        cfg.vis_size = self.vis_size;
+        cfg.tir_sizes = self.tir_sizes.clone();
         cfg.seed = self.seed;
         cfg.mesh = self.mesh.clone();
         cfg.mesh_scale = self.mesh_scale;
@@ -94,6 +117,9 @@ impl RenderArgs {
         cfg.tir_eclipse_minutes = self.eclipse_minutes;
         cfg.vis.specular = !self.no_specular;
         cfg.vis.earthshine = self.earthshine;
+        cfg.vis.exposure = self.exposure;
+        cfg.contact_sheet_thumb = self.sheet_thumb;
+        cfg.contact_sheet_frames = self.sheet_frames;
         Ok(cfg)
     }
 }
@@ -110,8 +136,9 @@ pub fn run(args: &RenderArgs) -> Result<()> {
             .flat_map(|f| f.files.values())
             .map(|f| [&f.clean, &f.noisy, &f.clean16, &f.noisy16].iter().filter(|x| x.is_some()).count())
             .sum();
+        let sheet = manifest.contact_sheet.as_deref().map(|s| format!(", {s}")).unwrap_or_default();
         println!(
-            "wrote {files} images in {} sets x {} frames to {} in {:.2} s (manifest.json, contact_sheet.png)",
+            "wrote {files} images in {} sets x {} frames to {} in {:.2} s (manifest.json{sheet})",
             manifest.sets.len(),
             manifest.frames.len(),
             args.out.display(),

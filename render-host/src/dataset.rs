@@ -56,8 +56,10 @@ pub struct DatasetConfig {
     pub write_noisy: bool,
     /// Also write 16-bit TIR PNGs.
     pub tir_16bit: bool,
-    /// Thumbnail size of the contact sheet (0 = no contact sheet).
+    /// Tile size of the contact sheet, px (0 = no contact sheet).
     pub contact_sheet_thumb: u32,
+    /// Frames (columns) on the contact sheet, evenly spaced over the dataset (0 = all).
+    pub contact_sheet_frames: usize,
 }
 
 impl Default for DatasetConfig {
@@ -81,7 +83,8 @@ impl Default for DatasetConfig {
             write_clean: true,
             write_noisy: true,
             tir_16bit: false,
-            contact_sheet_thumb: 128,
+            contact_sheet_thumb: 160,
+            contact_sheet_frames: 5,
         }
     }
 }
@@ -99,6 +102,7 @@ impl DatasetConfig {
             vis_size: size,
             tir_sizes: vec![size / 2, size],
             contact_sheet_thumb: 32,
+            contact_sheet_frames: 0,
             ..Self::default()
         }
     }
@@ -199,6 +203,27 @@ pub struct FrameFiles {
     pub noisy16: Option<String>,
 }
 
+/// The random stream of frame `frame` of set `set`: a hash of the set's name and the frame
+/// index, so a set's noise does not depend on which other sets the dataset has.
+pub fn noise_stream(set: &str, frame: usize) -> u64 {
+    // FNV-1a over the name, then the frame index mixed in.
+    let h =
+        set.bytes().fold(0xCBF2_9CE4_8422_2325u64, |h, b| (h ^ u64::from(b)).wrapping_mul(0x100_0000_01B3));
+    crate::noise::mix64(h) ^ frame as u64
+}
+
+/// The frames shown on the contact sheet: `n` evenly spaced indices out of `frames` (all of
+/// them when `n` is 0 or at least `frames`).
+pub fn contact_sheet_columns(frames: usize, n: usize) -> Vec<usize> {
+    if n == 0 || n >= frames {
+        return (0..frames).collect();
+    }
+    if n == 1 {
+        return vec![0];
+    }
+    (0..n).map(|k| (k * (frames - 1) + (n - 1) / 2) / (n - 1)).collect()
+}
+
 /// One frame in the manifest.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct FrameInfo {
@@ -252,8 +277,10 @@ pub struct Manifest {
     pub frames: Vec<FrameInfo>,
     /// Contact-sheet file, if written.
     pub contact_sheet: Option<String>,
-    /// Rows of the contact sheet, top to bottom (`set/clean`, `set/noisy`); columns are frames.
+    /// Rows of the contact sheet, top to bottom (`set/clean`, `set/noisy`).
     pub contact_sheet_rows: Vec<String>,
+    /// Frame index of each contact-sheet column, left to right.
+    pub contact_sheet_columns: Vec<usize>,
 }
 
 /// The sets a configuration produces, in order.
@@ -297,13 +324,23 @@ fn arr(v: Vec3) -> [f32; 3] {
 type FrameOutput = (BTreeMap<String, FrameFiles>, Vec<Image>);
 
 /// Renders a dataset into `out_dir` (created if missing): per set a folder with `clean/` and
-/// `noisy/` PNGs named `frame_NNN.png`, plus `manifest.json` and `contact_sheet.png`.
+/// `noisy/` PNGs named `frame_NNN.png` (and `clean16/`, `noisy16/` for 16-bit TIR), plus
+/// `manifest.json` and `contact_sheet.png`. Frames render in parallel (rayon), and so do the rows
+/// of each image; `progress` shows an `indicatif` bar counting images.
+///
+/// The contact sheet has one row per set and version (`vis_light/clean`, `vis_light/noisy`, …,
+/// see [`Manifest::contact_sheet_rows`]) and one column per selected frame; each tile is the
+/// square around the target's bounding sphere (so tiles of one column show the same region in
+/// every band), area-averaged to `contact_sheet_thumb` pixels.
 pub fn render_dataset(cfg: &DatasetConfig, out_dir: &Path, progress: bool) -> Result<Manifest> {
     if cfg.frames == 0 {
         bail!("a dataset needs at least one frame");
     }
     if cfg.vis_size == 0 || cfg.tir_sizes.contains(&0) {
         bail!("image sizes must be positive");
+    }
+    if (1..cfg.tir_sizes.len()).any(|i| cfg.tir_sizes[..i].contains(&cfg.tir_sizes[i])) {
+        bail!("TIR sizes must be distinct: {:?}", cfg.tir_sizes);
     }
     let scene = cfg.scene()?;
     let sun = cfg.vis.sun_dir.normalize();
@@ -341,6 +378,8 @@ pub fn render_dataset(cfg: &DatasetConfig, out_dir: &Path, progress: bool) -> Re
     bar.set_message("rendering");
 
     let thumb = cfg.contact_sheet_thumb;
+    let columns =
+        if thumb > 0 { contact_sheet_columns(cfg.frames, cfg.contact_sheet_frames) } else { Vec::new() };
     // Per frame: the files per set and the thumbnails (set-major: clean, noisy).
     let results: Vec<Result<FrameOutput>> = traj
         .par_iter()
@@ -348,9 +387,9 @@ pub fn render_dataset(cfg: &DatasetConfig, out_dir: &Path, progress: bool) -> Re
         .map(|(i, tp)| {
             let mut files = BTreeMap::new();
             let mut thumbs = Vec::new();
-            for (si, s) in set_list.iter().enumerate() {
+            for s in &set_list {
                 let cam = Camera::study(s.width, tp.pose);
-                let clean = match s.kind {
+                let mut clean = match s.kind {
                     SetKind::Vis { illumination } => render_vis(
                         &scene,
                         &cam,
@@ -361,7 +400,10 @@ pub fn render_dataset(cfg: &DatasetConfig, out_dir: &Path, progress: bool) -> Re
                         render_tir(&scene, &cam, face_t_eclipse.as_deref().unwrap_or(&face_t), &cfg.tir)
                     }
                 };
-                let mut rng = rng_for(cfg.seed, ((si as u64) << 32) | i as u64);
+                // The noisy frame is the clean frame as stored (clipped to [0, 1]) through the
+                // sensor model, so space is 0 in both bands before the noise.
+                clean.clip();
+                let mut rng = rng_for(cfg.seed, noise_stream(&s.name, i));
                 let noisy = apply_sensor_noise(&clean, &cfg.noise, s.band, &mut rng);
                 let mut ff = FrameFiles::default();
                 let name = format!("frame_{i:03}.png");
@@ -382,11 +424,14 @@ pub fn render_dataset(cfg: &DatasetConfig, out_dir: &Path, progress: bool) -> Re
                         *slot16 = Some(rel);
                     }
                 }
-                if thumb > 0 {
-                    let mut c = clean;
-                    c.clip();
-                    thumbs.push(c.thumbnail(thumb));
-                    thumbs.push(noisy.thumbnail(thumb));
+                if columns.contains(&i) {
+                    // A square around the target's bounding sphere, 15 % margin.
+                    let (u, v) = cam.project(scene.centre).unwrap_or((cam.cx, cam.cy));
+                    let range = (tp.pose.position - scene.centre).length().max(1e-3);
+                    let side = (2.3 * cam.focal_px * scene.radius / range).min(s.width as f32);
+                    let (x0, y0) = (u - side / 2.0, v - side / 2.0);
+                    thumbs.push(clean.crop_thumbnail(x0, y0, side, thumb));
+                    thumbs.push(noisy.crop_thumbnail(x0, y0, side, thumb));
                 }
                 files.insert(s.name.clone(), ff);
                 bar.inc(1);
@@ -411,7 +456,9 @@ pub fn render_dataset(cfg: &DatasetConfig, out_dir: &Path, progress: bool) -> Re
             tilt_deg: tp.tilt_deg,
             files,
         });
-        thumbs.push(th);
+        if !th.is_empty() {
+            thumbs.push(th);
+        }
     }
 
     let mut rows = Vec::new();
@@ -443,6 +490,7 @@ pub fn render_dataset(cfg: &DatasetConfig, out_dir: &Path, progress: bool) -> Re
         frames,
         contact_sheet,
         contact_sheet_rows: if thumb > 0 { rows } else { Vec::new() },
+        contact_sheet_columns: columns,
     };
     write_json(&out_dir.join("manifest.json"), &manifest)?;
     Ok(manifest)

@@ -62,6 +62,41 @@ impl Image {
         Gray16Image::from_raw(self.width, self.height, data).unwrap_or_else(|| Gray16Image::new(0, 0))
     }
 
+    /// A `size × size` thumbnail of the square `[x0, x0 + side) × [y0, y0 + side)` (continuous
+    /// pixel coordinates, may reach outside the image, which reads as 0): each output pixel is
+    /// the mean of the source pixels whose centres fall in its cell (the nearest pixel when the
+    /// cell is smaller than a pixel).
+    pub fn crop_thumbnail(&self, x0: f32, y0: f32, side: f32, size: u32) -> Image {
+        let mut out = Image::new(size, size);
+        if size == 0 || side <= 0.0 {
+            return out;
+        }
+        let cell = side / size as f32;
+        // Source index range [lo, hi) of pixel centres in [a, a + cell), at least one pixel.
+        let span = |a: f32| -> (i64, i64) {
+            let lo = (a - 0.5).ceil() as i64;
+            let hi = ((a + cell - 0.5).ceil() as i64).max(lo + 1);
+            (lo, hi)
+        };
+        for ty in 0..size {
+            let (ya, yb) = span(y0 + ty as f32 * cell);
+            for tx in 0..size {
+                let (xa, xb) = span(x0 + tx as f32 * cell);
+                let mut s = 0.0f64;
+                for y in ya..yb {
+                    for x in xa..xb {
+                        if (0..i64::from(self.width)).contains(&x) && (0..i64::from(self.height)).contains(&y)
+                        {
+                            s += f64::from(self.at(x as u32, y as u32));
+                        }
+                    }
+                }
+                out.data[(ty * size + tx) as usize] = (s / ((yb - ya) * (xb - xa)) as f64) as f32;
+            }
+        }
+        out
+    }
+
     /// Area-average downscale to `size × size` (a thumbnail; any ratio).
     pub fn thumbnail(&self, size: u32) -> Image {
         let mut out = Image::new(size, size);

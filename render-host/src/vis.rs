@@ -18,6 +18,10 @@ pub enum Illumination {
     Eclipse,
 }
 
+/// Default exposure: sunlit MLI (albedo 0.45) at 45° incidence lands at 0.64, a white-paint face
+/// near normal incidence and specular glints saturate, as in the study's in-light frames.
+pub const DEFAULT_EXPOSURE: f32 = 2.0;
+
 /// Light sources and exposure of a VIS render.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct VisParams {
@@ -29,21 +33,23 @@ pub struct VisParams {
     pub earth_dir: Vec3,
     /// Earthshine irradiance relative to the sun's (0 = none). Applies in both illuminations.
     pub earthshine: f32,
-    /// Scale from reflected irradiance (sun = 1) to the [0, 1] pixel value.
+    /// Scale from reflected irradiance (sun = 1) to the [0, 1] pixel value. Fixed for a whole
+    /// dataset (no auto-exposure), so light and eclipse frames compare directly.
     pub exposure: f32,
     /// Add the specular lobe.
     pub specular: bool,
 }
 
 impl VisParams {
-    /// In sunlight, with the default sun and earth directions.
+    /// In sunlight, with the default sun and earth directions and exposure
+    /// [`DEFAULT_EXPOSURE`].
     pub fn light() -> VisParams {
         VisParams {
             illumination: Illumination::Light,
             sun_dir: default_sun_dir(),
             earth_dir: default_earth_dir(),
             earthshine: 0.02,
-            exposure: 1.0,
+            exposure: DEFAULT_EXPOSURE,
             specular: true,
         }
     }

@@ -6,6 +6,7 @@
 pub mod cli;
 pub mod io;
 pub mod metrics;
+pub mod plot;
 pub mod reference;
 pub mod study;
 

@@ -6,6 +6,7 @@
 //! the function says which.
 
 use crate::io::Gray;
+use rayon::prelude::*;
 
 fn same_size<T, U>(a: &Gray<T>, b: &Gray<U>) {
     assert_eq!((a.width, a.height), (b.width, b.height), "metric inputs must have the same size");
@@ -161,11 +162,11 @@ pub fn sobel_magnitude(a: &Gray<u8>) -> Vec<f64> {
 
 /// A window's feature values as a probability vector: shifted to a zero minimum and
 /// normalised; a flat window becomes the uniform distribution.
-fn window_pdf(v: &[f64]) -> Vec<f64> {
+fn window_pdf(v: &[f64; 9]) -> [f64; 9] {
     let min = v.iter().cloned().fold(f64::INFINITY, f64::min);
-    let shifted: Vec<f64> = v.iter().map(|x| x - min).collect();
+    let shifted = v.map(|x| x - min);
     let sum: f64 = shifted.iter().sum();
-    if sum <= 0.0 { vec![1.0 / v.len() as f64; v.len()] } else { shifted.iter().map(|x| x / sum).collect() }
+    if sum <= 0.0 { [1.0 / 9.0; 9] } else { shifted.map(|x| x / sum) }
 }
 
 /// Normalised mutual information `2·I / (H_a + H_f)` of two windows (Fast-FMI model): the joint
@@ -173,7 +174,7 @@ fn window_pdf(v: &[f64]) -> Vec<f64> {
 /// `H = c·min(F, G) + (1 − c)·F·G` for `c ≥ 0` and `H = |c|·max(F + G − 1, 0) + (1 − |c|)·F·G`
 /// for `c < 0`, with `c` the Pearson correlation of the two pdf vectors; the joint pdf is its
 /// mixed second difference. Identical windows give 1; two flat windows give 1.
-fn window_nmi(a: &[f64], f: &[f64]) -> f64 {
+fn window_nmi(a: &[f64; 9], f: &[f64; 9]) -> f64 {
     if a == f {
         return 1.0;
     }
@@ -191,14 +192,12 @@ fn window_nmi(a: &[f64], f: &[f64]) -> f64 {
         return 1.0; // both flat: the same (uniform) feature distribution
     }
     let c = if saa == 0.0 || sff == 0.0 { 0.0 } else { sab / (saa * sff).sqrt() };
-    let cdf = |p: &[f64]| {
+    let cdf = |p: &[f64; 9]| {
         let mut acc = 0.0;
-        p.iter()
-            .map(|v| {
-                acc += v;
-                acc
-            })
-            .collect::<Vec<_>>()
+        p.map(|v| {
+            acc += v;
+            acc
+        })
     };
     let (fa, ff) = (cdf(&pa), cdf(&pf));
     let joint_cdf = |i: usize, j: usize| -> f64 {
@@ -209,12 +208,20 @@ fn window_nmi(a: &[f64], f: &[f64]) -> f64 {
             -c * (u + v - 1.0).max(0.0) + (1.0 + c) * u * v
         }
     };
-    let at = |i: isize, j: isize| if i < 0 || j < 0 { 0.0 } else { joint_cdf(i as usize, j as usize) };
+    // The joint CDF on the grid once (with a zero row and column in front), then its mixed
+    // second differences.
+    let mut cdf2 = [0.0; 100];
+    for i in 0..n {
+        for j in 0..n {
+            cdf2[(i + 1) * (n + 1) + j + 1] = joint_cdf(i, j);
+        }
+    }
+    let at = |i: usize, j: usize| cdf2[i * (n + 1) + j];
     let mut mi = 0.0;
-    for i in 0..n as isize {
-        for j in 0..n as isize {
-            let p = at(i, j) - at(i - 1, j) - at(i, j - 1) + at(i - 1, j - 1);
-            let q = pa[i as usize] * pf[j as usize];
+    for i in 0..n {
+        for j in 0..n {
+            let p = at(i + 1, j + 1) - at(i, j + 1) - at(i + 1, j) + at(i, j);
+            let q = pa[i] * pf[j];
             if p > 1e-15 && q > 0.0 {
                 mi += p * (p / q).log2();
             }
@@ -252,10 +259,10 @@ pub fn fmi_pair_with(a: &Gray<u8>, f: &Gray<u8>, feature: FmiFeature) -> f64 {
             (raw(a), raw(f))
         }
     };
-    let mut total = 0.0;
-    let mut wa = [0f64; 9];
-    let mut wf = [0f64; 9];
-    for y in 0..h - 2 {
+    let row_sum = |y: usize| {
+        let mut wa = [0f64; 9];
+        let mut wf = [0f64; 9];
+        let mut total = 0.0;
         for x in 0..w - 2 {
             for k in 0..9 {
                 let idx = (y + k / 3) * w + x + k % 3;
@@ -264,7 +271,11 @@ pub fn fmi_pair_with(a: &Gray<u8>, f: &Gray<u8>, feature: FmiFeature) -> f64 {
             }
             total += window_nmi(&wa, &wf);
         }
-    }
+        total
+    };
+    // Rows in parallel, summed in row order so the result does not depend on the thread count.
+    let rows: Vec<f64> = (0..h - 2).into_par_iter().map(row_sum).collect();
+    let total: f64 = rows.iter().sum();
     total / ((w - 2) * (h - 2)) as f64
 }
 

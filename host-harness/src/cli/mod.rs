@@ -5,6 +5,7 @@ use clap::{Parser, Subcommand};
 pub mod demo;
 pub mod eval;
 pub mod fuse;
+pub mod report;
 pub mod rescale;
 
 /// VIS/TIR image fusion for spacecraft proximity navigation: host tools.
@@ -21,6 +22,8 @@ pub struct Cli {
 pub enum Command {
     /// The main job on the built-in default scene: render, fuse with every method, contact sheet, table.
     Demo(demo::DemoArgs),
+    /// The study's Tables 2–7 on a rendered dataset, with plots and conclusions.
+    Report(report::ReportArgs),
     /// Rescale a grey PNG with the core's bicubic or area rescaler (8-bit or 16-bit).
     Rescale(rescale::RescaleArgs),
     /// Fuse a VIS/TIR pair (ADF, TSIFSD, IFEVIP) with the core or the f64 reference.
@@ -35,6 +38,7 @@ pub enum Command {
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Demo(args) => demo::run(&args),
+        Command::Report(args) => report::run(&args),
         Command::Rescale(args) => rescale::run(&args),
         Command::Eval(args) => eval::run(&args),
         Command::Fuse(args) => fuse::run(&args),

@@ -59,6 +59,7 @@ pub struct DatasetConfig {
     /// Tile size of the contact sheet, px (0 = no contact sheet).
     pub contact_sheet_thumb: u32,
     /// Frames (columns) on the contact sheet, evenly spaced over the dataset (0 = all).
+    #[serde(default)]
     pub contact_sheet_frames: usize,
 }
 
@@ -129,17 +130,22 @@ pub struct TrajectoryPoint {
 
 /// The camera trajectory: frame `i` sits on the ellipse `x = a cos θ`, `y' = b sin θ` around
 /// `centre` (`a`, `b` the semi-axes, major axis along the target's x), whose plane is tilted about
-/// the major axis by `tilt_step × ⌊i / frames_per_tilt⌋`; `θ = 360° (j + g/2) / frames_per_tilt`
-/// with `j = i mod frames_per_tilt`, `g` the tilt index (each ellipse is visited at offset
-/// anomalies). The camera looks at `centre` with image-up along the ellipse plane's normal.
+/// the major axis by `tilt_step × g`, `g = ⌊i / frames_per_tilt⌋`. With `k = frames_per_tilt`,
+/// `j = i mod k` and `n = round(180° / tilt_step)` distinct tilts, `θ = 360° (j + (g mod n)/n) / k`:
+/// each tilt starts a fraction of a step further round, so no two frames share a position (the
+/// study's 20 frames: θ on an 18° grid, ranges 4–7.25 m). The camera looks at `centre` with
+/// image-up along the ellipse plane's normal.
 pub fn trajectory(cfg: &DatasetConfig, centre: Vec3) -> Vec<TrajectoryPoint> {
     let k = cfg.frames_per_tilt.max(1);
     let (a, b) = (cfg.ellipse_full_axes_m[0] / 2.0, cfg.ellipse_full_axes_m[1] / 2.0);
+    let tilts =
+        if cfg.tilt_step_deg.abs() > 1e-9 { (180.0 / cfg.tilt_step_deg.abs()).round().max(1.0) } else { 1.0 };
     (0..cfg.frames)
         .map(|i| {
             let (g, j) = (i / k, i % k);
             let tilt = cfg.tilt_step_deg * g as f64;
-            let theta = std::f64::consts::TAU * (j as f64 + 0.5 * g as f64) / k as f64;
+            let offset = (g as f64 % tilts) / tilts;
+            let theta = std::f64::consts::TAU * (j as f64 + offset) / k as f64;
             let rot = Mat3::from_rotation_x(tilt.to_radians() as f32);
             let local = Vec3::new((a * theta.cos()) as f32, (b * theta.sin()) as f32, 0.0);
             let eye = centre + rot * local;
@@ -280,6 +286,7 @@ pub struct Manifest {
     /// Rows of the contact sheet, top to bottom (`set/clean`, `set/noisy`).
     pub contact_sheet_rows: Vec<String>,
     /// Frame index of each contact-sheet column, left to right.
+    #[serde(default)]
     pub contact_sheet_columns: Vec<usize>,
 }
 

@@ -3,6 +3,7 @@
 //! The host side of the fusion project: f64 reference implementations, image I/O, metrics,
 //! reports and the `fusion` command-line tool.
 
+pub mod budget;
 pub mod cli;
 pub mod io;
 pub mod metrics;

@@ -2,6 +2,7 @@
 
 use clap::{Parser, Subcommand};
 
+pub mod budget;
 pub mod demo;
 pub mod eval;
 pub mod fuse;
@@ -32,6 +33,9 @@ pub enum Command {
     Render(render_host::cli::RenderArgs),
     /// Fusion metrics (AG, MI, FMI, SSIM, RMSE) of a fused image; noise metrics with --ref.
     Eval(eval::EvalArgs),
+    /// Instruction budgets on the emulated Cortex-M7 and RV32 (QEMU): counts per stage and
+    /// method, cycle and frame-rate estimates, memory, bit-exactness against the host.
+    Budget(budget::BudgetArgs),
 }
 
 /// Runs one parsed command line.
@@ -41,6 +45,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Report(args) => report::run(&args),
         Command::Rescale(args) => rescale::run(&args),
         Command::Eval(args) => eval::run(&args),
+        Command::Budget(args) => budget::run(&args),
         Command::Fuse(args) => fuse::run(&args),
         Command::Render(args) => render_host::cli::run(&args),
     }

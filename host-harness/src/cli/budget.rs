@@ -1,0 +1,142 @@
+//! `fusion budget`: build the firmware, run it on the emulated Cortex-M7 and RV32, print
+//! instructions per pixel per stage and method, cycle and frame-rate estimates, the memory
+//! report, check the committed budget table and bit-exactness against the host.
+
+use crate::budget::fw::{Grid, Target};
+use crate::budget::table::Table;
+use crate::budget::{self, Options};
+use crate::cli::fuse::MethodArg;
+use anyhow::{Context, Result, bail};
+use clap::{Args, ValueEnum};
+use std::path::PathBuf;
+use std::time::Duration;
+
+/// Targets on the command line.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum TargetArg {
+    /// Cortex-M7 (QEMU mps2-an500), counted by the TCG plugin.
+    Arm,
+    /// RV32IMAC (QEMU virt), counted by minstret.
+    Riscv,
+    /// Both.
+    All,
+}
+
+/// Fusion grid sizes on the command line.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum SizeArg {
+    /// 512² grid: VIS 1024² area-downscaled onto the TIR 512² grid.
+    #[value(name = "512")]
+    S512,
+    /// 1024² grid: TIR 512² bicubic-upscaled onto the VIS 1024² grid.
+    #[value(name = "1024")]
+    S1024,
+    /// Both.
+    All,
+}
+
+/// Arguments of `fusion budget`.
+#[derive(Debug, Args)]
+pub struct BudgetArgs {
+    /// Target(s) to measure.
+    #[arg(long, value_enum, default_value_t = TargetArg::All)]
+    pub target: TargetArg,
+    /// Fusion grid(s) to measure.
+    #[arg(long, value_enum, default_value_t = SizeArg::All)]
+    pub size: SizeArg,
+    /// Methods to measure (comma-separated) [default: all three].
+    #[arg(long, value_enum, value_delimiter = ',')]
+    pub methods: Vec<MethodArg>,
+    /// Runs of each budget job; the counts of all runs must be identical.
+    #[arg(long, default_value_t = 2)]
+    pub repeat: usize,
+    /// Skip the bit-exactness jobs (VIFB pairs, synthetic pair, classic variants).
+    #[arg(long)]
+    pub no_exact: bool,
+    /// Folder with the VIFB pairs (`*_VIS.png`, `*_IR.png`) [default: ../shared/data/vifb].
+    #[arg(long)]
+    pub vifb: Option<PathBuf>,
+    /// Budget table to check against.
+    #[arg(long, default_value_os_t = budget::fw::fw_dir().join("budgets.toml"))]
+    pub budgets: PathBuf,
+    /// Do not fail when a count exceeds its budget (still reported).
+    #[arg(long)]
+    pub no_check: bool,
+    /// Write a budget table from this run's counts (measured + 2 %) to this file.
+    #[arg(long, value_name = "FILE")]
+    pub write_budgets: Option<PathBuf>,
+    /// Timeout of each emulator run, seconds.
+    #[arg(long, default_value_t = 900)]
+    pub timeout: u64,
+    /// Work folder: images, jobs, console and plugin logs, `report.md`.
+    #[arg(long, default_value_os_t = budget::fw::fw_dir().join("target/budget"))]
+    pub out: PathBuf,
+}
+
+/// Runs `fusion budget`.
+pub fn run(args: &BudgetArgs) -> Result<()> {
+    let targets = match args.target {
+        TargetArg::Arm => vec![Target::Arm],
+        TargetArg::Riscv => vec![Target::Riscv],
+        TargetArg::All => Target::ALL.to_vec(),
+    };
+    let grids = match args.size {
+        SizeArg::S512 => vec![Grid::G512],
+        SizeArg::S1024 => vec![Grid::G1024],
+        SizeArg::All => vec![Grid::G512, Grid::G1024],
+    };
+    let methods = if args.methods.is_empty() {
+        vec![MethodArg::Adf, MethodArg::Tsifsd, MethodArg::Ifevip]
+    } else {
+        args.methods.clone()
+    };
+    let budgets_text = std::fs::read_to_string(&args.budgets)
+        .with_context(|| format!("cannot read the budget table {}", args.budgets.display()))?;
+    let budgets = Table::parse(&budgets_text).with_context(|| format!("in {}", args.budgets.display()))?;
+    let opts = Options {
+        targets,
+        grids,
+        methods,
+        repeat: args.repeat.max(1),
+        exactness: !args.no_exact,
+        vifb: args.vifb.clone().unwrap_or_else(|| crate::shared_dir().join("data/vifb")),
+        budgets: args.budgets.clone(),
+        write_budgets: args.write_budgets.clone(),
+        timeout: Duration::from_secs(args.timeout),
+        out: args.out.clone(),
+    };
+    let outcome = budget::run(&opts)?;
+    let chk = budget::check(&outcome.measured, &budgets);
+    let mut text = budget::report(&outcome, &budgets, &chk);
+    text.push_str("\n### Static memory of the images\n\n");
+    text.push_str(&budget::memory_report(&outcome)?);
+    text.push_str("\n### Emulator wall time\n\n| target | job | seconds |\n|---|---|---:|\n");
+    for (t, what, secs) in &outcome.wall {
+        text.push_str(&format!("| {t} | {what} | {secs:.1} |\n"));
+    }
+    println!("{text}");
+    let report_path = opts.out.join("report.md");
+    std::fs::write(&report_path, &text).with_context(|| format!("cannot write {}", report_path.display()))?;
+    eprintln!("budget: report written to {}", report_path.display());
+    if let Some(path) = &opts.write_budgets {
+        std::fs::write(path, budget::budget_table_text(&outcome.measured, &budgets))
+            .with_context(|| format!("cannot write {}", path.display()))?;
+        eprintln!("budget: wrote a budget table from these counts to {}", path.display());
+    }
+    for (key, got, b) in &chk.slack {
+        eprintln!(
+            "budget: note: {key} is {got:.2} instr/px, more than 10 % under its budget {b}: tighten it"
+        );
+    }
+    if !chk.passed() && !args.no_check {
+        let mut msg = String::new();
+        for (key, got, b) in &chk.over {
+            msg.push_str(&format!("\n  {key}: {got:.2} instr/px > budget {b}"));
+        }
+        for key in &chk.missing {
+            msg.push_str(&format!("\n  {key}: no budget in {}", opts.budgets.display()));
+        }
+        bail!("instruction budgets exceeded or missing:{msg}");
+    }
+    Ok(())
+}

@@ -29,6 +29,7 @@ use anyhow::{Context, Result};
 use clap::Args;
 use fusion_nostd::Filter;
 use fusion_nostd::pipeline::{Pipeline, RescalePolicy};
+use rayon::prelude::*;
 use render_host::{
     Camera, DatasetConfig, Illumination, Scene, VisParams, render_dataset, render_vis, trajectory,
 };
@@ -159,8 +160,12 @@ pub fn run(args: &ReportArgs) -> Result<()> {
         }
     };
     let has = |set: &str| dataset.manifest.sets.iter().any(|s| s.name == set);
-    for set in ["vis_light", "vis_eclipse", "tir512", "tir1024"] {
-        anyhow::ensure!(has(set), "the dataset has no {set} set (render it with --tir-sizes 512,1024)");
+    // The study's geometry scaled to the dataset: VIS V², TIR (V/2)², native TIR V².
+    let big = dataset.manifest.config.vis_size as usize;
+    let small = big / 2;
+    let (tir_small, tir_big) = (format!("tir{small}"), format!("tir{big}"));
+    for set in ["vis_light", "vis_eclipse", &tir_small, &tir_big] {
+        anyhow::ensure!(has(set), "the dataset has no {set} set (render it with --tir-sizes {small},{big})");
     }
     std::fs::create_dir_all(&args.out).with_context(|| format!("cannot create {}", args.out.display()))?;
     let frames = args.frames.unwrap_or(usize::MAX).min(dataset.frames());
@@ -172,27 +177,28 @@ pub fn run(args: &ReportArgs) -> Result<()> {
 
     for f in 0..frames {
         let t_frame = Instant::now();
-        let tir_n = dataset.image("tir512", f, true)?;
-        let tir1024_n = dataset.image("tir1024", f, true)?;
-        let tir1024_c = dataset.image("tir1024", f, false)?;
-        let tir_c = dataset.image("tir512", f, false)?;
+        let tir_n = dataset.image(&tir_small, f, true)?;
+        let tir1024_n = dataset.image(&tir_big, f, true)?;
+        let tir1024_c = dataset.image(&tir_big, f, false)?;
+        let tir_c = dataset.image(&tir_small, f, false)?;
         // Table 2: TIR up against the native noiseless 1024².
         for r in RESCALERS {
-            let up = rescale_with(&tir_n, r, 1024, 1024)?;
+            let up = rescale_with(&tir_n, r, big, big)?;
             put_noise(&mut cells, "t2", r, &noise_metrics(&up, &tir1024_c));
         }
         for (ill, illum) in ILLUMINATIONS {
             let vis_n = dataset.image(&format!("vis_{ill}"), f, true)?;
             let vis_c = dataset.image(&format!("vis_{ill}"), f, false)?;
             // Table 3: VIS down against the native noiseless 512².
-            let vis512_c = native.render(f, 512, illum)?;
+            let vis512_c = native.render(f, small as u32, illum)?;
             for r in RESCALERS {
-                let down = rescale_with(&vis_n, r, 512, 512)?;
+                let down = rescale_with(&vis_n, r, small, small)?;
                 put_noise(&mut cells, &format!("t3-{ill}"), r, &noise_metrics(&down, &vis512_c));
             }
-            let tir_up = source_on_grid(&tir_n, (1024, 1024), Filter::Cubic)?;
-            let vis_down = source_on_grid(&vis_n, (512, 512), Filter::Area)?;
-            let mut sheet_fused = Vec::new();
+            let tir_up = source_on_grid(&tir_n, (big, big), Filter::Cubic)?;
+            let vis_down = source_on_grid(&vis_n, (small, small), Filter::Area)?;
+            // Fusions one after the other (timed), then their metrics in parallel.
+            let mut runs = Vec::new();
             for m in &methods {
                 let NamedMethod { name, method } = *m;
                 let up = fuse_timed(
@@ -210,47 +216,42 @@ pub fn run(args: &ReportArgs) -> Result<()> {
                 let none = Pipeline { rescale: RescalePolicy::None, method };
                 let same = fuse_timed(&vis_n, &tir1024_n, &none, 1)?;
                 let reference = fuse_timed(&vis_c, &tir1024_c, &none, 1)?;
-                let ref_down = source_on_grid(&reference.fused, (512, 512), Filter::Area)?;
-                cells.push("t7", name, "1024", up.seconds);
-                cells.push("t7", name, "512", down.seconds);
-                put_fusion(
-                    &mut cells,
-                    &format!("t4-{ill}"),
-                    name,
-                    &fusion_metrics(&vis_n, &tir_up, &up.fused),
-                );
-                put_fusion(
-                    &mut cells,
-                    &format!("t5-{ill}"),
-                    name,
-                    &fusion_metrics(&vis_down, &tir_n, &down.fused),
-                );
-                cells.push(&format!("t4-{ill}"), name, "sat", newly_saturated(&vis_n, &up.fused));
-                cells.push(&format!("t5-{ill}"), name, "sat", newly_saturated(&vis_down, &down.fused));
-                put_noise(
-                    &mut cells,
-                    &format!("t6-{ill}"),
-                    &format!("{name}|VIS down"),
-                    &noise_metrics(&down.fused, &ref_down),
-                );
-                put_noise(
-                    &mut cells,
-                    &format!("t6-{ill}"),
-                    &format!("{name}|TIR up"),
-                    &noise_metrics(&up.fused, &reference.fused),
-                );
-                put_noise(
-                    &mut cells,
-                    &format!("t6-{ill}"),
-                    &format!("{name}|same res"),
-                    &noise_metrics(&same.fused, &reference.fused),
-                );
+                let ref_down = source_on_grid(&reference.fused, (small, small), Filter::Area)?;
+                cells.push("t7", name, "big", up.seconds);
+                cells.push("t7", name, "small", down.seconds);
+                runs.push((name, up.fused, down.fused, same.fused, reference.fused, ref_down));
+            }
+            let measured: Vec<_> = runs
+                .par_iter()
+                .map(|(_, up, down, same, reference, ref_down)| {
+                    (
+                        fusion_metrics(&vis_n, &tir_up, up),
+                        fusion_metrics(&vis_down, &tir_n, down),
+                        newly_saturated(&vis_n, up),
+                        newly_saturated(&vis_down, down),
+                        [
+                            noise_metrics(down, ref_down),
+                            noise_metrics(up, reference),
+                            noise_metrics(same, reference),
+                        ],
+                    )
+                })
+                .collect();
+            let mut sheet_fused = Vec::new();
+            for ((name, up, ..), (m_up, m_down, sat_up, sat_down, noise)) in runs.into_iter().zip(measured) {
+                put_fusion(&mut cells, &format!("t4-{ill}"), name, &m_up);
+                put_fusion(&mut cells, &format!("t5-{ill}"), name, &m_down);
+                cells.push(&format!("t4-{ill}"), name, "sat", sat_up);
+                cells.push(&format!("t5-{ill}"), name, "sat", sat_down);
+                for (input, n) in ["VIS down", "TIR up", "same res"].iter().zip(&noise) {
+                    put_noise(&mut cells, &format!("t6-{ill}"), &format!("{name}|{input}"), n);
+                }
                 if f == sheet_frame {
-                    sheet_fused.push(up.fused);
+                    sheet_fused.push(up);
                 }
             }
             if f == sheet_frame {
-                let clean_tir_up = source_on_grid(&tir_c, (1024, 1024), Filter::Cubic)?;
+                let clean_tir_up = source_on_grid(&tir_c, (big, big), Filter::Cubic)?;
                 let square =
                     target_square(&[&vis_c, &clean_tir_up, &dataset.image("vis_light", f, false)?], 4, 0.15);
                 let mut row = vec![tile(&vis_n, square, 256)?, tile(&tir_up, square, 256)?];
@@ -267,7 +268,8 @@ pub fn run(args: &ReportArgs) -> Result<()> {
     save_gray_u8(&sheet_path, &contact_sheet(&sheet_rows, 4))?;
     let charts = write_charts(&cells, &methods, frames, &args.out)?;
     write_csvs(&cells, &args.out)?;
-    let md = markdown(&cells, &methods, frames, &dataset, &charts, started.elapsed().as_secs_f64());
+    let md =
+        markdown(&cells, &methods, frames, &dataset, &charts, started.elapsed().as_secs_f64(), (small, big));
     let report = args.out.join("report.md");
     std::fs::write(&report, &md).with_context(|| format!("cannot write {}", report.display()))?;
     println!("{md}");
@@ -399,12 +401,13 @@ fn markdown(
     dataset: &Dataset,
     charts: &[PathBuf],
     seconds: f64,
+    (small, big): (usize, usize),
 ) -> String {
     let mut md = String::new();
     let cfg = &dataset.manifest.config;
     let _ = writeln!(
         md,
-        "# The study's tables on our renders\n\n{frames} frames of `{}` (seed {}, VIS {}², TIR 512² and 1024², \
+        "# The study's tables on our renders\n\n{frames} frames of `{}` (seed {}, VIS {big}², TIR {small}² and {big}², \
          noise: blur σ = {} px, white σ² = {}, TIR also 1/f σ² = {}), means over the frames (PSNR: frames with a finite \
          value). Our scene is not the study's, so absolute values differ; the orderings are what we compare. \
          \"study\" columns: Advances in Space Research 2023 (shared/reference/study-results.md). Fusion runs \
@@ -413,14 +416,13 @@ fn markdown(
          `host_harness::metrics::fmi`). Generated by `fusion report` in {seconds:.0} s.\n",
         dataset.dir.display(),
         dataset.manifest.seed,
-        cfg.vis_size,
         cfg.noise.blur_sigma_px,
         cfg.noise.awgn_variance,
         cfg.noise.pink_variance,
     );
 
     // Table 2
-    let _ = writeln!(md, "## Table 2 — TIR 512 → 1024 against the native noiseless 1024² TIR\n");
+    let _ = writeln!(md, "## Table 2 — TIR {small} → {big} against the native noiseless {big}² TIR\n");
     let _ = writeln!(
         md,
         "| method | MSE_S | PSNR_S dB | SSIM_S | study MSE_S | study PSNR_S | study SSIM_S |\n|---|---|---|---|---|---|---|"
@@ -436,7 +438,7 @@ fn markdown(
         );
     }
     // Table 3
-    let _ = writeln!(md, "\n## Table 3 — VIS 1024 → 512 against the native noiseless 512² VIS\n");
+    let _ = writeln!(md, "\n## Table 3 — VIS {big} → {small} against the native noiseless {small}² VIS\n");
     let _ = writeln!(
         md,
         "| method | illumination | MSE_S | PSNR_S dB | SSIM_S | study MSE_S | study PSNR_S | study SSIM_S |\n|---|---|---|---|---|---|---|---|"
@@ -456,8 +458,8 @@ fn markdown(
     }
     // Tables 4, 5
     for (table, what) in [
-        ("t4", "Table 4 — VIS + TIR upscaled (1024² grid)"),
-        ("t5", "Table 5 — VIS downscaled + TIR (512² grid)"),
+        ("t4", format!("Table 4 — VIS + TIR upscaled ({big}² grid)")),
+        ("t5", format!("Table 5 — VIS downscaled + TIR ({small}² grid)")),
     ] {
         let _ = writeln!(md, "\n## {what}\n");
         let _ = writeln!(
@@ -520,7 +522,7 @@ fn markdown(
     );
     let _ = writeln!(
         md,
-        "| method | VIS down (512²) ms | TIR up (1024²) ms | study 512² ms | study 1024² ms |\n|---|---|---|---|---|"
+        "| method | VIS down ({small}²) ms | TIR up ({big}²) ms | study 512² ms | study 1024² ms |\n|---|---|---|---|---|"
     );
     for m in methods {
         let (a, b) = study_t7(m.name).map_or((f64::NAN, f64::NAN), |(a, b)| (a * 1e3, b * 1e3));
@@ -528,8 +530,8 @@ fn markdown(
             md,
             "| {} | {} | {} | {} | {} |",
             m.name,
-            fmt(1e3 * cells.median("t7", m.name, "512"), 1),
-            fmt(1e3 * cells.median("t7", m.name, "1024"), 1),
+            fmt(1e3 * cells.median("t7", m.name, "small"), 1),
+            fmt(1e3 * cells.median("t7", m.name, "big"), 1),
             fmt(a, 0),
             fmt(b, 0)
         );
@@ -591,10 +593,10 @@ fn markdown(
         "1. *TSIFSD or ADF is the method to fly (TIR up)*: the most noise-robust method here (PSNR_S, TIR up) is {noise_rank} — {}.",
         verdict(noise_rank.starts_with("tsifsd") || noise_rank == "adf")
     );
-    let fastest = best(methods.iter().map(|m| (m.name, -cells.median("t7", m.name, "1024"))));
+    let fastest = best(methods.iter().map(|m| (m.name, -cells.median("t7", m.name, "big"))));
     let _ = writeln!(
         md,
-        "1. *TSIFSD and ADF are the fast ones*: the fastest core method at 1024² here is {fastest} (the study: ADF, then TSIFSD) — {}.",
+        "1. *TSIFSD and ADF are the fast ones*: the fastest core method at {big}² here is {fastest} (the study: ADF, then TSIFSD) — {}.",
         verdict(fastest.starts_with("tsifsd") || fastest == "adf")
     );
     let _ = writeln!(

@@ -2,6 +2,7 @@
 
 use clap::{Parser, Subcommand};
 
+pub mod bench;
 pub mod budget;
 pub mod demo;
 pub mod eval;
@@ -23,6 +24,8 @@ pub struct Cli {
 pub enum Command {
     /// The main job on the built-in default scene: render, fuse with every method, contact sheet, table.
     Demo(demo::DemoArgs),
+    /// Run time against error per method, engine, frame size and knob, with a Pareto chart.
+    Bench(bench::BenchArgs),
     /// The study's Tables 2–7 on a rendered dataset, with plots and conclusions.
     Report(report::ReportArgs),
     /// Rescale a grey PNG with the core's bicubic or area rescaler (8-bit or 16-bit).
@@ -42,6 +45,7 @@ pub enum Command {
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Demo(args) => demo::run(&args),
+        Command::Bench(args) => bench::run(&args),
         Command::Report(args) => report::run(&args),
         Command::Rescale(args) => rescale::run(&args),
         Command::Eval(args) => eval::run(&args),

@@ -1,0 +1,254 @@
+//! `fusion bench`: run time against error, per method, engine, frame size and knob.
+//!
+//! For every configuration the median wall time (one thread, several runs) and the error of its
+//! 8-bit output against the f64 reference of the *published default* of the same method and
+//! rescale policy (so a knob that buys time shows what it costs in fidelity): PSNR and max abs
+//! error in grey levels. Written as `bench.md` / `bench.csv` and a time–error chart
+//! (`pareto.png`); the points on the lower-left front are marked.
+//!
+//! Inputs: frame 0 of a rendered dataset (`--data`, rendered at the study's sizes when empty).
+
+use crate::cli::fuse::fuse_reference;
+use crate::io::Gray;
+use crate::plot::{Labels, Series, Style, chart};
+use crate::study::{Dataset, fuse_timed, median};
+use anyhow::{Context, Result};
+use clap::Args;
+use fusion_nostd::pipeline::{Method, Pipeline, RescalePolicy};
+use fusion_nostd::{AdfParams, IfevipParams, TsifsdParams, Variant};
+use render_host::{DatasetConfig, render_dataset};
+use std::fmt::Write as _;
+use std::path::PathBuf;
+use std::time::Instant;
+
+/// Arguments of `fusion bench`.
+#[derive(Debug, Args)]
+pub struct BenchArgs {
+    /// Dataset folder (frame 0 is used); rendered (1 frame, VIS 1024², TIR 512²) when empty.
+    #[arg(long, default_value = "fusion-bench/data")]
+    pub data: PathBuf,
+    /// Output folder.
+    #[arg(long, default_value = "fusion-bench")]
+    pub out: PathBuf,
+    /// Timing runs per core configuration (the median is reported).
+    #[arg(long, default_value_t = 5)]
+    pub repeats: usize,
+    /// Which illumination's VIS frame to use.
+    #[arg(long, default_value = "light")]
+    pub illumination: String,
+}
+
+/// One measured configuration.
+#[derive(Debug, Clone)]
+pub struct Point {
+    /// Method family (`adf`, `tsifsd`, `ifevip`).
+    pub family: &'static str,
+    /// Configuration label.
+    pub label: String,
+    /// `core` or `reference`.
+    pub engine: &'static str,
+    /// Fusion grid side.
+    pub grid: usize,
+    /// Median seconds.
+    pub seconds: f64,
+    /// PSNR of the u8 output against the default's f64 reference, dB (∞ when identical).
+    pub psnr: f64,
+    /// Max abs error, grey levels.
+    pub max_abs: u8,
+}
+
+/// The knobs measured per family: (label, method). The first entry is the shipped default.
+fn knobs() -> Vec<(&'static str, Vec<(String, Method)>)> {
+    let adf = |variant, iterations| Method::Adf(AdfParams { variant, iterations, ..AdfParams::default() });
+    let tsifsd = |variant, mean_size| Method::Tsifsd(TsifsdParams { variant, mean_size });
+    let ifevip = |variant, quad_norm_dim, quad_min_dim| {
+        Method::Ifevip(IfevipParams { variant, quad_norm_dim, quad_min_dim, ..IfevipParams::default() })
+    };
+    let (c, f) = (Variant::Classic, Variant::Flight);
+    vec![
+        (
+            "adf",
+            vec![
+                ("flight N=10".into(), adf(f, 10)),
+                ("classic N=10".into(), adf(c, 10)),
+                ("flight N=5".into(), adf(f, 5)),
+                ("flight N=2".into(), adf(f, 2)),
+            ],
+        ),
+        (
+            "tsifsd",
+            vec![
+                ("flight 35x35".into(), tsifsd(f, 35)),
+                ("classic 35x35".into(), tsifsd(c, 35)),
+                ("flight 15x15".into(), tsifsd(f, 15)),
+                ("flight 63x63".into(), tsifsd(f, 63)),
+            ],
+        ),
+        (
+            "ifevip",
+            vec![
+                ("flight D=512".into(), ifevip(f, 512, 32)),
+                ("classic D=512".into(), ifevip(c, 512, 32)),
+                ("flight D=256".into(), ifevip(f, 256, 16)),
+                ("flight D=128".into(), ifevip(f, 128, 8)),
+            ],
+        ),
+    ]
+}
+
+fn psnr_and_max(a: &Gray<u8>, b: &Gray<u8>) -> (f64, u8) {
+    let mut se = 0.0;
+    let mut max = 0u8;
+    for (&x, &y) in a.data.iter().zip(&b.data) {
+        let d = x.abs_diff(y);
+        max = max.max(d);
+        se += f64::from(d) * f64::from(d);
+    }
+    let mse = se / a.data.len().max(1) as f64;
+    (if mse == 0.0 { f64::INFINITY } else { 10.0 * (255.0 * 255.0 / mse).log10() }, max)
+}
+
+/// Whether no other point of the same family is at least as fast and at least as accurate
+/// (and strictly better in one).
+fn on_front(p: &Point, all: &[Point]) -> bool {
+    !all.iter().any(|q| {
+        q.family == p.family
+            && q.grid == p.grid
+            && q.seconds <= p.seconds
+            && q.psnr >= p.psnr
+            && (q.seconds < p.seconds || q.psnr > p.psnr)
+    })
+}
+
+/// Runs `fusion bench`.
+pub fn run(args: &BenchArgs) -> Result<()> {
+    let dataset = match Dataset::open(&args.data) {
+        Ok(d) => d,
+        Err(_) => {
+            let cfg = DatasetConfig { frames: 1, tir_sizes: vec![512], ..DatasetConfig::default() };
+            println!("rendering one frame into {} …", args.data.display());
+            render_dataset(&cfg, &args.data, false)?;
+            Dataset::open(&args.data)?
+        }
+    };
+    let vis = dataset.image(&format!("vis_{}", args.illumination), 0, true)?;
+    let tir_set = dataset
+        .manifest
+        .sets
+        .iter()
+        .find(|s| s.name.starts_with("tir") && s.width as usize * 2 == vis.width)
+        .map(|s| s.name.clone())
+        .context("the dataset has no TIR set at half the VIS size")?;
+    let tir = dataset.image(&tir_set, 0, true)?;
+    std::fs::create_dir_all(&args.out)?;
+
+    let mut points = Vec::new();
+    for (family, configs) in knobs() {
+        for policy in [RescalePolicy::TirUp, RescalePolicy::VisDown] {
+            let default = Pipeline { rescale: policy, method: configs[0].1 };
+            let t = Instant::now();
+            let reference = fuse_reference(&vis, &tir, &default)?;
+            let ref_seconds = t.elapsed().as_secs_f64();
+            let grid = reference.image.width;
+            points.push(Point {
+                family,
+                label: configs[0].0.clone(),
+                engine: "reference",
+                grid,
+                seconds: ref_seconds,
+                psnr: f64::INFINITY,
+                max_abs: 0,
+            });
+            for (label, method) in &configs {
+                let p = Pipeline { rescale: policy, method: *method };
+                let r = fuse_timed(&vis, &tir, &p, args.repeats)?;
+                let (psnr, max_abs) = psnr_and_max(&r.fused, &reference.image);
+                println!("{family:7} {label:14} {grid:5}²  {:9.2} ms  PSNR {psnr:6.2} dB  max {max_abs}", r.seconds * 1e3);
+                points.push(Point { family, label: label.clone(), engine: "core", grid, seconds: r.seconds, psnr, max_abs });
+            }
+            // The classic f64 reference of the same frame, for the engine comparison at equal
+            // semantics (classic core vs classic reference).
+            if let Some((label, method)) = configs.get(1) {
+                let p = Pipeline { rescale: policy, method: *method };
+                let t = Instant::now();
+                let r = fuse_reference(&vis, &tir, &p)?;
+                let secs = t.elapsed().as_secs_f64();
+                let (psnr, max_abs) = psnr_and_max(&r.image, &reference.image);
+                points.push(Point { family, label: label.clone(), engine: "reference", grid, seconds: secs, psnr, max_abs });
+            }
+        }
+    }
+
+    let mut md = String::from(
+        "# Run time against error\n\nFrame 0 of the dataset, noisy inputs, one thread. Error: the 8-bit output \
+         against the f64 reference of the method's shipped default (flight variant, published parameters) \
+         with the same rescale policy. `front` marks the points no other configuration of the family beats \
+         in both time and error.\n\n| family | configuration | engine | grid | time ms | PSNR dB | max abs | front |\n|---|---|---|---|---|---|---|---|\n",
+    );
+    let mut csv = String::from("family,configuration,engine,grid,seconds,psnr_db,max_abs,front\n");
+    for p in &points {
+        let front = on_front(p, &points);
+        let psnr = if p.psnr.is_finite() { format!("{:.2}", p.psnr) } else { "inf".into() };
+        let _ = writeln!(
+            md,
+            "| {} | {} | {} | {}² | {:.2} | {psnr} | {} | {} |",
+            p.family,
+            p.label,
+            p.engine,
+            p.grid,
+            p.seconds * 1e3,
+            p.max_abs,
+            if front { "yes" } else { "" }
+        );
+        let _ = writeln!(csv, "{},{},{},{},{},{},{},{}", p.family, p.label, p.engine, p.grid, p.seconds, p.psnr, p.max_abs, front);
+    }
+    // One chart per family: time (log) against PSNR, identical outputs drawn at 99 dB.
+    for (family, _) in knobs() {
+        let mut series: Vec<Series> = Vec::new();
+        for p in points.iter().filter(|p| p.family == family) {
+            let name = format!("{} {}²", p.engine, p.grid);
+            let y = if p.psnr.is_finite() { p.psnr.min(99.0) } else { 99.0 };
+            match series.iter_mut().find(|s| s.name == name) {
+                Some(s) => s.points.push((p.seconds * 1e3, y)),
+                None => series.push(Series { name, points: vec![(p.seconds * 1e3, y)] }),
+            }
+        }
+        let title = format!("{family}: time against fidelity (PSNR vs the f64 default; 99 = identical)");
+        let labels = Labels { title: &title, x: "time per frame pair, ms (log)", y: "PSNR dB" };
+        let path = chart(&args.out.join(format!("pareto_{family}")), labels, &series, Style::PointsLogX)?;
+        let name = path.file_name().and_then(|n| n.to_str()).unwrap_or("");
+        let _ = writeln!(md, "\n![{family}: time against error]({name})");
+    }
+    std::fs::write(args.out.join("bench.md"), &md)?;
+    std::fs::write(args.out.join("bench.csv"), &csv)?;
+    let mut ref_times: Vec<f64> = points.iter().filter(|p| p.engine == "reference").map(|p| p.seconds).collect();
+    println!("\n{md}\nmedian f64 reference time {:.2} s", median(&mut ref_times));
+    println!("written: {}", args.out.join("bench.md").display());
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn pt(seconds: f64, psnr: f64) -> Point {
+        Point { family: "adf", label: String::new(), engine: "core", grid: 8, seconds, psnr, max_abs: 0 }
+    }
+
+    #[test]
+    fn front_keeps_only_undominated_points() {
+        let all = [pt(1.0, 40.0), pt(2.0, 50.0), pt(3.0, 45.0), pt(1.0, 30.0)];
+        let front: Vec<bool> = all.iter().map(|p| on_front(p, &all)).collect();
+        assert_eq!(front, [true, true, false, false]);
+    }
+
+    #[test]
+    fn psnr_of_identical_is_infinite() {
+        let a = Gray { width: 2, height: 1, data: vec![1u8, 2] };
+        assert_eq!(psnr_and_max(&a, &a), (f64::INFINITY, 0));
+        let b = Gray { width: 2, height: 1, data: vec![1u8, 4] };
+        let (p, m) = psnr_and_max(&a, &b);
+        assert_eq!(m, 2);
+        assert!((p - 10.0 * (255.0f64 * 255.0 / 2.0).log10()).abs() < 1e-12);
+    }
+}

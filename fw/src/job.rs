@@ -7,7 +7,8 @@
 //! 12      TIR width, TIR height
 //! 20      number of runs n (1..=MAX_RUNS)
 //! 24      n × 4 bytes: method (0 ADF, 1 TSIFSD, 2 IFEVIP), variant (0 classic, 1 flight),
-//!         rescale policy (0 TIR up, 1 VIS down, 2 none), flags (bit 0: measure the stages)
+//!         rescale policy (0 TIR up, 1 VIS down, 2 none), flags (bit 0: measure the stages;
+//!         bit 1: raise a fault instead, to test that a fault ends the emulation with status 1)
 //! ```
 //! Method parameters are the core's defaults for the variant (the host builds the same
 //! [`Method`] for its comparison run).
@@ -28,6 +29,8 @@ pub struct Run {
     policy: RescalePolicy,
     /// Measure the stages before the whole pipeline.
     pub stages: bool,
+    /// Raise a fault (an undefined instruction) instead of running.
+    pub fault: bool,
 }
 
 /// A parsed job.
@@ -78,7 +81,7 @@ impl Job {
             if method > 2 {
                 return Err("job.bin: bad method");
             }
-            *slot = Some(Run { method, variant, policy, stages: flags & 1 != 0 });
+            *slot = Some(Run { method, variant, policy, stages: flags & 1 != 0, fault: flags & 2 != 0 });
         }
         Ok(Job { vis, tir, runs, n })
     }
@@ -91,7 +94,7 @@ impl Job {
 
 impl Run {
     const EMPTY: Run =
-        Run { method: 1, variant: Variant::Flight, policy: RescalePolicy::None, stages: false };
+        Run { method: 1, variant: Variant::Flight, policy: RescalePolicy::None, stages: false, fault: false };
 
     /// The core configuration of this run.
     pub fn pipeline(&self) -> Pipeline {

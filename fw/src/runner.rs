@@ -135,6 +135,9 @@ pub fn run_job(m: &mut Meter) -> Result<(), FwError> {
             w,
             h
         );
+        if run.fault {
+            crate::arch::undefined_instruction();
+        }
         let mut staged_sum = None;
         if run.stages {
             let tag = run.method_tag();

@@ -34,6 +34,12 @@ pub fn sp() -> usize {
     sp
 }
 
+/// Executes a permanently undefined instruction (UsageFault, escalated to HardFault).
+pub fn undefined_instruction() {
+    // SAFETY: raises an exception on purpose; the handler ends the emulation.
+    unsafe { core::arch::asm!("udf #0", options(nomem, nostack)) };
+}
+
 #[entry]
 fn entry() -> ! {
     crate::main()

@@ -98,6 +98,12 @@ pub fn sp() -> usize {
     sp
 }
 
+/// Executes an illegal instruction (trap with `mcause` 2).
+pub fn undefined_instruction() {
+    // SAFETY: raises an exception on purpose; the trap handler ends the emulation.
+    unsafe { core::arch::asm!("unimp", options(nomem, nostack)) };
+}
+
 #[unsafe(no_mangle)]
 extern "C" fn fw_rust_main() -> ! {
     crate::main()

@@ -161,6 +161,8 @@ pub struct RunSpec {
     pub policy: RescaleArg,
     /// Measure the stages too (the staged run repeats the work).
     pub stages: bool,
+    /// Make the image raise a fault instead (tests that a fault ends the run with status 1).
+    pub fault: bool,
 }
 
 impl RunSpec {
@@ -179,7 +181,7 @@ impl RunSpec {
             RescaleArg::VisDown => 1,
             RescaleArg::None => 2,
         };
-        [method, variant, policy, u8::from(self.stages)]
+        [method, variant, policy, u8::from(self.stages) | (u8::from(self.fault) << 1)]
     }
 }
 
@@ -329,16 +331,24 @@ pub fn parse_report(console: &str, plugin_log: Option<&str>) -> Result<FwReport>
     })
 }
 
-/// Runs `job` on `image` in a fresh folder `dir` (inputs, outputs, console and plugin logs stay
-/// there). `plugin` is required on Arm. The emulator is killed after `timeout`.
-pub fn run_job(
+/// What a finished emulator process left behind.
+struct Finished {
+    status: std::process::ExitStatus,
+    console: String,
+    plugin_log: Option<String>,
+    wall: Duration,
+}
+
+/// Writes `job` into a fresh folder `dir` and runs `image` there under QEMU (console and plugin
+/// logs stay there); kills the emulator after `timeout`.
+fn emulate(
     target: Target,
     image: &Path,
     plugin: Option<&Path>,
     job: &Job,
     dir: &Path,
     timeout: Duration,
-) -> Result<FwReport> {
+) -> Result<Finished> {
     if dir.exists() {
         fs::remove_dir_all(dir).with_context(|| format!("cannot clear {}", dir.display()))?;
     }
@@ -387,9 +397,24 @@ pub fn run_job(
         Target::Arm => Some(fs::read_to_string(dir.join("plugin.log")).unwrap_or_default()),
         Target::Riscv => None,
     };
-    let mut report = parse_report(&console, plugin_log.as_deref())
+    Ok(Finished { status, console, plugin_log, wall })
+}
+
+/// Runs `job` on `image` in a fresh folder `dir` (inputs, outputs, console and plugin logs stay
+/// there) and reads back the report and the fused frames. `plugin` is required on Arm. The
+/// emulator is killed after `timeout`.
+pub fn run_job(
+    target: Target,
+    image: &Path,
+    plugin: Option<&Path>,
+    job: &Job,
+    dir: &Path,
+    timeout: Duration,
+) -> Result<FwReport> {
+    let done = emulate(target, image, plugin, job, dir, timeout)?;
+    let mut report = parse_report(&done.console, done.plugin_log.as_deref())
         .with_context(|| format!("{target} run in {}", dir.display()))?;
-    ensure!(status.success(), "{qemu} exited with {status} (logs in {})", dir.display());
+    ensure!(done.status.success(), "QEMU exited with {} (logs in {})", done.status, dir.display());
     ensure!(
         report.runs.len() == job.runs.len(),
         "the firmware reported {} of {} runs",
@@ -402,8 +427,43 @@ pub fn run_job(
         ensure!(data.len() == w * h, "out{i}.gray has {} bytes, expected {}", data.len(), w * h);
         run.image = Some(Gray { width: w, height: h, data });
     }
-    report.wall = wall;
+    report.wall = done.wall;
     Ok(report)
+}
+
+/// Runs a job whose first run raises a fault and checks that the image reported it and QEMU
+/// exited with a failure status (the contract for faults and panics on the flight targets).
+pub fn check_fault_exit(
+    target: Target,
+    image: &Path,
+    plugin: Option<&Path>,
+    dir: &Path,
+    timeout: Duration,
+) -> Result<()> {
+    let spec = RunSpec {
+        method: MethodArg::Tsifsd,
+        variant: VariantArg::Flight,
+        policy: RescaleArg::None,
+        stages: false,
+        fault: true,
+    };
+    let job = Job { vis: Gray::new(8, 8), tir: Gray::new(8, 8), runs: vec![spec] };
+    let done = emulate(target, image, plugin, &job, dir, timeout)?;
+    ensure!(
+        !done.status.success(),
+        "{target}: a fault ended the emulation with status 0 (logs in {})",
+        dir.display()
+    );
+    ensure!(
+        done.console.lines().any(|l| l.starts_with("@fw fault ")),
+        "{target}: the fault handler did not report (logs in {})",
+        dir.display()
+    );
+    ensure!(
+        parse_report(&done.console, done.plugin_log.as_deref()).is_err(),
+        "a fault must not parse as a finished run"
+    );
+    Ok(())
 }
 
 #[cfg(test)]
@@ -468,6 +528,7 @@ mod tests {
                 variant: VariantArg::Classic,
                 policy: RescaleArg::VisDown,
                 stages: true,
+                fault: true,
             }],
         };
         let b = job.encode()?;
@@ -476,7 +537,7 @@ mod tests {
         assert_eq!(&b[4..8], &6u32.to_le_bytes());
         assert_eq!(&b[16..20], &2u32.to_le_bytes());
         assert_eq!(&b[20..24], &1u32.to_le_bytes());
-        assert_eq!(&b[24..], &[2, 0, 1, 1]);
+        assert_eq!(&b[24..], &[2, 0, 1, 3]);
         let empty = Job { runs: Vec::new(), ..job };
         assert!(empty.encode().is_err());
         Ok(())

@@ -316,6 +316,8 @@ pub struct Outcome {
     pub images: Vec<(Target, Grid, PathBuf)>,
     /// Emulator wall time, seconds, per `(target, what)`.
     pub wall: Vec<(Target, String, f64)>,
+    /// Targets on which a deliberate fault was checked to end the run with status 1.
+    pub fault_exit: Vec<Target>,
 }
 
 /// Compares every run of `report` with the host's result for the same job; returns how many
@@ -364,7 +366,7 @@ fn exactness_jobs(opts: &Options, pair: &(Gray<u8>, Gray<u8>)) -> Result<Vec<(St
         for &method in &[MethodArg::Adf, MethodArg::Tsifsd, MethodArg::Ifevip] {
             for &variant in &[VariantArg::Flight, VariantArg::Classic] {
                 for &policy in policies {
-                    runs.push(RunSpec { method, variant, policy, stages: false });
+                    runs.push(RunSpec { method, variant, policy, stages: false, fault: false });
                 }
             }
         }
@@ -427,6 +429,12 @@ pub fn run(opts: &Options) -> Result<Outcome> {
             progress(&format!("building the {target} image for the {}² grid", grid.side()));
             let image = fw::build_image(target, grid, &opts.out)?;
             out.images.push((target, grid, image.clone()));
+            if grid == Grid::G1024 {
+                progress(&format!("{target}: a fault must end the emulation with status 1"));
+                let dir = opts.out.join(format!("{target}-fault"));
+                fw::check_fault_exit(target, &image, plugin.as_deref(), &dir, timeout)?;
+                out.fault_exit.push(target);
+            }
             if !opts.grids.contains(&grid) || opts.methods.is_empty() {
                 continue;
             }
@@ -441,6 +449,7 @@ pub fn run(opts: &Options) -> Result<Outcome> {
                         variant: VariantArg::Flight,
                         policy: grid.policy(),
                         stages: true,
+                        fault: false,
                     })
                     .collect(),
             };
@@ -712,6 +721,12 @@ pub fn report(out: &Outcome, budgets: &Table, chk: &Check) -> String {
         for (what, n, same) in &out.exact {
             let _ = writeln!(s, "| {what} | {same}/{n} |");
         }
+    }
+    for t in &out.fault_exit {
+        let _ = writeln!(
+            s,
+            "\n{t}: a deliberate fault (undefined instruction) was reported and ended QEMU with status 1."
+        );
     }
     let _ = writeln!(
         s,

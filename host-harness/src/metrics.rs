@@ -482,6 +482,32 @@ mod tests {
         assert!((ssim(&z, &f) - c1 / (255.0 * 255.0 + c1)).abs() < 1e-12);
     }
 
+    /// SSIM by the direct 2-D window sum (the definition) against the separable implementation.
+    #[test]
+    fn ssim_separable_equals_the_direct_window_sum() {
+        let (a, b) = (pattern(17, 14, 6), pattern(17, 14, 7));
+        let g = ssim_window();
+        let (c1, c2) = ((0.01f64 * 255.0).powi(2), (0.03f64 * 255.0).powi(2));
+        let mut total = 0.0;
+        for y0 in 0..=14 - 11 {
+            for x0 in 0..=17 - 11 {
+                let (mut ma, mut mb, mut saa, mut sbb, mut sab) = (0.0, 0.0, 0.0, 0.0, 0.0);
+                for i in 0..11 {
+                    for j in 0..11 {
+                        let w = g[i] * g[j];
+                        let (x, y) = (f64::from(a.at(x0 + j, y0 + i)), f64::from(b.at(x0 + j, y0 + i)));
+                        (ma, mb) = (ma + w * x, mb + w * y);
+                        (saa, sbb, sab) = (saa + w * x * x, sbb + w * y * y, sab + w * x * y);
+                    }
+                }
+                let (va, vb, cov) = (saa - ma * ma, sbb - mb * mb, sab - ma * mb);
+                total += ((2.0 * ma * mb + c1) * (2.0 * cov + c2)) / ((ma * ma + mb * mb + c1) * (va + vb + c2));
+            }
+        }
+        let direct = total / (4.0 * 7.0);
+        assert!((ssim(&a, &b) - direct).abs() < 1e-12, "{} vs {direct}", ssim(&a, &b));
+    }
+
     #[test]
     #[ignore = "prints FMI variants on a VIFB pair; run with --ignored --nocapture"]
     fn fmi_variants_on_vifb() {

@@ -7,20 +7,21 @@
 //! |---|---|---|---|
 //! | diffusion state `A_k` (base layer) | `i32` | Q16 grey levels | within ≈ [−1, 256] levels (< 2²⁵) for the published parameters |
 //! | neighbour difference `∇` | `i32` | Q16 | \|∇\| < 2²⁵ |
-//! | normalised flux `g = c·∇/κ = t·exp(−t²)`, `t = \|∇\|/κ` | `u16` → `i32` | Q16, from [`EXP_FLUX`] | \|g\| ≤ 28109 |
-//! | per-pixel sum `2·Σ_axial g + Σ_diag g` | `i32` | Q16 | < 2¹⁹ |
-//! | `κ·Δt/2` | `i64` | Q16 | ≤ 2²¹ |
-//! | update `(Σ · κΔt/2) >> 16` | `i64` → `i32` | Q16 | state add saturates at the `i32` range (unreachable for sane parameters) |
-//! | detail layer `D_k = 2¹⁶·I_k − A_k` | `i64` | Q16 | \|D\| < 2²⁵ |
-//! | covariance sums | `i128` | Q32 | exact |
+//! | normalised flux `g = c·∇/κ = t·exp(−t²)`, `t = \|∇\|/κ` | `u16` → `i32` | Q16, from [`EXP_FLUX`] | \|g\| ≤ 28107 |
+//! | per-pixel sum `Σ = 2·Σ_axial g + Σ_diag g` | `i32` | Q16 | \|Σ\| ≤ 12·28107 < 2¹⁹ |
+//! | `κ·Δt/2 = m·2^(16−s)` (`m` odd, or `s = 0`) | `i32` | Q16 | < 2²² |
+//! | update `round(Σ·κΔt/2) = (Σ·m + 2^(s−1)) >> s` | `i32` (`i64` when `12·28107·m` could overflow) | Q16 | state add saturates at the `i32` range (unreachable for sane parameters) |
+//! | detail layer `D_k = 2¹⁶·I_k − A_k` | `i32` (`i64` beyond 2²⁶) | Q16 | \|D\| < 2²⁵ for sane states |
+//! | covariance sums | `i64` per 2¹¹-pixel chunk (when every \|D\| < 2²⁶), then `i128` | Q32 | exact |
 //! | KL weight `p_IR` (`p_VIS = 1 − p_IR`) | `i64` | Q30 | classic: saturated to ±128; flight: [0, 1] |
+//! | fused value before rounding `(A_IR + A_VIS + 2·D_VIS + 1)·2²⁹ + p_IR·(D_IR − D_VIS)` | `i64` | Q46 | < 2⁵⁹ when every \|D\| < 2²⁶ and \|p_IR\| < 2³¹; otherwise saturating |
 //! | fused raw value [`fuse_adf_raw`] | `i32` | Q16 ([`RAW_FRAC_BITS`]) | saturated to the `i32` range (only reachable with classic weights ≫ 1) |
 //!
 //! **Conduction table.** The flux `c·∇ = ∇·exp(−(∇/κ)²) = κ·g(t)` with `g(t) = t·exp(−t²)`,
 //! `t = |∇|/κ`, is read from the static table [`EXP_FLUX`] (8193 `u16` entries, step 1/2048
 //! in `t`, built at compile time by a `const fn` exp; 16 KiB of flash); beyond `t = 4`
 //! (g < 5·10⁻⁷) the flux is 0. The index is `round(2048·|∇|/κ)`, one multiply by a
-//! reciprocal computed once per call, in `u32` (see `Diffusion`). Error of `g` against
+//! reciprocal computed once per call (`smmulr` on Arm, see `Diffusion`). Error of `g` against
 //! `t·exp(−t²)`: ≤ 2.4·10⁻⁴ (index rounding: slope ≤ 1 · half a step) + 7.6·10⁻⁶ (Q16
 //! entries) + the index arithmetic's truncation, measured 2.6·10⁻⁴, i.e. ≤ 0.008 grey levels
 //! per neighbour flux at κ = 30 (unit test `flux_table_error_is_within_its_bound`).
@@ -28,6 +29,14 @@
 //! **Update** (Jacobi, one iterate in, the next out):
 //! `A ← A + round(κΔt/2 · (2·Σ_axial g + Σ_diagonal g))`, i.e. the published
 //! `Δt·(Σ_axial c∇ + ½Σ_diagonal c∇)`.
+//!
+//! **Speed** (the same bits as the per-pixel form, checked by the unit tests): the flux is odd
+//! (`g(−∇) = −g(∇)`), so each neighbour pair's flux is read once and enters both pixels —
+//! 4 table reads per pixel and iteration instead of 8. The iterations run as a row pipeline
+//! (temporal blocking): stage `k` turns each new row of iterate `k` into a row of iterate
+//! `k + 1` and hands it straight to stage `k + 1`, so the frame is read and written once per
+//! group of iterations and the work rows stay in cache. On x86-64 with AVX2 the row loop runs
+//! eight pixels at a time with `vpgatherdd` table reads.
 //!
 //! **KL weights.** With `a = n·ΣD_IR² − (ΣD_IR)²`, `b = n·ΣD_IR·D_VIS − ΣD_IR·ΣD_VIS`,
 //! `c = n·ΣD_VIS² − (ΣD_VIS)²` (exact `i128`, the covariance times `n(n−1)`), the eigenvector
@@ -58,10 +67,11 @@
 //!
 //! # Scratch
 //!
-//! Three `i32` planes of W·H: the two diffusion states and the Jacobi ping-pong plane (which
-//! then holds the raw output rows).
+//! Three `i32` planes of W·H: the two diffusion states and the work plane — the pipeline's
+//! stage rows (3·(W+2) values per iteration; frames of fewer than about 3 rows use it as the
+//! Jacobi ping-pong plane instead), then the raw output rows.
 
-use super::{Guards, Variant, round_away_sat_u8};
+use super::{Guards, Variant};
 use crate::filters::border::{Border, Neighbourhood, NeighbourhoodOp, map_neighbourhoods_op};
 use crate::{Error, FrameMut, FrameRef, ScratchMut};
 
@@ -121,7 +131,7 @@ const fn build_lut() -> [u16; LUT_LEN + 1] {
 /// Normalised Perona–Malik flux table: entry `j` is `g(t) = t·exp(−t²)` in Q16 (rounded) at
 /// `t = j/2048`, `j` in `0..8192`, and entry 8192 is 0 (every `t ≥ 4`: g < 5·10⁻⁷).
 /// Built at compile time; 16 KiB. The flux of a difference `∇` is `c·∇ = κ·g(|∇|/κ)·sign(∇)`,
-/// so one table serves every κ and Δt. Maximum entry 28109 (g(1/√2) = 0.4289).
+/// so one table serves every κ and Δt. Maximum entry 28107 (g(1/√2) = 0.4289).
 pub static EXP_FLUX: [u16; LUT_LEN + 1] = build_lut();
 
 /// ADF parameters. [`Default`] is the published setting (`run_ADF.m`: N = 10, Δt = 0.15,
@@ -173,19 +183,59 @@ impl AdfParams {
     }
 }
 
+/// The largest table entry, 28107 (`g(1/√2)` in Q16): bounds every flux and the per-pixel sum.
+const MAX_FLUX: i32 = max_entry();
+
+/// Largest index the flux reads. Entries from 7404 on are 0, so clamping the index to
+/// `LUT_LAST` instead of `LUT_LEN` reads the same 0 (and is one `usat #13` on Arm).
+const LUT_LAST: u32 = (LUT_LEN - 1) as u32;
+
+// Evaluated at compile time only, like `build_lut`: an out-of-range index would be a compile
+// error, never a run-time panic.
+#[allow(clippy::indexing_slicing)]
+const fn max_entry() -> i32 {
+    let mut j = 0;
+    let mut max = 0;
+    while j <= LUT_LEN {
+        if EXP_FLUX[j] > max {
+            max = EXP_FLUX[j];
+        }
+        j += 1;
+    }
+    // The facts the fast paths rely on.
+    assert!(max == 28107);
+    assert!(EXP_FLUX[LUT_LEN - 1] == 0 && EXP_FLUX[LUT_LEN] == 0, "the last two entries are 0");
+    const { assert!(LUT_LAST == (1 << 13) - 1, "usat #13 clamps to LUT_LAST") };
+    max as i32
+}
+
 /// Per-call constants of the diffusion.
 #[derive(Debug, Clone, Copy)]
 struct Diffusion {
-    /// `|∇|` (Q16) is clamped to `limit` (where the table index reaches its final 0 entry)…
-    limit: u32,
-    /// … shifted right by `shift` = 1 + bit length of κ …
+    /// `|∇|` (Q16) is shifted right by `shift` = 1 + bit length of κ …
     shift: u32,
     /// … and multiplied by `recip = round(2^(11+shift)/κ)` (4096 ≤ recip < 8192): the table
-    /// index is `((|∇| >> shift)·recip + 2¹⁵) >> 16` = `round(2048·|∇|/κ)`, all in `u32`
-    /// (the product stays below 2³⁰).
+    /// index is `((|∇| >> shift)·recip + 2¹⁵) >> 16` = `round(2048·|∇|/κ)`, computed as the
+    /// rounded high word of `(|∇| >> shift) · (recip·2¹⁶)` (no overflow for any `∇`; one
+    /// `smmulr` on Arm) and clamped to [`LUT_LAST`]. `recip_q16` is `recip·2¹⁶ < 2²⁹`.
+    recip_q16: i32,
+    /// The update `round(κΔt/2 · Σ)` (Q16 · Q16 → Q16, half up) as `(Σ·step_mul + step_round)
+    /// >> step_shift`, with `κΔt/2 = step_mul·2^(16−step_shift)` (the power of two taken out
+    /// of the Q16 scale, so the product usually fits `i32`)…
+    step_mul: i32,
+    step_round: i32,
+    step_shift: u32,
+    /// … in `i32` unless `12·MAX_FLUX·step_mul + step_round` could overflow it (then `i64`).
+    wide_step: bool,
+    /// Use the AVX2 row loop (x86-64 with AVX2, `i32` step only).
+    #[cfg(target_arch = "x86_64")]
+    avx2: bool,
+    /// `recip` and the clamp `a_max = ((4κ + 1)·2¹⁶) >> shift` of `|∇| >> shift` (the first
+    /// form of the index arithmetic, used by the AVX2 loop: `a_max·recip < 2³⁰`).
+    #[cfg(target_arch = "x86_64")]
     recip: u32,
-    /// `κ·Δt/2` in Q16 (147456 = 2.25 exactly for the published κ = 30, Δt = 0.15).
-    scale: i64,
+    #[cfg(target_arch = "x86_64")]
+    a_max: u32,
     border: Border,
 }
 
@@ -194,46 +244,350 @@ impl Diffusion {
         let kappa = u32::from(params.kappa.max(1));
         let shift = 1 + (32 - kappa.leading_zeros());
         let recip = ((1u32 << (11 + shift)) + kappa / 2) / kappa;
-        let limit = (4 * kappa + 1) << 16;
-        // κ·Δt/2 = κ·dt_milli/2000, in Q16, rounded.
+        // κ·Δt/2 = κ·dt_milli/2000, in Q16, rounded; ≤ 255·250·2¹⁶/2000 < 2²².
         let scale = (((i64::from(params.kappa) * i64::from(params.dt_milli)) << 16) + 1000) / 2000;
-        Self { limit, shift, recip, scale, border: params.border() }
+        let scale = scale.max(1) as i32;
+        let twos = scale.trailing_zeros().min(16);
+        let step_mul = scale >> twos;
+        let step_shift = 16 - twos;
+        let step_round = (1i32 << 15) >> twos;
+        let wide_step =
+            i64::from(12 * MAX_FLUX) * i64::from(step_mul) + i64::from(step_round) > i64::from(i32::MAX);
+        Self {
+            shift,
+            recip_q16: (recip << 16) as i32,
+            step_mul,
+            step_round,
+            step_shift,
+            wide_step,
+            #[cfg(target_arch = "x86_64")]
+            avx2: !wide_step && crate::cpu::has_avx2(),
+            #[cfg(target_arch = "x86_64")]
+            recip,
+            #[cfg(target_arch = "x86_64")]
+            a_max: ((4 * kappa + 1) << 16) >> shift,
+            border: params.border(),
+        }
     }
 
-    /// `g(|∇|/κ)·sign(∇)` in Q16 for `∇` in Q16 (the flux divided by κ).
+    /// `g(|∇|/κ)·sign(∇)` in Q16 for `∇` in Q16 (the flux divided by κ). Exactly odd:
+    /// `flux(−∇) = −flux(∇)` for every `∇` (the wrapped `i32::MIN` reads a 0 entry).
     #[inline(always)]
     fn flux(&self, d: i32) -> i32 {
-        let a = d.unsigned_abs().min(self.limit) >> self.shift;
-        let idx = ((a * self.recip + (1 << 15)) >> 16).min(LUT_LEN as u32) as usize;
+        #[cfg(target_arch = "arm")]
+        let idx = self.index_signed(d.unsigned_abs());
+        #[cfg(not(target_arch = "arm"))]
+        let idx = self.index_unsigned(d.unsigned_abs());
         let g = EXP_FLUX.get(idx).map_or(0, |&g| i32::from(g));
         if d < 0 { -g } else { g }
     }
 
-    /// The next iterate of one pixel from its 3×3 neighbourhood.
+    /// The table index of `|∇|` in signed 32-bit form: `min(max(⌊(a·recip_q16 + 2³¹)/2³²⌋, 0),
+    /// LUT_LAST)` with `a = |∇| >> shift`.
+    #[cfg_attr(not(any(target_arch = "arm", test)), allow(dead_code))]
+    #[inline(always)]
+    fn index_signed(&self, abs: u32) -> usize {
+        let a = (abs >> self.shift) as i32; // ≤ 2²⁹: shift ≥ 2
+        #[cfg(target_arch = "arm")]
+        let idx = {
+            // `smmulr`: LLVM would otherwise turn the multiply into `umull` + `umlal` once it
+            // proves `a ≥ 0`. The clamp below becomes `usat #13`.
+            let idx: i32;
+            // SAFETY: one register-only ALU instruction (Armv7E-M DSP): no memory, no flags.
+            unsafe {
+                core::arch::asm!(
+                    "smmulr {i}, {a}, {r}",
+                    i = out(reg) idx,
+                    a = in(reg) a,
+                    r = in(reg) self.recip_q16,
+                    options(pure, nomem, nostack, preserves_flags),
+                );
+            }
+            idx
+        };
+        #[cfg(not(target_arch = "arm"))]
+        let idx = ((i64::from(a) * i64::from(self.recip_q16) + (1 << 31)) >> 32) as i32;
+        idx.clamp(0, LUT_LAST as i32) as usize
+    }
+
+    /// The table index of `|∇|` in unsigned 64-bit form (one `imul`, no sign clamp).
+    #[cfg_attr(target_arch = "arm", allow(dead_code))]
+    #[inline(always)]
+    fn index_unsigned(&self, abs: u32) -> usize {
+        let a = u64::from(abs >> self.shift);
+        let idx = ((a * u64::from(self.recip_q16.unsigned_abs()) + (1 << 31)) >> 32) as u32;
+        idx.min(LUT_LAST) as usize
+    }
+
+    /// `round(κΔt/2 · acc)` in Q16 for the per-pixel sum `acc` (|acc| ≤ 12·[`MAX_FLUX`]).
+    #[inline(always)]
+    fn step<const WIDE: bool>(&self, acc: i32) -> i32 {
+        if WIDE {
+            ((i64::from(acc) * i64::from(self.step_mul) + i64::from(self.step_round)) >> self.step_shift)
+                as i32
+        } else {
+            (acc * self.step_mul + self.step_round) >> self.step_shift
+        }
+    }
+
+    /// The next iterate of one pixel from its 3×3 neighbourhood (all eight fluxes; the path
+    /// for frames too small for the row pipeline).
     #[inline(always)]
     fn update(&self, [l, c, r]: Neighbourhood<i32>) -> i32 {
         let centre = c[1];
         let f = |v: i32| self.flux(v.wrapping_sub(centre));
         let axial = f(c[0]) + f(c[2]) + f(l[1]) + f(r[1]);
         let diagonal = f(l[0]) + f(l[2]) + f(r[0]) + f(r[2]);
-        let acc = i64::from(2 * axial + diagonal); // |acc| ≤ 12·28109 < 2¹⁹
-        // Q16 · Q16 → Q32; back to Q16 with rounding (half up).
-        let step = (acc * self.scale + (1 << 15)) >> 16;
-        centre.saturating_add(step as i32)
+        let acc = 2 * axial + diagonal; // |acc| ≤ 12·28107 < 2¹⁹
+        let step = if self.wide_step { self.step::<true>(acc) } else { self.step::<false>(acc) };
+        centre.saturating_add(step)
     }
 
     /// One Jacobi iteration of the packed `w`-wide plane `src` into `dst`.
     fn iterate(&self, src: &[i32], dst: &mut [i32], w: usize) {
         let h = src.len() / w.max(1);
-        for (y, out) in dst.chunks_exact_mut(w).enumerate() {
+        for (y, out) in dst.chunks_exact_mut(w.max(1)).enumerate() {
             let row = |yy: usize| src.get(yy * w..yy * w + w);
             let Some(mid) = row(y) else { return };
             let (up, down) = match self.border {
                 Border::Replicate => (row(y.saturating_sub(1)), row((y + 1).min(h - 1))),
                 _ => (y.checked_sub(1).and_then(row), row(y + 1)),
             };
-            diffuse_row(self, up, mid, down, out);
+            map_neighbourhoods_op(up, mid, down, self.border, out.iter_mut(), Update(self));
         }
+    }
+
+    /// The north contributions `2·flux(N − C) + flux(NW − C) + flux(NE − C)` of the top pad
+    /// row `top` to every pixel of the first row `q` (both padded, `w + 2` long), into
+    /// `north[1..=w]`.
+    fn top_north(&self, top: &[i32], q: &[i32], north: &mut [i32]) {
+        let f = |a: i32, b: i32| self.flux(b.wrapping_sub(a));
+        let pixels = top.windows(3).zip(q.iter().skip(1)).zip(north.iter_mut().skip(1));
+        for ((t, &c), n) in pixels {
+            if let &[nw, n0, ne] = t {
+                *n = 2 * f(c, n0) + f(c, nw) + f(c, ne);
+            }
+        }
+    }
+
+    /// One output row of a Jacobi iteration by pair fluxes. `p` is the row being updated and
+    /// `q` the row below, both padded by one column on each side (`w + 2`); `north[i]` holds
+    /// the north contributions to pixel `i` of `p` (`2·flux(N − C) + flux(NW − C) +
+    /// flux(NE − C)`, from the row above) and is replaced by those of `p` to `q`. Per pixel
+    /// four table reads: the pairs east (`h`), south (`v`), south-east (`dr`) and south-west
+    /// (`dl`). Each enters this pixel's sum and, negated (`flux` is odd), its partner's: the
+    /// west flux is `−h` of the previous pixel, and the pairs to `q` become `q`'s north
+    /// contributions `−(2·v(i) + dr(i−1) + dl(i+1))`. The same sum, hence the same bits, as
+    /// [`Self::update`] with its eight table reads. The next iterate goes to `out` (`w`).
+    #[inline(never)]
+    fn row<const WIDE: bool>(&self, p: &[i32], q: &[i32], north: &mut [i32], out: &mut [i32]) {
+        let f = |a: i32, b: i32| self.flux(b.wrapping_sub(a));
+        let (Some(&p0), Some(&p1), Some(&q1)) = (p.first(), p.get(1), q.get(1)) else { return };
+        // The left pad's pairs: p[0]–p[1] (the first west flux) and p[0]–q[1].
+        #[cfg_attr(not(target_arch = "x86_64"), allow(unused_mut))]
+        let mut carry = RowCarry { h_prev: f(p0, p1), dr_prev: f(p0, q1), partial: 0 };
+        #[cfg(target_arch = "x86_64")]
+        let done = if !WIDE && self.avx2 {
+            // SAFETY: `avx2` is set only when the CPU has AVX2 (checked at run time).
+            unsafe { avx2::row_blocks(self, p, q, north, out, &mut carry) }
+        } else {
+            0
+        };
+        #[cfg(not(target_arch = "x86_64"))]
+        let done = 0;
+        let RowCarry { mut h_prev, mut dr_prev, mut partial } = carry;
+        let north = core::cell::Cell::from_mut(north).as_slice_of_cells();
+        // The rest of the row from pixel `done` (padded index done + 1).
+        let (Some(pd), Some(qd), Some(nd), Some(od)) =
+            (p.get(done..), q.get(done..), north.get(done..), out.get_mut(done..))
+        else {
+            return;
+        };
+        let pixels = pd.windows(2).skip(1).zip(qd.windows(3)).zip(nd.windows(2)).zip(od.iter_mut());
+        for (((pw, qw), nw), o) in pixels {
+            let (&[pc, pr], &[ql, qc, qr], [n_prev, n_here]) = (pw, qw, nw) else { continue };
+            let h = f(pc, pr);
+            let v = f(pc, qc);
+            let dr = f(pc, qr);
+            let dl = f(pc, ql);
+            let acc = 2 * (h - h_prev + v) + dr + dl + n_here.get();
+            *o = pc.saturating_add(self.step::<WIDE>(acc));
+            n_prev.set(partial - dl);
+            partial = -2 * v - dr_prev;
+            dr_prev = dr;
+            h_prev = h;
+        }
+        // The right pad's pair p[w+1]–q[w] completes q's last north contribution.
+        let n = p.len();
+        if let (Some(last), Some(&pr), Some(&ql)) =
+            (north.get(n.wrapping_sub(2)), p.get(n.wrapping_sub(1)), q.get(n.wrapping_sub(2)))
+        {
+            last.set(partial - f(pr, ql));
+        }
+    }
+}
+
+/// What [`Diffusion::row`] carries from one pixel to the next: the previous east flux (this
+/// pixel's west, negated), the previous south-east flux, and `−(2·v(i−1) + dr(i−2))`.
+#[derive(Debug, Clone, Copy)]
+struct RowCarry {
+    h_prev: i32,
+    dr_prev: i32,
+    partial: i32,
+}
+
+/// The AVX2 copy of the row loop (x86-64 hosts): eight pixels at a time, the table read by
+/// `vpgatherdd`. The same integer operations as the portable loop, so the same bits
+/// (checked by `avx2_rows_equal_the_portable_rows`).
+#[cfg(target_arch = "x86_64")]
+mod avx2 {
+    use super::{Diffusion, EXP_FLUX, LUT_LAST, RowCarry};
+    use core::arch::x86_64::*;
+
+    /// Eight `i32` at `s[at..at + 8]`.
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    fn load(s: &[i32], at: usize) -> Option<__m256i> {
+        let v: &[i32; 8] = s.get(at..at + 8)?.try_into().ok()?;
+        // SAFETY: reads the 32 bytes of `v` (unaligned load).
+        Some(unsafe { _mm256_loadu_si256(v.as_ptr().cast()) })
+    }
+
+    /// Stores eight `i32` to `s[at..at + 8]`.
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    fn store(s: &mut [i32], at: usize, x: __m256i) -> Option<()> {
+        let v: &mut [i32; 8] = s.get_mut(at..at + 8)?.try_into().ok()?;
+        // SAFETY: writes the 32 bytes of `v` (unaligned store).
+        unsafe { _mm256_storeu_si256(v.as_mut_ptr().cast(), x) };
+        Some(())
+    }
+
+    /// `[prev[8 − k..], cur[..8 − k]]`: `cur` shifted up by `k` lanes (`k` = 1 or 2), the
+    /// vacated lanes taken from the top of `prev`.
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    fn shift_in<const BYTES: i32>(prev: __m256i, cur: __m256i) -> __m256i {
+        _mm256_alignr_epi8::<BYTES>(cur, _mm256_permute2x128_si256::<0x21>(prev, cur))
+    }
+
+    /// The constants of [`Diffusion::flux`], broadcast.
+    struct Flux {
+        shift: __m128i,
+        a_max: __m256i,
+        recip: __m256i,
+        half: __m256i,
+        last: __m256i,
+        low16: __m256i,
+    }
+
+    impl Flux {
+        /// `flux(d)` on eight lanes: `min(|d| >> shift, a_max)·recip` rounded to the table
+        /// index (the index arithmetic of the first form, which the scalar index forms equal),
+        /// clamped to `LUT_LAST`, the entry by a 32-bit gather at byte offset `2·idx` (entries
+        /// `idx` and `idx + 1`, both inside the table since `idx ≤ LUT_LAST`), its low half,
+        /// negated where `d < 0`.
+        #[target_feature(enable = "avx2")]
+        #[inline]
+        fn apply(&self, d: __m256i) -> __m256i {
+            let a = _mm256_min_epu32(_mm256_srl_epi32(_mm256_abs_epi32(d), self.shift), self.a_max);
+            let idx = _mm256_srli_epi32::<16>(_mm256_add_epi32(_mm256_mullo_epi32(a, self.recip), self.half));
+            let idx = _mm256_min_epu32(idx, self.last);
+            // SAFETY: every index is ≤ LUT_LAST, so the 4 bytes read at `2·idx` lie inside
+            // the 2·(LUT_LAST + 2)-byte table.
+            let g = unsafe { _mm256_i32gather_epi32::<2>(EXP_FLUX.as_ptr().cast(), idx) };
+            _mm256_sign_epi32(_mm256_and_si256(g, self.low16), d)
+        }
+    }
+
+    /// Runs the row loop of [`Diffusion::row`] (`WIDE = false`) on whole blocks of eight
+    /// pixels from the start of the row, updating `carry`; returns the pixels done.
+    ///
+    /// # Safety
+    /// The CPU must support AVX2.
+    #[target_feature(enable = "avx2")]
+    pub(super) unsafe fn row_blocks(
+        d: &Diffusion,
+        p: &[i32],
+        q: &[i32],
+        north: &mut [i32],
+        out: &mut [i32],
+        carry: &mut RowCarry,
+    ) -> usize {
+        let flux = Flux {
+            shift: _mm_cvtsi32_si128(d.shift as i32),
+            a_max: _mm256_set1_epi32(d.a_max as i32),
+            recip: _mm256_set1_epi32(d.recip as i32),
+            half: _mm256_set1_epi32(1 << 15),
+            last: _mm256_set1_epi32(LUT_LAST as i32),
+            low16: _mm256_set1_epi32(0xFFFF),
+        };
+        let (mul, round) = (_mm256_set1_epi32(d.step_mul), _mm256_set1_epi32(d.step_round));
+        let step_shift = _mm_cvtsi32_si128(d.step_shift as i32);
+        let max = _mm256_set1_epi32(i32::MAX);
+        let mut h_prev = _mm256_set_epi32(carry.h_prev, 0, 0, 0, 0, 0, 0, 0);
+        let mut v_prev = _mm256_setzero_si256();
+        // Lane 7 holds the carried value; the other lanes (and `v_prev`) are 0, so that the
+        // first block writes the unused `north[0]` exactly as the portable loop does.
+        let mut dr_prev = _mm256_set_epi32(carry.dr_prev, 0, 0, 0, 0, 0, 0, 0);
+        let (mut h, mut v, mut dr) = (h_prev, v_prev, dr_prev);
+        let mut x = 0;
+        while x + 8 <= out.len() {
+            let (Some(pc), Some(pr), Some(ql), Some(qc), Some(qr), Some(n_here)) = (
+                load(p, x + 1),
+                load(p, x + 2),
+                load(q, x),
+                load(q, x + 1),
+                load(q, x + 2),
+                load(north, x + 1),
+            ) else {
+                break;
+            };
+            h = flux.apply(_mm256_sub_epi32(pr, pc));
+            v = flux.apply(_mm256_sub_epi32(qc, pc));
+            dr = flux.apply(_mm256_sub_epi32(qr, pc));
+            let dl = flux.apply(_mm256_sub_epi32(ql, pc));
+            let west = shift_in::<12>(h_prev, h);
+            let axial = _mm256_add_epi32(_mm256_sub_epi32(h, west), v);
+            let acc = _mm256_add_epi32(
+                _mm256_add_epi32(_mm256_add_epi32(axial, axial), _mm256_add_epi32(dr, dl)),
+                n_here,
+            );
+            let step = _mm256_sra_epi32(_mm256_add_epi32(_mm256_mullo_epi32(acc, mul), round), step_shift);
+            // pc + step, saturated to the i32 range.
+            let sum = _mm256_add_epi32(pc, step);
+            let overflow = _mm256_and_si256(_mm256_xor_si256(pc, sum), _mm256_xor_si256(step, sum));
+            let limit = _mm256_xor_si256(_mm256_srai_epi32::<31>(pc), max);
+            let next = _mm256_castps_si256(_mm256_blendv_ps(
+                _mm256_castsi256_ps(sum),
+                _mm256_castsi256_ps(limit),
+                _mm256_castsi256_ps(overflow),
+            ));
+            // The north contributions to the row below at x − 1 .. x + 6 (pixel indices
+            // 0-based): −(2·v(k) + dr(k − 1) + dl(k + 1)).
+            let v_up = shift_in::<12>(v_prev, v);
+            let dr_up = shift_in::<8>(dr_prev, dr);
+            let below = _mm256_sub_epi32(
+                _mm256_setzero_si256(),
+                _mm256_add_epi32(_mm256_add_epi32(v_up, v_up), _mm256_add_epi32(dr_up, dl)),
+            );
+            if store(out, x, next).is_none() || store(north, x, below).is_none() {
+                break;
+            }
+            (h_prev, v_prev, dr_prev) = (h, v, dr);
+            x += 8;
+        }
+        if x > 0 {
+            let lane = |a: __m256i, i: usize| {
+                let mut l = [0i32; 8];
+                // SAFETY: writes the 32 bytes of `l`.
+                unsafe { _mm256_storeu_si256(l.as_mut_ptr().cast(), a) };
+                l.get(i).copied().unwrap_or(0)
+            };
+            *carry =
+                RowCarry { h_prev: lane(h, 7), dr_prev: lane(dr, 7), partial: -2 * lane(v, 7) - lane(dr, 6) };
+        }
+        x
     }
 }
 
@@ -247,19 +601,145 @@ impl<'a, 'o> NeighbourhoodOp<i32, &'o mut i32> for Update<'a> {
     }
 }
 
-#[inline(always)]
-fn diffuse_row_kernel(d: &Diffusion, up: Option<&[i32]>, mid: &[i32], down: Option<&[i32]>, out: &mut [i32]) {
-    map_neighbourhoods_op(up, mid, down, d.border, out.iter_mut(), Update(d));
+/// Rows of `tmp` per stage of the row pipeline, each padded (`w + 2`): two state rows and the
+/// north contributions.
+const STAGE_ROWS: usize = 3;
+
+/// Where the first stage of a pipeline group reads its rows.
+#[derive(Clone, Copy)]
+enum Input<'a> {
+    /// The source frame (first group: `u8` → Q16).
+    Frame(FrameRef<'a, u8>),
+    /// The state plane itself (later groups, read before being overwritten).
+    State,
 }
 
-crate::cpu::dispatch! {
-    /// One row of a Jacobi iteration.
-    fn diffuse_row(d: &Diffusion, up: Option<&[i32]>, mid: &[i32], down: Option<&[i32]>, out: &mut [i32]) => diffuse_row_kernel
+/// Writes the one-column pads of a padded row (`row[0]`, `row[w+1]`) by the border rule.
+#[inline]
+fn set_pads(row: &mut [i32], border: Border) {
+    let n = row.len();
+    let (left, right) = match border {
+        Border::Replicate => (row.get(1).copied(), row.get(n.wrapping_sub(2)).copied()),
+        _ => (Some(0), Some(0)),
+    };
+    if let (Some(l), Some(first)) = (left, row.first_mut()) {
+        *first = l;
+    }
+    if let (Some(r), Some(last)) = (right, row.last_mut()) {
+        *last = r;
+    }
+}
+
+/// One stage's memory: the two state rows (row `j` in slot `j % 2`) and the north
+/// contributions to the oldest row not yet updated.
+fn stage_rows(mem: &mut [i32], stride: usize) -> Option<[&mut [i32]; STAGE_ROWS]> {
+    let mut rows = mem.chunks_exact_mut(stride.max(1));
+    Some([rows.next()?, rows.next()?, rows.next()?])
+}
+
+impl Diffusion {
+    /// Runs `stages` Jacobi iterations in one pass down the frame (temporal blocking): stage
+    /// `s` keeps the last two rows of iterate `s` and the north contributions of their pairs, and
+    /// turns each new row of iterate `s` into the previous row of iterate `s + 1`, which goes
+    /// straight into stage `s + 1` (the last stage writes `state`). All the work rows live in
+    /// `mem` (`stages · STAGE_ROWS · (w + 2)` values), so the frame is read and written once
+    /// per group of iterations and the working set stays in cache.
+    fn run_group<const WIDE: bool>(
+        &self,
+        input: Input<'_>,
+        state: &mut [i32],
+        mem: &mut [i32],
+        (w, h): (usize, usize),
+        stages: usize,
+    ) {
+        let stride = w + 2;
+        let per_stage = STAGE_ROWS * stride;
+        let Some(mem) = mem.get_mut(..stages * per_stage) else { return };
+        mem.fill(0);
+        for t in 0..h + stages {
+            let mut chunks = mem.chunks_exact_mut(per_stage.max(1));
+            let mut cur = chunks.next();
+            // The input row t enters stage 0.
+            if t < h
+                && let Some([s0, s1, _]) = cur.as_deref_mut().and_then(|m| stage_rows(m, stride))
+            {
+                let slot = if t % 2 == 0 { s0 } else { s1 };
+                let dst = slot.get_mut(1..=w).unwrap_or(&mut []);
+                match input {
+                    Input::Frame(src) => {
+                        for (d, &v) in dst.iter_mut().zip(src.row(t)) {
+                            *d = i32::from(v) << STATE_BITS;
+                        }
+                    }
+                    Input::State => {
+                        for (d, &v) in dst.iter_mut().zip(state.get(t * w..t * w + w).unwrap_or(&[])) {
+                            *d = v;
+                        }
+                    }
+                }
+                set_pads(slot, self.border);
+            }
+            for s in 0..stages {
+                let mut next = chunks.next();
+                // Row j of iterate s has just arrived at stage s (j = h: the bottom pad).
+                let Some(j) = t.checked_sub(s) else { break };
+                if j <= h
+                    && let Some([s0, s1, north]) = cur.as_deref_mut().and_then(|m| stage_rows(m, stride))
+                {
+                    let (older, newer) = if j % 2 == 0 { (s1, s0) } else { (s0, s1) };
+                    if j == 0 {
+                        // The pairs between the top pad row and row 0.
+                        let top: &[i32] = match self.border {
+                            Border::Replicate => newer,
+                            _ => {
+                                older.fill(0);
+                                older
+                            }
+                        };
+                        self.top_north(top, newer, north);
+                    } else {
+                        // Output row j − 1 of iterate s + 1, from rows j − 1 (`older`) and j
+                        // (`newer`), or the bottom pad row when j = h.
+                        let (p, q): (&[i32], &[i32]) = if j < h {
+                            (older, newer)
+                        } else {
+                            // Row h − 1 is `older`; the free slot becomes the zero pad row.
+                            match self.border {
+                                Border::Replicate => (older, older),
+                                _ => {
+                                    newer.fill(0);
+                                    (older, newer)
+                                }
+                            }
+                        };
+                        let y = j - 1;
+                        match next.as_deref_mut().and_then(|m| stage_rows(m, stride)) {
+                            Some([n0, n1, _]) => {
+                                let slot = if y % 2 == 0 { n0 } else { n1 };
+                                self.row::<WIDE>(p, q, north, slot.get_mut(1..=w).unwrap_or(&mut []));
+                                set_pads(slot, self.border);
+                            }
+                            None => {
+                                let out = state.get_mut(y * w..y * w + w).unwrap_or(&mut []);
+                                self.row::<WIDE>(p, q, north, out);
+                            }
+                        }
+                    }
+                }
+                cur = next.take();
+            }
+        }
+    }
 }
 
 /// Diffuses `src` (u8) with `params.iterations` Perona–Malik steps into `state` (Q16,
-/// packed `w × h`), using `tmp` as the Jacobi ping-pong plane. Both planes hold at least
-/// `w·h` elements. This is step 1 of ADF (the base layer), public for tests and benches.
+/// packed `w × h`), using `tmp` as work memory. Both planes hold at least `w·h` elements.
+/// This is step 1 of ADF (the base layer), public for tests and benches.
+///
+/// The iterations run in groups through a row pipeline (see `Diffusion::run_group`) that
+/// needs `3·(w + 2)` values of `tmp` per iteration; frames too small for even one stage
+/// (fewer than about 3 rows) fall back to plain Jacobi sweeps with `tmp` as the ping-pong
+/// plane. Both give the same bits.
 pub fn diffuse(
     src: FrameRef<'_, u8>,
     params: &AdfParams,
@@ -273,25 +753,54 @@ pub fn diffuse(
     let (Some(state), Some(tmp)) = (state.get_mut(..pixels), tmp.get_mut(..pixels)) else {
         return Err(Error::ScratchTooSmall { needed: pixels, capacity });
     };
-    for (row, dst) in src.rows().zip(state.chunks_exact_mut(w)) {
+    let diffusion = Diffusion::new(params);
+    let per_stage = STAGE_ROWS * (w + 2);
+    let group = (pixels / per_stage.max(1)).min(usize::from(params.iterations));
+    if group == 0 {
+        diffuse_sweeps(src, &diffusion, params.iterations, state, tmp, w);
+        return Ok(());
+    }
+    let mut done = 0;
+    let mut input = Input::Frame(src);
+    while done < usize::from(params.iterations) {
+        let stages = group.min(usize::from(params.iterations) - done);
+        if diffusion.wide_step {
+            diffusion.run_group::<true>(input, state, tmp, (w, h), stages);
+        } else {
+            diffusion.run_group::<false>(input, state, tmp, (w, h), stages);
+        }
+        input = Input::State;
+        done += stages;
+    }
+    Ok(())
+}
+
+/// Plain Jacobi sweeps (8 fluxes per pixel), `tmp` as the ping-pong plane.
+fn diffuse_sweeps(
+    src: FrameRef<'_, u8>,
+    diffusion: &Diffusion,
+    iterations: u16,
+    state: &mut [i32],
+    tmp: &mut [i32],
+    w: usize,
+) {
+    for (row, dst) in src.rows().zip(state.chunks_exact_mut(w.max(1))) {
         for (d, &v) in dst.iter_mut().zip(row) {
             *d = i32::from(v) << STATE_BITS;
         }
     }
-    let diffusion = Diffusion::new(params);
-    for i in 0..params.iterations {
+    for i in 0..iterations {
         if i % 2 == 0 {
             diffusion.iterate(state, tmp, w);
         } else {
             diffusion.iterate(tmp, state, w);
         }
     }
-    if !params.iterations.is_multiple_of(2) {
+    if !iterations.is_multiple_of(2) {
         for (s, t) in state.iter_mut().zip(tmp.iter()) {
             *s = *t;
         }
     }
-    Ok(())
 }
 
 /// The KL weight and the guards it fired.
@@ -394,6 +903,55 @@ fn check_sizes(vis: &FrameRef<'_, u8>, tir: &FrameRef<'_, u8>, out: (usize, usiz
     Ok(())
 }
 
+/// `|D|` bound (Q16, 1024 grey levels) under which the covariance sums run in `i64` chunks and
+/// the output in 32 × 32 → 64-bit products. Sane states are far below it (`|D| < 2²⁵`); a
+/// chunk or frame beyond it takes the general path, with the same result.
+const SMALL_DETAIL: u32 = 1 << 26;
+
+/// Pixels per `i64` covariance chunk: 2¹¹ products below 2⁵² sum below 2⁶³.
+const COV_CHUNK: usize = 1 << 11;
+
+/// The detail `D = 2¹⁶·I − A` in `i32`: exact when `|D| < 2³¹`, otherwise wrapped to a value
+/// of magnitude ≥ 2³¹ − 2²⁴ (still beyond [`SMALL_DETAIL`]).
+#[inline(always)]
+fn detail32(i: u8, a: i32) -> i32 {
+    (i32::from(i) << STATE_BITS).wrapping_sub(a)
+}
+
+/// `[ΣD_IR, ΣD_VIS, ΣD_IR², ΣD_IR·D_VIS, ΣD_VIS²]` of one chunk, exactly.
+type Moments = [i128; 5];
+
+/// The moments of a chunk in `i64` (`None` when some `|D| ≥` [`SMALL_DETAIL`]).
+#[inline(always)]
+fn moments_small(iv: &[u8], it: &[u8], av: &[i32], at: &[i32]) -> Option<Moments> {
+    let (mut s1, mut s2, mut s11, mut s12, mut s22) = (0i64, 0i64, 0i64, 0i64, 0i64);
+    let mut bits = 0u32;
+    for (((&iv, &it), &av), &at) in iv.iter().zip(it).zip(av).zip(at) {
+        let (d1, d2) = (detail32(it, at), detail32(iv, av));
+        bits |= d1.unsigned_abs() | d2.unsigned_abs();
+        let (d1, d2) = (i64::from(d1), i64::from(d2));
+        s1 += d1;
+        s2 += d2;
+        s11 += d1 * d1;
+        s12 += d1 * d2;
+        s22 += d2 * d2;
+    }
+    (bits < SMALL_DETAIL).then_some([s1, s2, s11, s12, s22].map(i128::from))
+}
+
+/// The moments of a chunk in `i128` (any state).
+fn moments_exact(iv: &[u8], it: &[u8], av: &[i32], at: &[i32]) -> Moments {
+    let mut m = [0i128; 5];
+    for (((&iv, &it), &av), &at) in iv.iter().zip(it).zip(av).zip(at) {
+        let d1 = (i128::from(it) << STATE_BITS) - i128::from(at);
+        let d2 = (i128::from(iv) << STATE_BITS) - i128::from(av);
+        for (s, v) in m.iter_mut().zip([d1, d2, d1 * d1, d1 * d2, d2 * d2]) {
+            *s += v;
+        }
+    }
+    m
+}
+
 /// The one code path: diffuse both bands, KL weights, then hand each fused raw row (Q16) to
 /// `emit(y, row)`.
 fn run(
@@ -408,30 +966,30 @@ fn run(
     let [a_vis, a_tir, tmp] = scratch.planes(w * h)?;
     diffuse(vis, params, a_vis, tmp)?;
     diffuse(tir, params, a_tir, tmp)?;
+    let rows =
+        || vis.rows().zip(tir.rows()).zip(a_vis.chunks_exact(w.max(1))).zip(a_tir.chunks_exact(w.max(1)));
 
-    // Covariance of the detail layers D = 2¹⁶·I − A (Q16), exact in i128.
-    let (mut s1, mut s2, mut s11, mut s12, mut s22) = (0i128, 0i128, 0i128, 0i128, 0i128);
-    for (((iv, it), av), at) in
-        vis.rows().zip(tir.rows()).zip(a_vis.chunks_exact(w)).zip(a_tir.chunks_exact(w))
-    {
-        // Row sums (|D| < 2³³ even for a saturated state; a row ≤ 2¹⁴ pixels: Σ < 2⁴⁷).
-        let (mut r1, mut r2, mut r11, mut r12, mut r22) = (0i64, 0i64, 0i128, 0i128, 0i128);
-        for (((&iv, &it), &av), &at) in iv.iter().zip(it).zip(av).zip(at) {
-            let d_ir = (i64::from(it) << STATE_BITS) - i64::from(at);
-            let d_vis = (i64::from(iv) << STATE_BITS) - i64::from(av);
-            r1 += d_ir;
-            r2 += d_vis;
-            let (d1, d2) = (i128::from(d_ir), i128::from(d_vis));
-            r11 += d1 * d1;
-            r12 += d1 * d2;
-            r22 += d2 * d2;
+    // Covariance of the detail layers D = 2¹⁶·I − A (Q16), exact: i64 chunk sums when every
+    // |D| of the chunk is below SMALL_DETAIL, i128 otherwise.
+    let mut sums = [0i128; 5];
+    let mut small = true;
+    for (((iv, it), av), at) in rows() {
+        let chunks = iv
+            .chunks(COV_CHUNK)
+            .zip(it.chunks(COV_CHUNK))
+            .zip(av.chunks(COV_CHUNK))
+            .zip(at.chunks(COV_CHUNK));
+        for (((iv, it), av), at) in chunks {
+            let m = moments_small(iv, it, av, at).unwrap_or_else(|| {
+                small = false;
+                moments_exact(iv, it, av, at)
+            });
+            for (s, v) in sums.iter_mut().zip(m) {
+                *s += v;
+            }
         }
-        s1 += i128::from(r1);
-        s2 += i128::from(r2);
-        s11 += r11;
-        s12 += r12;
-        s22 += r22;
     }
+    let [s1, s2, s11, s12, s22] = sums;
     let n = (w * h) as i128;
     let a = n * s11 - s1 * s1;
     let b = n * s12 - s1 * s2;
@@ -440,30 +998,60 @@ fn run(
     let p_ir = weights.p_ir_q30;
 
     // F = ½(A_IR + A_VIS) + D_VIS + p_IR·(D_IR − D_VIS), in Q46, rounded to Q16.
-    for (y, ((((iv, it), av), at), out)) in vis
-        .rows()
-        .zip(tir.rows())
-        .zip(a_vis.chunks_exact(w))
-        .zip(a_tir.chunks_exact(w))
-        .zip(tmp.chunks_exact_mut(w))
-        .enumerate()
-    {
-        for ((((o, &iv), &it), &av), &at) in out.iter_mut().zip(iv).zip(it).zip(av).zip(at) {
-            let d_ir = (i64::from(it) << STATE_BITS) - i64::from(at);
-            let d_vis = (i64::from(iv) << STATE_BITS) - i64::from(av);
-            let base = (i64::from(av) + i64::from(at)) << (WEIGHT_BITS - 1);
-            // |p_IR| ≤ 2³⁷ and |D| < 2²⁵ on any sane state: no saturation; saturating ops
-            // only keep pathological parameter choices from overflowing.
-            let v = base
-                .saturating_add(d_vis << WEIGHT_BITS)
-                .saturating_add(p_ir.saturating_mul(d_ir - d_vis))
-                .saturating_add(1 << (WEIGHT_BITS - 1));
-            let q = v >> WEIGHT_BITS;
-            *o = q.clamp(i64::from(i32::MIN), i64::from(i32::MAX)) as i32;
+    let p32 = i32::try_from(p_ir).ok().filter(|_| small);
+    for (y, ((((iv, it), av), at), out)) in rows().zip(tmp.chunks_exact_mut(w.max(1))).enumerate() {
+        let pixels = out.iter_mut().zip(iv).zip(it).zip(av).zip(at);
+        match p32 {
+            Some(p) => {
+                // Every |D| < 2²⁶, so |A| < 2²⁷ and |p_IR| < 2³¹: the sum below stays under
+                // 2⁵⁹, the same value as the general form without any saturation.
+                for ((((o, &iv), &it), &av), &at) in pixels {
+                    *o = fused_small(p, iv, it, av, at);
+                }
+            }
+            None => {
+                for ((((o, &iv), &it), &av), &at) in pixels {
+                    *o = fused_general(p_ir, iv, it, av, at);
+                }
+            }
         }
         emit(y, out);
     }
     Ok(weights.guards)
+}
+
+/// One fused raw value (Q16): `F = ½(A_IR + A_VIS) + D_VIS + p_IR·(D_IR − D_VIS)` in Q46,
+/// rounded half up to Q16, saturating (only pathological states or weights saturate).
+#[inline(always)]
+fn fused_general(p_ir: i64, iv: u8, it: u8, av: i32, at: i32) -> i32 {
+    let d_ir = (i64::from(it) << STATE_BITS) - i64::from(at);
+    let d_vis = (i64::from(iv) << STATE_BITS) - i64::from(av);
+    let base = (i64::from(av) + i64::from(at)) << (WEIGHT_BITS - 1);
+    let v = base
+        .saturating_add(d_vis << WEIGHT_BITS)
+        .saturating_add(p_ir.saturating_mul(d_ir - d_vis))
+        .saturating_add(1 << (WEIGHT_BITS - 1));
+    let q = v >> WEIGHT_BITS;
+    q.clamp(i64::from(i32::MIN), i64::from(i32::MAX)) as i32
+}
+
+/// [`fused_general`] when `|D| <` [`SMALL_DETAIL`] for both bands and `|p_IR| < 2³¹`: then
+/// `|A| < 2²⁷`, the Q46 sum `(A_IR + A_VIS + 2·D_VIS + 1)·2²⁹ + p_IR·(D_IR − D_VIS)` stays
+/// under 2⁵⁹ and nothing saturates (on Arm: one `smlal`).
+#[inline(always)]
+fn fused_small(p_ir: i32, iv: u8, it: u8, av: i32, at: i32) -> i32 {
+    let (d_ir, d_vis) = (detail32(it, at), detail32(iv, av));
+    let s = av + at + 2 * d_vis + 1;
+    let v = (i64::from(s) << (WEIGHT_BITS - 1)) + i64::from(p_ir) * i64::from(d_ir - d_vis);
+    (v >> WEIGHT_BITS) as i32
+}
+
+/// [`round_away_sat_u8`](super::round_away_sat_u8)`(raw, 16)` for an `i32` raw value, in `i32` arithmetic: for
+/// `raw ≥ 0` it is `(raw + 2¹⁵) >> 16 = ((raw >> 1) + 2¹⁴) >> 15` (no overflow), saturated; a
+/// negative raw value rounds to ≤ 0 either way and saturates to 0.
+#[inline(always)]
+fn raw_to_u8(raw: i32) -> u8 {
+    (((raw >> 1) + (1 << 14)) >> 15).clamp(0, 255) as u8
 }
 
 /// Fuses a VIS/TIR pair with ADF into the 8-bit `out` (MATLAB `uint8` cast of the raw value).
@@ -483,7 +1071,7 @@ pub fn fuse_adf(
     let guards = run(vis, tir, params, scratch, |y, raw| {
         for (o, &v) in out.row_mut(y).iter_mut().zip(raw) {
             saturated |= !(-(1 << 15)..(255 << 16) + (1 << 15)).contains(&v);
-            *o = round_away_sat_u8(i64::from(v), RAW_FRAC_BITS);
+            *o = raw_to_u8(v);
         }
     })?;
     Ok(if saturated { guards | Guards::OUTPUT_SATURATED } else { guards })
@@ -491,7 +1079,7 @@ pub fn fuse_adf(
 
 /// Fuses like [`fuse_adf`] but writes the real-valued result before the 8-bit cast, in Q16
 /// ([`RAW_FRAC_BITS`]; `raw / 65536.0` grey levels). [`fuse_adf`] is this value cast with
-/// [`round_away_sat_u8`]`(raw, 16)`.
+/// [`round_away_sat_u8`](super::round_away_sat_u8)`(raw, 16)`.
 pub fn fuse_adf_raw(
     vis: FrameRef<'_, u8>,
     tir: FrameRef<'_, u8>,
@@ -510,6 +1098,7 @@ pub fn fuse_adf_raw(
 #[cfg(test)]
 mod tests {
     extern crate std;
+    use super::super::round_away_sat_u8;
     use super::*;
 
     #[test]
@@ -540,6 +1129,202 @@ mod tests {
         // Index rounding: ≤ 1 · 2⁻¹² = 2.44e-4; entries: 2⁻¹⁷; index truncation ≈ 2⁻¹⁶.
         assert!(max_err < 2.8e-4, "max flux error {max_err:e}");
         assert!(max_err > 1e-5, "the bound should be nearly reached: {max_err:e}");
+    }
+
+    /// The flux as first written (clamp `|∇|` to 4κ + 1 levels, `u32` index arithmetic,
+    /// clamp the index to `LUT_LEN`): the fast form must give the same value everywhere.
+    fn flux_first_form(kappa: u16, d: i32) -> i32 {
+        let kappa = u32::from(kappa);
+        let shift = 1 + (32 - kappa.leading_zeros());
+        let recip = ((1u32 << (11 + shift)) + kappa / 2) / kappa;
+        let limit = (4 * kappa + 1) << 16;
+        let a = d.unsigned_abs().min(limit) >> shift;
+        let idx = ((a * recip + (1 << 15)) >> 16).min(LUT_LEN as u32) as usize;
+        let g = EXP_FLUX.get(idx).map_or(0, |&g| i32::from(g));
+        if d < 0 { -g } else { g }
+    }
+
+    /// Every κ, every `|∇| >> shift` up to past the clamp (the flux depends on nothing else),
+    /// both signs and the extremes.
+    #[test]
+    fn fast_flux_equals_the_first_form_exhaustively() {
+        for kappa in 1..=255u16 {
+            let d = Diffusion::new(&AdfParams { kappa, ..AdfParams::default() });
+            let top = ((4 * u32::from(kappa) + 3) << 16) >> d.shift;
+            for a in (0..=top).chain([top << 3, u32::MAX >> d.shift]) {
+                for low in [0u32, (1 << d.shift) - 1] {
+                    let m = (a << d.shift | low).min(i32::MAX as u32) as i32;
+                    for x in [m, -m, i32::MIN, i32::MAX] {
+                        assert_eq!(d.flux(x), flux_first_form(kappa, x), "kappa {kappa} d {x}");
+                        assert_eq!(d.index_signed(x.unsigned_abs()), d.index_unsigned(x.unsigned_abs()));
+                    }
+                }
+            }
+        }
+    }
+
+    fn noise(n: usize, seed: u32, levels: u32) -> std::vec::Vec<u8> {
+        let mut s = seed;
+        (0..n)
+            .map(|_| {
+                s = s.wrapping_mul(1664525).wrapping_add(1013904223);
+                ((s >> 24) % levels) as u8 * (255 / (levels - 1).max(1)) as u8
+            })
+            .collect()
+    }
+
+    /// The row pipeline (pair fluxes, grouped iterations) against plain Jacobi sweeps with all
+    /// eight fluxes per pixel, bit for bit: sizes from one row to one column, both borders,
+    /// one group and several groups, parameters with the `i64` step.
+    #[test]
+    fn row_pipeline_equals_plain_sweeps() -> Result<(), Error> {
+        let sizes = [
+            (1usize, 6usize),
+            (6, 1),
+            (7, 2),
+            (5, 6),
+            (1, 60),
+            (2, 40),
+            (3, 50),
+            (17, 9),
+            (31, 40),
+            (64, 23),
+        ];
+        let params = [
+            AdfParams::default(),
+            AdfParams { iterations: 7, dt_milli: 250, kappa: 5, ..AdfParams::default() },
+            AdfParams { iterations: 23, dt_milli: 100, kappa: 200, ..AdfParams::default() },
+            AdfParams { iterations: 3, dt_milli: 250, kappa: 255, ..AdfParams::default() },
+            AdfParams { iterations: 2, dt_milli: 1, kappa: 1, ..AdfParams::default() },
+        ];
+        for (k, &(w, h)) in sizes.iter().enumerate() {
+            for levels in [2u32, 256] {
+                let src = noise(w * h, 7 + k as u32, levels);
+                let frame = FrameRef::new(&src, w, h)?;
+                for p in params {
+                    for variant in [Variant::Classic, Variant::Flight] {
+                        let p = AdfParams { variant, ..p };
+                        let d = Diffusion::new(&p);
+                        let (mut want, mut tmp) = (std::vec![0i32; w * h], std::vec![0i32; w * h]);
+                        diffuse_sweeps(frame, &d, p.iterations, &mut want, &mut tmp, w);
+                        let mut got = std::vec![0i32; w * h];
+                        diffuse(frame, &p, &mut got, &mut tmp)?;
+                        assert_eq!(got, want, "{w}x{h} {p:?}");
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// The AVX2 row loop against the portable one on random rows: typical Q16 states, huge
+    /// values (saturating updates, wrapped differences, `i32::MIN`), every κ class, widths
+    /// around the block size.
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn avx2_rows_equal_the_portable_rows() {
+        if !crate::cpu::has_avx2() {
+            return;
+        }
+        let mut seed = 99u32;
+        let mut next = || {
+            seed = seed.wrapping_mul(1664525).wrapping_add(1013904223);
+            seed
+        };
+        for kappa in [1u16, 2, 7, 30, 100, 255] {
+            for dt_milli in [1u16, 150, 250] {
+                let params = AdfParams { kappa, dt_milli, ..AdfParams::default() };
+                let mut d = Diffusion::new(&params);
+                if d.wide_step {
+                    continue;
+                }
+                for w in [1usize, 7, 8, 9, 16, 23, 64] {
+                    for scale in [0u32, 1, 2] {
+                        let mut value = || match scale {
+                            0 => (next() >> 8) as i32 & ((1 << 24) - 1),
+                            1 => (next() >> 12) as i32 - (1 << 19),
+                            _ => [i32::MIN, i32::MAX, next() as i32, 0][(next() >> 30) as usize],
+                        };
+                        let p: std::vec::Vec<i32> = (0..w + 2).map(|_| value()).collect();
+                        let q: std::vec::Vec<i32> = (0..w + 2).map(|_| value()).collect();
+                        let north: std::vec::Vec<i32> =
+                            (0..w + 2).map(|_| (next() >> 13) as i32 - (1 << 18)).collect();
+                        let mut results = [(std::vec![], std::vec![]), (std::vec![], std::vec![])];
+                        for (avx2, r) in [false, true].into_iter().zip(results.iter_mut()) {
+                            d.avx2 = avx2;
+                            let (mut n, mut o) = (north.clone(), std::vec![0i32; w]);
+                            d.row::<false>(&p, &q, &mut n, &mut o);
+                            *r = (n, o);
+                        }
+                        assert_eq!(results[0], results[1], "kappa {kappa} dt {dt_milli} w {w} scale {scale}");
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn raw_to_u8_is_the_matlab_cast() {
+        let mut v = i32::MIN;
+        loop {
+            assert_eq!(raw_to_u8(v), round_away_sat_u8(i64::from(v), RAW_FRAC_BITS), "{v}");
+            match v.checked_add(4093) {
+                Some(n) => v = n,
+                None => break,
+            }
+        }
+        for v in
+            [i32::MAX, i32::MAX - 1, -1, 0, 1, (1 << 15) - 1, 1 << 15, 255 << 16, (255 << 16) + (1 << 15)]
+        {
+            assert_eq!(raw_to_u8(v), round_away_sat_u8(i64::from(v), RAW_FRAC_BITS), "{v}");
+        }
+    }
+
+    /// The chunked `i64` moments against the `i128` ones, and their refusal of large details.
+    #[test]
+    fn small_moments_equal_exact_moments() {
+        let iv = noise(300, 5, 256);
+        let it = noise(300, 6, 256);
+        let mut s = 17u32;
+        let mut state = |i: &u8| {
+            s = s.wrapping_mul(1664525).wrapping_add(1013904223);
+            (i32::from(*i) << 16) + (s >> 7) as i32 % (1 << 25)
+        };
+        let av: std::vec::Vec<i32> = iv.iter().map(&mut state).collect();
+        let at: std::vec::Vec<i32> = it.iter().map(&mut state).collect();
+        assert_eq!(moments_small(&iv, &it, &av, &at), Some(moments_exact(&iv, &it, &av, &at)));
+        for bad in [i32::MIN, i32::MAX, -(1 << 26), (255 << 16) + (1 << 26)] {
+            let mut at = at.clone();
+            at[7] = bad;
+            assert_eq!(moments_small(&iv, &it, &av, &at), None, "{bad}");
+        }
+    }
+
+    #[test]
+    fn small_fusion_equals_general_fusion() {
+        let mut s = 3u32;
+        let mut next = || {
+            s = s.wrapping_mul(1664525).wrapping_add(1013904223);
+            s
+        };
+        for k in 0..200_000 {
+            let (iv, it) = ((next() >> 24) as u8, (next() >> 24) as u8);
+            let d = |r: u32| (r >> 5) as i32 - (1 << 26) + 1; // |D| < 2²⁶
+            let (av, at) = ((i32::from(iv) << 16) - d(next()), (i32::from(it) << 16) - d(next()));
+            let p = match k % 4 {
+                0 => (next() >> 1) as i32,
+                1 => -((next() >> 1) as i32),
+                2 => [i32::MAX, i32::MIN + 1, 0, 1 << 30][(next() >> 30) as usize],
+                _ => (next() >> 1) as i32 >> (next() >> 27),
+            };
+            assert_eq!(fused_small(p, iv, it, av, at), fused_general(i64::from(p), iv, it, av, at));
+        }
+    }
+
+    #[test]
+    fn wide_step_is_used_for_large_scales() {
+        assert!(!Diffusion::new(&AdfParams::default()).wide_step);
+        assert!(Diffusion::new(&AdfParams { kappa: 255, dt_milli: 249, ..AdfParams::default() }).wide_step);
     }
 
     #[test]

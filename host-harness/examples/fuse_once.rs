@@ -1,0 +1,106 @@
+//! Runs one fusion of a synthetic pair on the core, for instruction counting under callgrind.
+//!
+//! ```sh
+//! cargo build --release -p host-harness --example fuse_once
+//! valgrind --tool=callgrind --toggle-collect=fuse_once::fuse_region \
+//!     target/release/examples/fuse_once adf classic 1024
+//! ```
+//!
+//! Arguments: `adf|tsifsd|ifevip`, `classic|flight`, the side `n` (frames are `n × n`),
+//! optionally `--repeat R` (fuse R times) and `--write DIR` (also write the synthetic pair as
+//! `DIR/synth<n>_VIS.png`, `DIR/synth<n>_IR.png`, and raw 8-bit `.gray` twins for the firmware). Only [`fuse_region`] does the fusion, so
+//! `--toggle-collect` on it counts the fusion alone (frame synthesis excluded). The frames are
+//! the ones of the criterion benches (`benches/fuse_adf_tsifsd.rs`).
+
+use anyhow::{Context, Result, bail};
+use fusion_nostd::fuse::Variant;
+use fusion_nostd::fuse::adf::AdfParams;
+use fusion_nostd::fuse::ifevip::{IfevipParams, scratch_pixels};
+use fusion_nostd::fuse::tsifsd::TsifsdParams;
+use fusion_nostd::pipeline::{Method, fuse_method};
+use fusion_nostd::{FrameMut, FrameRef, Guards};
+use host_harness::CoreScratch;
+use host_harness::io::{Gray, save_gray_u8};
+use std::hint::black_box;
+use std::path::PathBuf;
+
+/// The benches' synthetic scene: a smooth blob with texture, different for the two bands.
+fn frame(n: usize, seed: usize) -> Vec<u8> {
+    (0..n * n)
+        .map(|i| {
+            let (x, y) = (i % n, i / n);
+            let (dx, dy) = (x as f64 - n as f64 * 0.4, y as f64 - n as f64 * 0.55);
+            let blob = 180.0 * (-(dx * dx + dy * dy) / (0.02 * (n * n) as f64)).exp();
+            let texture = ((x * 7 + y * 13 + seed) ^ (i.wrapping_mul(2654435761) >> 7)) % 23;
+            (blob + 20.0 + texture as f64 + (x * seed % 31) as f64).min(255.0) as u8
+        })
+        .collect()
+}
+
+/// The measured region: one fusion.
+#[inline(never)]
+fn fuse_region(
+    vis: &[u8],
+    tir: &[u8],
+    out: &mut [u8],
+    n: usize,
+    method: &Method,
+    scratch: &mut CoreScratch,
+) -> Guards {
+    let mut run = || -> Result<Guards> {
+        let v = FrameRef::new(black_box(vis), n, n)?;
+        let t = FrameRef::new(black_box(tir), n, n)?;
+        Ok(fuse_method(v, t, FrameMut::new(out, n, n)?, method, &mut scratch.view_mut())?)
+    };
+    run().unwrap_or(Guards(u32::MAX))
+}
+
+fn main() -> Result<()> {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let (Some(method), Some(variant), Some(n)) = (args.first(), args.get(1), args.get(2)) else {
+        bail!("usage: fuse_once adf|tsifsd|ifevip classic|flight N [--repeat R] [--write DIR]");
+    };
+    let variant = match variant.as_str() {
+        "classic" => Variant::Classic,
+        "flight" => Variant::Flight,
+        v => bail!("unknown variant {v}"),
+    };
+    let n: usize = n.parse().context("N")?;
+    let method = match method.as_str() {
+        "adf" => Method::Adf(AdfParams { variant, ..AdfParams::default() }),
+        "tsifsd" => Method::Tsifsd(TsifsdParams { variant, ..TsifsdParams::default() }),
+        "ifevip" => Method::Ifevip(IfevipParams { variant, ..IfevipParams::default() }),
+        m => bail!("unknown method {m}"),
+    };
+    let mut repeat = 1usize;
+    let mut write: Option<PathBuf> = None;
+    let mut rest = args.iter().skip(3);
+    while let Some(a) = rest.next() {
+        match a.as_str() {
+            "--repeat" => repeat = rest.next().context("--repeat R")?.parse()?,
+            "--write" => write = Some(PathBuf::from(rest.next().context("--write DIR")?)),
+            other => bail!("unknown argument {other}"),
+        }
+    }
+    let (vis, tir) = (frame(n, 3), frame(n, 11));
+    if let Some(dir) = write {
+        for (name, data) in [("VIS", &vis), ("IR", &tir)] {
+            let img = Gray { width: n, height: n, data: data.clone() };
+            save_gray_u8(&dir.join(format!("synth{n}_{name}.png")), &img)?;
+            std::fs::write(dir.join(format!("synth{n}_{name}.gray")), data)?;
+        }
+    }
+    let pixels = match &method {
+        Method::Ifevip(p) => scratch_pixels(n, n, p).max(n * n),
+        _ => n * n,
+    };
+    let mut scratch = CoreScratch::new(pixels);
+    let mut out = vec![0u8; n * n];
+    let mut guards = Guards::NONE;
+    for _ in 0..repeat {
+        guards = fuse_region(&vis, &tir, &mut out, n, &method, &mut scratch);
+    }
+    let checksum = out.iter().fold(0u64, |h, &v| h.wrapping_mul(1_000_003).wrapping_add(u64::from(v)));
+    println!("guards {:#x} checksum {checksum:016x}", guards.0);
+    Ok(())
+}

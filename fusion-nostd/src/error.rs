@@ -49,7 +49,9 @@ pub enum Error {
     },
     /// A NaN or infinite value in a floating-point input.
     NonFinite,
-    /// A sample above the declared bit depth (e.g. a 14-bit frame holding 2¹⁴ or more).
+    /// A sample outside the range the operation accepts: an `f32` magnitude above
+    /// [`crate::rescale::F32_MAX_MAGNITUDE`] (where a filter's overshoot could overflow to ±∞),
+    /// or a sample above a declared bit depth.
     ValueOutOfRange,
     /// A parameter outside its documented range.
     InvalidParameter {
@@ -81,7 +83,7 @@ impl fmt::Display for Error {
                 write!(f, "scratch holds {capacity} pixels per plane, this frame needs {needed}")
             }
             Error::NonFinite => write!(f, "non-finite (NaN or infinite) value in the input"),
-            Error::ValueOutOfRange => write!(f, "sample value above the declared bit depth"),
+            Error::ValueOutOfRange => write!(f, "sample value outside the accepted range"),
             Error::InvalidParameter { name } => write!(f, "parameter `{name}` out of range"),
         }
     }

@@ -58,7 +58,18 @@ impl Pipeline {
     /// Pixels each scratch plane (the three `i32` planes and the `u8` band plane) must hold to
     /// fuse a `vis`-sized frame with a `tir`-sized one, or [`Error::SizeMismatch`] when the
     /// policy cannot align them.
+    ///
+    /// Sizes a view could not have are refused first: a zero side ([`Error::ZeroDimension`]) or
+    /// a side above [`crate::MAX_DIMENSION`] ([`Error::DimensionTooLarge`]).
     pub fn scratch_pixels(&self, vis: (usize, usize), tir: (usize, usize)) -> Result<usize, Error> {
+        for value in [vis.0, vis.1, tir.0, tir.1] {
+            if value == 0 {
+                return Err(Error::ZeroDimension);
+            }
+            if value > crate::MAX_DIMENSION {
+                return Err(Error::DimensionTooLarge { value });
+            }
+        }
         let (w, h) = fusion_grid(vis, tir, self.rescale)?;
         let pixels = w.checked_mul(h).ok_or(Error::DimensionTooLarge { value: w.max(h) })?;
         Ok(match &self.method {

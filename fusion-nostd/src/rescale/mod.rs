@@ -98,11 +98,33 @@ impl Sample for u16 {
     }
 }
 
+/// The largest magnitude the `f32` rescaler accepts: 2¹²⁰ ≈ 1.33·10³⁶.
+///
+/// Every output is a weighted sum of inputs whose weights' absolute values add up to at most
+/// 1.375² < 2 (Keys cubic, a = −0.75, both axes) or exactly 1 (area; the 2× area kernel adds four
+/// samples before scaling, ≤ 4·max), and no partial sum exceeds that, so with inputs within
+/// ±2¹²⁰ every intermediate stays below 2¹²³, far from `f32::MAX` ≈ 2¹²⁸: the output is finite.
+/// Larger finite inputs could overflow to ±∞ and are refused with [`Error::ValueOutOfRange`].
+pub const F32_MAX_MAGNITUDE: f32 = (1u128 << 120) as f32;
+
+/// `NonFinite` if any sample is NaN or ±∞, else `ValueOutOfRange` if any magnitude exceeds
+/// [`F32_MAX_MAGNITUDE`]. Denormals and signed zeros are ordinary values.
+fn check_f32_input(src: FrameRef<'_, f32>) -> Result<(), Error> {
+    let mut too_large = false;
+    for row in src.rows() {
+        for v in row {
+            if !v.is_finite() {
+                return Err(Error::NonFinite);
+            }
+            too_large |= v.abs() > F32_MAX_MAGNITUDE;
+        }
+    }
+    if too_large { Err(Error::ValueOutOfRange) } else { Ok(()) }
+}
+
 impl Sample for f32 {
     fn rescale_views(src: FrameRef<'_, f32>, dst: FrameMut<'_, f32>, filter: Filter) -> Result<(), Error> {
-        if src.rows().any(|row| row.iter().any(|v| !v.is_finite())) {
-            return Err(Error::NonFinite);
-        }
+        check_f32_input(src)?;
         match (ratio(src.size(), dst.size()), filter) {
             (Ratio::Same, _) => copy_frame(src, dst),
             (Ratio::Up2, Filter::Area) => area::up2(src, dst),
@@ -116,8 +138,10 @@ impl Sample for f32 {
 /// Rescales `src` to the size of `dst` with `filter`.
 ///
 /// Any sizes from 1×1 up to [`crate::MAX_DIMENSION`] on each axis; the views were
-/// validated when built, so the only errors are non-finite `f32` input
-/// ([`Error::NonFinite`]; `dst` is then left untouched).
+/// validated when built, so the only errors concern `f32` input: NaN or ±∞
+/// ([`Error::NonFinite`]) and magnitudes above [`F32_MAX_MAGNITUDE`]
+/// ([`Error::ValueOutOfRange`]); `dst` is then left untouched. Integer samples saturate
+/// (never wrap); `u16` frames use the full 16-bit range (there is no bit-depth parameter).
 ///
 /// ```
 /// use fusion_nostd::{rescale, Filter, FrameMut, FrameRef};

@@ -1,0 +1,4 @@
+//! `cargo fuzz run rescale_u8`: see `fusion_fuzz::rescale_u8` (fuzz/src/lib.rs).
+#![no_main]
+
+libfuzzer_sys::fuzz_target!(|data: &[u8]| fusion_fuzz::rescale_u8(data));

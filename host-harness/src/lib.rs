@@ -10,6 +10,7 @@ pub mod metrics;
 pub mod plot;
 pub mod reference;
 pub mod study;
+pub mod study_methods;
 
 /// Path of the shared read-only project material (`../shared` beside the checkout).
 pub fn shared_dir() -> std::path::PathBuf {

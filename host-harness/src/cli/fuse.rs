@@ -1,8 +1,12 @@
 //! `fusion fuse`: fuse one VIS/TIR pair with a chosen method, engine and rescale policy.
+//!
+//! The core's three methods run on either engine; the study's four host-only methods (GFF,
+//! MGFF, TEPGFL, DRIF; [`crate::study_methods`]) run on the host f64 engine only.
 
 use crate::CoreScratch;
 use crate::io::{ColorPolicy, Gray, load_gray_u8, save_gray_u8, write_npy_f32};
 use crate::reference;
+use crate::study_methods::{HostMethod, cast_u8, drif, fuse_host_u8};
 use anyhow::{Context, Result, bail};
 use clap::{Args, ValueEnum};
 use fusion_nostd::fuse::{Guards, Variant};
@@ -10,7 +14,7 @@ use fusion_nostd::pipeline::{Method, Pipeline, RescalePolicy, fusion_grid};
 use fusion_nostd::{AdfParams, IfevipParams, TsifsdParams};
 use std::path::PathBuf;
 
-/// Fusion method names on the command line.
+/// The core's fusion methods (also the method names of `fusion budget`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
 pub enum MethodArg {
     /// Anisotropic diffusion + KL transform.
@@ -19,6 +23,41 @@ pub enum MethodArg {
     Tsifsd,
     /// Infrared feature extraction + visual information preservation.
     Ifevip,
+}
+
+/// Every method `fusion fuse` knows: the core's three and the study's four host-only ones.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum FuseMethod {
+    /// Anisotropic diffusion + KL transform (core or f64 reference).
+    Adf,
+    /// Two-scale fusion with saliency detection (core or f64 reference).
+    Tsifsd,
+    /// Infrared feature extraction + visual information preservation (core or f64 reference).
+    Ifevip,
+    /// Guided-filter fusion, Li et al. 2013 (host f64 only).
+    Gff,
+    /// Multi-scale guided-filter fusion, Bavirisetti et al. 2019 (host f64 only).
+    Mgff,
+    /// Fast-global-smoother decomposition + Gaussian fuzzy logic, Duan et al. 2022 (host f64 only).
+    Tepgfl,
+    /// Different-resolution TV fusion with FISTA, Du et al. 2018 (host f64 only): VIS and TIR at
+    /// their own sizes (VIS an integer multiple of TIR), output on the VIS grid, no rescale.
+    Drif,
+}
+
+impl FuseMethod {
+    /// The core method, or the host-only method.
+    pub fn split(self) -> Result<MethodArg, HostMethod> {
+        match self {
+            FuseMethod::Adf => Ok(MethodArg::Adf),
+            FuseMethod::Tsifsd => Ok(MethodArg::Tsifsd),
+            FuseMethod::Ifevip => Ok(MethodArg::Ifevip),
+            FuseMethod::Gff => Err(HostMethod::Gff),
+            FuseMethod::Mgff => Err(HostMethod::Mgff),
+            FuseMethod::Tepgfl => Err(HostMethod::Tepgfl),
+            FuseMethod::Drif => Err(HostMethod::Drif),
+        }
+    }
 }
 
 /// Variant names on the command line.
@@ -63,18 +102,20 @@ impl From<RescaleArg> for RescalePolicy {
 /// Arguments of `fusion fuse`.
 #[derive(Debug, Args)]
 pub struct FuseArgs {
-    /// Fusion method.
-    #[arg(long, value_enum, default_value_t = MethodArg::Tsifsd)]
-    pub method: MethodArg,
-    /// Method variant.
+    /// Fusion method. gff, mgff, tepgfl and drif are the study's host-only methods (f64 engine
+    /// only); drif fuses the two frames at their own resolutions (VIS an integer multiple of
+    /// TIR, output on the VIS grid) and takes no --rescale.
+    #[arg(long, value_enum, default_value_t = FuseMethod::Tsifsd)]
+    pub method: FuseMethod,
+    /// Method variant (adf, tsifsd, ifevip only).
     #[arg(long, value_enum, default_value_t = VariantArg::Flight)]
     pub variant: VariantArg,
-    /// Implementation to run.
-    #[arg(long, value_enum, default_value_t = EngineArg::Core)]
-    pub engine: EngineArg,
-    /// How the two bands are brought onto one grid.
-    #[arg(long, value_enum, default_value_t = RescaleArg::TirUp)]
-    pub rescale: RescaleArg,
+    /// Implementation to run [default: core; reference for gff, mgff, tepgfl, drif].
+    #[arg(long, value_enum)]
+    pub engine: Option<EngineArg>,
+    /// How the two bands are brought onto one grid [default: tir-up; not for drif].
+    #[arg(long, value_enum)]
+    pub rescale: Option<RescaleArg>,
     /// Also write the real-valued result before the 8-bit cast as a float32 `.npy` (0..255 units).
     #[arg(long, value_name = "OUT.npy")]
     pub raw: Option<PathBuf>,
@@ -175,14 +216,66 @@ pub fn to_f64(img: &Gray<u8>) -> Gray<f64> {
     Gray { width: img.width, height: img.height, data: img.data.iter().map(|&v| f64::from(v)).collect() }
 }
 
+/// Fuses with a host-only method on the f64 engine: the rescale policy first (f64 reference
+/// rescalers, as [`fuse_reference`]), except for DRIF, which takes both frames as they are.
+pub fn fuse_host_method(
+    vis: &Gray<u8>,
+    tir: &Gray<u8>,
+    method: HostMethod,
+    rescale: RescalePolicy,
+) -> Result<Fused> {
+    let (image, raw) = if method == HostMethod::Drif {
+        let run = drif::fuse_drif(&to_f64(vis), &to_f64(tir), &drif::DrifParams::default())?;
+        let (start, end) = (run.energy[0], run.energy.last().copied().unwrap_or(run.energy[0]));
+        eprintln!(
+            "drif: {} FISTA iterations ({}), energy {start:.4e} -> {end:.4e}",
+            run.iterations,
+            if run.converged { "converged" } else { "iteration bound reached" }
+        );
+        (cast_u8(&run.fused), run.fused)
+    } else {
+        let (w, h) = fusion_grid((vis.width, vis.height), (tir.width, tir.height), rescale)?;
+        let to_grid = |img: &Gray<u8>, filter| {
+            if (img.width, img.height) == (w, h) {
+                img.clone()
+            } else {
+                reference::rescale::rescale_u8(img, w, h, filter)
+            }
+        };
+        fuse_host_u8(
+            method,
+            &to_grid(vis, fusion_nostd::Filter::Area),
+            &to_grid(tir, fusion_nostd::Filter::Cubic),
+        )?
+    };
+    Ok(Fused { image, raw: Some(raw), guards: Guards::NONE })
+}
+
 /// Runs `fusion fuse`.
 pub fn run(args: &FuseArgs) -> Result<()> {
     let vis = load_gray_u8(&args.vis, ColorPolicy::Bt601).context("visible image")?;
     let tir = load_gray_u8(&args.tir, ColorPolicy::Bt601).context("thermal image")?;
-    let pipeline = Pipeline { rescale: args.rescale.into(), method: method_for(args.method, args.variant) };
-    let fused = match args.engine {
-        EngineArg::Core => fuse_core(&vis, &tir, &pipeline, args.raw.is_some())?,
-        EngineArg::Reference => fuse_reference(&vis, &tir, &pipeline)?,
+    let rescale = args.rescale.unwrap_or(RescaleArg::TirUp);
+    let fused = match args.method.split() {
+        Ok(method) => {
+            let pipeline = Pipeline { rescale: rescale.into(), method: method_for(method, args.variant) };
+            match args.engine.unwrap_or(EngineArg::Core) {
+                EngineArg::Core => fuse_core(&vis, &tir, &pipeline, args.raw.is_some())?,
+                EngineArg::Reference => fuse_reference(&vis, &tir, &pipeline)?,
+            }
+        }
+        Err(host) => {
+            if args.engine == Some(EngineArg::Core) {
+                bail!(
+                    "{} is a host-only method (f64): it has no core engine; use --engine reference",
+                    host.name()
+                );
+            }
+            if host.different_resolution() && args.rescale.is_some() {
+                bail!("drif fuses the two frames at their own resolutions: drop --rescale");
+            }
+            fuse_host_method(&vis, &tir, host, rescale.into())?
+        }
     };
     if let Some(raw_path) = &args.raw {
         let Some(raw) = &fused.raw else { bail!("no pre-cast value for this engine and method") };

@@ -30,7 +30,8 @@ pub enum Command {
     Report(report::ReportArgs),
     /// Rescale a grey PNG with the core's bicubic or area rescaler (8-bit or 16-bit).
     Rescale(rescale::RescaleArgs),
-    /// Fuse a VIS/TIR pair (ADF, TSIFSD, IFEVIP) with the core or the f64 reference.
+    /// Fuse a VIS/TIR pair: ADF, TSIFSD, IFEVIP (core or f64 reference); GFF, MGFF, TEPGFL, DRIF
+    /// (the study's host-only methods, f64).
     Fuse(fuse::FuseArgs),
     /// Render a dataset of aligned VIS/TIR pairs of a spacecraft target (ray traced).
     Render(render_host::cli::RenderArgs),

@@ -622,7 +622,7 @@ pub fn rescale_u16(data: &[u8]) {
 /// huge values) or integer samples, sizes, strides and filter.
 pub fn rescale_f32(data: &[u8]) {
     let c = rescale_case(data);
-    let raw_bits = c.mode % 3 != 0;
+    let raw_bits = !c.mode.is_multiple_of(3);
     let at = |i: usize| {
         let n = c.pixels.len().max(1);
         let byte = |k: usize| c.pixels.get((4 * i + k) % n).copied().unwrap_or(0);

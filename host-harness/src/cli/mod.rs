@@ -9,6 +9,7 @@ pub mod eval;
 pub mod fuse;
 pub mod report;
 pub mod rescale;
+pub mod stress;
 
 /// VIS/TIR image fusion for spacecraft proximity navigation: host tools.
 #[derive(Debug, Parser)]
@@ -40,6 +41,9 @@ pub enum Command {
     /// Instruction budgets on the emulated Cortex-M7 and RV32 (QEMU): counts per stage and
     /// method, cycle and frame-rate estimates, memory, bit-exactness against the host.
     Budget(budget::BudgetArgs),
+    /// Every method and engine over adversarial frames (zeros, saturation, checkerboards, hot
+    /// pixels, noise, …): NaN in the reference, error against it, guards, determinism.
+    Stress(stress::StressArgs),
 }
 
 /// Runs one parsed command line.
@@ -51,6 +55,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Rescale(args) => rescale::run(&args),
         Command::Eval(args) => eval::run(&args),
         Command::Budget(args) => budget::run(&args),
+        Command::Stress(args) => stress::run(&args),
         Command::Fuse(args) => fuse::run(&args),
         Command::Render(args) => render_host::cli::run(&args),
     }

@@ -4,11 +4,27 @@ use clap::Parser;
 use std::process::ExitCode;
 
 fn main() -> ExitCode {
+    // A panic is a bug, but the user still gets one line, not a backtrace (set
+    // FUSION_BACKTRACE=1 for one); the exit status is then 101.
+    std::panic::set_hook(Box::new(|info| {
+        let msg = info
+            .payload()
+            .downcast_ref::<&str>()
+            .map(|s| s.to_string())
+            .or_else(|| info.payload().downcast_ref::<String>().cloned())
+            .unwrap_or_default();
+        let at = info.location().map(|l| format!(" at {}:{}", l.file(), l.line())).unwrap_or_default();
+        eprintln!("fusion: internal error: {}{at}", msg.replace('\n', " "));
+        if std::env::var_os("FUSION_BACKTRACE").is_some_and(|v| v == "1") {
+            eprintln!("{}", std::backtrace::Backtrace::force_capture());
+        }
+    }));
     let cli = host_harness::cli::Cli::parse();
     match host_harness::cli::run(cli) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("fusion: error: {e:#}");
+            // One line, whatever the underlying messages hold.
+            eprintln!("fusion: error: {}", format!("{e:#}").replace('\n', " "));
             ExitCode::FAILURE
         }
     }

@@ -58,6 +58,14 @@ pub fn run(args: &RescaleArgs) -> Result<()> {
     if args.width == 0 || args.height == 0 {
         bail!("the requested size {}x{} has a zero side", args.width, args.height);
     }
+    if args.width.max(args.height) > fusion_nostd::MAX_DIMENSION {
+        bail!(
+            "the requested size {}x{} exceeds the largest side the core accepts ({})",
+            args.width,
+            args.height,
+            fusion_nostd::MAX_DIMENSION
+        );
+    }
     let filter = Filter::from(args.filter);
     match load_png(&args.input, ColorPolicy::Refuse)? {
         GrayPng::U8(src) => save_gray_u8(&args.output, &rescaled(&src, args.width, args.height, filter)?),

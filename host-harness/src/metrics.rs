@@ -413,10 +413,10 @@ mod tests {
             }
         };
         let mut mi = 0.0;
-        for i in 0..9 {
-            for j in 0..9 {
+        for (i, &pai) in pa.iter().enumerate() {
+            for (j, &pfj) in pf.iter().enumerate() {
                 let p = joint(i + 1, j + 1) - joint(i, j + 1) - joint(i + 1, j) + joint(i, j);
-                let q = pa[i] * pf[j];
+                let q = pai * pfj;
                 if p > 1e-15 && q > 0.0 {
                     mi += p * (p / q).log2();
                 }
@@ -501,7 +501,8 @@ mod tests {
                     }
                 }
                 let (va, vb, cov) = (saa - ma * ma, sbb - mb * mb, sab - ma * mb);
-                total += ((2.0 * ma * mb + c1) * (2.0 * cov + c2)) / ((ma * ma + mb * mb + c1) * (va + vb + c2));
+                total +=
+                    ((2.0 * ma * mb + c1) * (2.0 * cov + c2)) / ((ma * ma + mb * mb + c1) * (va + vb + c2));
             }
         }
         let direct = total / (4.0 * 7.0);

@@ -163,8 +163,19 @@ pub fn run(args: &BenchArgs) -> Result<()> {
                 let p = Pipeline { rescale: policy, method: *method };
                 let r = fuse_timed(&vis, &tir, &p, args.repeats)?;
                 let (psnr, max_abs) = psnr_and_max(&r.fused, &reference.image);
-                println!("{family:7} {label:14} {grid:5}²  {:9.2} ms  PSNR {psnr:6.2} dB  max {max_abs}", r.seconds * 1e3);
-                points.push(Point { family, label: label.clone(), engine: "core", grid, seconds: r.seconds, psnr, max_abs });
+                println!(
+                    "{family:7} {label:14} {grid:5}²  {:9.2} ms  PSNR {psnr:6.2} dB  max {max_abs}",
+                    r.seconds * 1e3
+                );
+                points.push(Point {
+                    family,
+                    label: label.clone(),
+                    engine: "core",
+                    grid,
+                    seconds: r.seconds,
+                    psnr,
+                    max_abs,
+                });
             }
             // The classic f64 reference of the same frame, for the engine comparison at equal
             // semantics (classic core vs classic reference).
@@ -174,7 +185,15 @@ pub fn run(args: &BenchArgs) -> Result<()> {
                 let r = fuse_reference(&vis, &tir, &p)?;
                 let secs = t.elapsed().as_secs_f64();
                 let (psnr, max_abs) = psnr_and_max(&r.image, &reference.image);
-                points.push(Point { family, label: label.clone(), engine: "reference", grid, seconds: secs, psnr, max_abs });
+                points.push(Point {
+                    family,
+                    label: label.clone(),
+                    engine: "reference",
+                    grid,
+                    seconds: secs,
+                    psnr,
+                    max_abs,
+                });
             }
         }
     }
@@ -200,21 +219,28 @@ pub fn run(args: &BenchArgs) -> Result<()> {
             p.max_abs,
             if front { "yes" } else { "" }
         );
-        let _ = writeln!(csv, "{},{},{},{},{},{},{},{}", p.family, p.label, p.engine, p.grid, p.seconds, p.psnr, p.max_abs, front);
+        let _ = writeln!(
+            csv,
+            "{},{},{},{},{},{},{},{}",
+            p.family, p.label, p.engine, p.grid, p.seconds, p.psnr, p.max_abs, front
+        );
     }
     // The shipped default per family and what the fastest alternative would buy.
     let _ = writeln!(md, "\n## Shipped defaults\n");
     for (family, configs) in knobs() {
         for grid in [vis.width, tir.width] {
-            let core: Vec<&Point> =
-                points.iter().filter(|p| p.family == family && p.engine == "core" && p.grid == grid).collect();
+            let core: Vec<&Point> = points
+                .iter()
+                .filter(|p| p.family == family && p.engine == "core" && p.grid == grid)
+                .collect();
             let (Some(default), Some(fastest)) = (
                 core.iter().find(|p| p.label == configs[0].0),
                 core.iter().min_by(|a, b| a.seconds.total_cmp(&b.seconds)),
             ) else {
                 continue;
             };
-            let psnr = |p: &Point| if p.psnr.is_finite() { format!("{:.1} dB", p.psnr) } else { "identical".into() };
+            let psnr =
+                |p: &Point| if p.psnr.is_finite() { format!("{:.1} dB", p.psnr) } else { "identical".into() };
             let _ = writeln!(
                 md,
                 "- **{family}, {grid}²**: shipped `{}` — {:.2} ms, {} (max {} levels) against the f64 default. \
@@ -258,7 +284,8 @@ pub fn run(args: &BenchArgs) -> Result<()> {
     }
     std::fs::write(args.out.join("bench.md"), &md)?;
     std::fs::write(args.out.join("bench.csv"), &csv)?;
-    let mut ref_times: Vec<f64> = points.iter().filter(|p| p.engine == "reference").map(|p| p.seconds).collect();
+    let mut ref_times: Vec<f64> =
+        points.iter().filter(|p| p.engine == "reference").map(|p| p.seconds).collect();
     println!("\n{md}\nmedian f64 reference time {:.2} s", median(&mut ref_times));
     println!("written: {}", args.out.join("bench.md").display());
     Ok(())

@@ -123,7 +123,7 @@ pub fn box_sum_u8(
     let (Some(tmp), Some(out)) = (tmp.get_mut(..pixels), out.get_mut(..pixels)) else {
         return Err(Error::ScratchTooSmall { needed: pixels, capacity });
     };
-    for (row, t) in src.rows().zip(tmp.chunks_exact_mut(w)) {
+    for (row, t) in src.rows().zip(tmp.chunks_exact_mut(w.max(1))) {
         horizontal(row, radius, border, t);
     }
     vertical(tmp, w, h, radius, border, out);
@@ -134,7 +134,7 @@ pub fn box_sum_u8(
 fn vertical(tmp: &[i32], w: usize, h: usize, radius: usize, border: Border, out: &mut [i32]) {
     let row = |tap: &Tap| tap.index(border).and_then(|y| tmp.get(y * w..y * w + w));
     let r = radius as isize;
-    let mut rows_out = out.chunks_exact_mut(w);
+    let mut rows_out = out.chunks_exact_mut(w.max(1));
     let Some(first) = rows_out.next() else { return };
     first.fill(0);
     let mut tap = Tap::new(-r, h);

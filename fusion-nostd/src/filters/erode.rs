@@ -30,7 +30,7 @@ pub fn min_rows_transposed(
     let len = before + 1 + after;
     for (y, row) in src.rows().enumerate() {
         // Suffix minima within blocks.
-        for (block, out) in row.chunks(len).zip(tmp.chunks_mut(len)) {
+        for (block, out) in row.chunks(len.max(1)).zip(tmp.chunks_mut(len.max(1))) {
             let mut m = i32::MAX;
             for (&v, o) in block.iter().zip(out.iter_mut()).rev() {
                 m = m.min(v);

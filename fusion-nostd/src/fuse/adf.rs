@@ -820,7 +820,7 @@ fn isqrt_u128(n: u128) -> u128 {
     let bits = 128 - n.leading_zeros();
     let mut x: u128 = 1 << bits.div_ceil(2); // ≥ √n
     loop {
-        let y = (x + n / x) / 2;
+        let y = (x + n.checked_div(x).unwrap_or(0)) / 2; // x ≥ 1 (checked: no panic path)
         if y >= x {
             return x;
         }
@@ -870,8 +870,10 @@ pub fn kl_weight(a: i128, b: i128, c: i128, variant: Variant) -> KlWeights {
                 half
             } else {
                 let limit = 128i128 << WEIGHT_BITS;
-                div_round((v1 << WEIGHT_BITS).clamp(-limit * sum.abs(), limit * sum.abs()), sum)
-                    .clamp(-limit, limit) as i64
+                // max/min rather than clamp: clamp panics if its bounds cross, which the
+                // optimiser cannot rule out for the product (issue 9: no panic path).
+                let bound = limit.saturating_mul(sum.saturating_abs());
+                div_round((v1 << WEIGHT_BITS).max(-bound).min(bound), sum).max(-limit).min(limit) as i64
             }
         }
         Variant::Flight => {
@@ -890,7 +892,10 @@ fn div_round(n: i128, d: i128) -> i128 {
         return 0;
     }
     let (n, d) = if d < 0 { (-n, -d) } else { (n, d) };
-    if n >= 0 { (2 * n + d) / (2 * d) } else { -((-2 * n + d) / (2 * d)) }
+    // `checked_div`: the operands are far inside i128 (< 2⁹³), but the optimiser cannot see
+    // it; without it a division-overflow panic path stays in the image (issue 9).
+    let q = |a: i128, b: i128| a.checked_div(b).unwrap_or(0);
+    if n >= 0 { q(2 * n + d, 2 * d) } else { -q(-2 * n + d, 2 * d) }
 }
 
 fn check_sizes(vis: &FrameRef<'_, u8>, tir: &FrameRef<'_, u8>, out: (usize, usize)) -> Result<(), Error> {

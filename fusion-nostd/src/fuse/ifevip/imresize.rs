@@ -43,7 +43,7 @@ fn reflect(j: i64, n: i64) -> i64 {
 
 /// `a / b` rounded toward −∞ (b > 0).
 fn floor_div(a: i64, b: i64) -> i64 {
-    a.div_euclid(b)
+    a.checked_div_euclid(b).unwrap_or(0)
 }
 
 /// A built tap table (see the module docs).
@@ -117,7 +117,11 @@ pub fn build(in_len: usize, out_len: usize, buf: &mut [i32]) -> Result<Taps<'_>,
         taps = taps.max((hi - lo + 1).max(1) as usize);
     }
     let taps = taps.min(in_len);
-    let stride = taps + 2;
+    // Never 0 (an explicit check: the optimiser could not prove it and kept a panic path).
+    let Some(stride) = core::num::NonZeroUsize::new(taps.wrapping_add(2)) else {
+        return Err(Error::InvalidParameter { name: "resize" });
+    };
+    let stride = stride.get();
     let needed = out_len.saturating_mul(stride);
     let capacity = buf.len();
     let table = buf.get_mut(..needed).ok_or(Error::ScratchTooSmall { needed, capacity })?;
@@ -129,7 +133,7 @@ pub fn build(in_len: usize, out_len: usize, buf: &mut [i32]) -> Result<Taps<'_>,
         }
         let start = lo.min(n_in - taps as i64).max(0);
         row.fill(0);
-        let (head, ws) = row.split_at_mut(2);
+        let Some((head, ws)) = row.split_at_mut_checked(2) else { continue };
         if let [s, c] = head {
             *s = start as i32;
             *c = taps as i32;
@@ -137,7 +141,7 @@ pub fn build(in_len: usize, out_len: usize, buf: &mut [i32]) -> Result<Taps<'_>,
         let mut sum: i64 = 0;
         for_taps(x, n_in, n_out, |idx, k| {
             let num = (i128::from(k) << WEIGHT_BITS) + total / 2;
-            let w = num.div_euclid(total) as i64;
+            let w = num.checked_div_euclid(total).unwrap_or(0) as i64;
             if let Some(slot) = ws.get_mut((idx - start) as usize) {
                 *slot += w as i32;
                 sum += w;
@@ -199,7 +203,7 @@ pub fn build_smoothed<'a>(
     let needed = split + out_len.saturating_mul(stride);
     let capacity = split + cbuf.len();
     let table = cbuf.get_mut(..out_len * stride).ok_or(Error::ScratchTooSmall { needed, capacity })?;
-    for (x, row) in table.chunks_exact_mut(stride).enumerate() {
+    for (x, row) in table.chunks_exact_mut(stride.max(1)).enumerate() {
         let lo = outputs(x).map(|(s, _)| s).min().unwrap_or(0);
         let start = lo.min(in_len - taps);
         row.fill(0);

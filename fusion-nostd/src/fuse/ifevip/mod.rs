@@ -282,7 +282,9 @@ pub fn fuse_ifevip(
         guards |= Guards::IFEVIP_ZERO_ENTROPY;
         if !flight {
             for (o, v) in out.rows_mut().zip(vis.rows()) {
-                o.copy_from_slice(v);
+                for (o, v) in o.iter_mut().zip(v) {
+                    *o = *v;
+                }
             }
             return Ok(guards);
         }
@@ -299,10 +301,10 @@ pub fn fuse_ifevip(
     // 7 + 9. R = IR ⊖ uint8(bg) in place in C; keys max(Feat, 0) + VIS (Q24) into A (low
     // 32 bits) and B (high 32 bits).
     for (((rr, ir), vv), (ka, kb)) in c
-        .chunks_exact_mut(w)
+        .chunks_exact_mut(w.max(1))
         .zip(tir.rows())
         .zip(vis.rows())
-        .zip(a.chunks_exact_mut(w).zip(b.chunks_exact_mut(w)))
+        .zip(a.chunks_exact_mut(w.max(1)).zip(b.chunks_exact_mut(w.max(1))))
     {
         for ((((r, &t), &v), ka), kb) in rr.iter_mut().zip(ir).zip(vv).zip(ka.iter_mut()).zip(kb.iter_mut()) {
             let feat_r = (i32::from(t) - bg_u8(*r)).max(0);
@@ -350,7 +352,9 @@ pub fn fuse_ifevip(
     // 12. F = VIS ⊕ uint8(g·Feat).
     let half = 1i64 << (GAIN_BITS - 1);
     let mut saturated = false;
-    for (((o, v), t), rr) in out.rows_mut().zip(vis.rows()).zip(tir.rows()).zip(r_plane.chunks_exact(w)) {
+    for (((o, v), t), rr) in
+        out.rows_mut().zip(vis.rows()).zip(tir.rows()).zip(r_plane.chunks_exact(w.max(1)))
+    {
         for (((o, &v), &t), &r) in o.iter_mut().zip(v).zip(t).zip(rr) {
             let val = i64::from(r) * g_q + (i64::from(t) - i64::from(v)) * b_q;
             let add = if val <= 0 { 0 } else { (val + half) >> GAIN_BITS };

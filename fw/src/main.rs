@@ -286,6 +286,55 @@ fn exercise_entry_points() {
                 {
                     let _ = black_box(fuse_raw(v, t, o, &mut scratch, &pipeline));
                 }
+                let _ = black_box(pipeline.scratch_pixels((vw, vh), (tw, th)));
+            }
+        }
+        // Each method's own entries (u8 and pre-cast), strided views, work planes without a band
+        // plane, and the public stage functions the firmware runner measures.
+        {
+            use fusion_nostd::filters::box_sum::box_sum_u8;
+            use fusion_nostd::fuse::{adf, ifevip, tsifsd};
+            use fusion_nostd::pipeline::fuse_method;
+            let variant = black_box(fusion_nostd::Variant::Classic);
+            let (adf_p, ts_p, ife_p) = black_box((
+                AdfParams { variant, ..AdfParams::default() },
+                TsifsdParams { variant, ..TsifsdParams::default() },
+                IfevipParams { variant, ..IfevipParams::default() },
+            ));
+            let (w, h, s) = (black_box(11usize), black_box(7usize), black_box(13usize));
+            let [p0, p1, p2] = &mut *planes;
+            let mut scratch = ScratchMut::from_slices([&mut p0[..], &mut p1[..], &mut p2[..]]);
+            if let (Ok(v), Ok(t)) = (FrameRef::with_stride(a, w, h, s), FrameRef::with_stride(a2, w, h, s)) {
+                if let Ok(o) = FrameMut::with_stride(&mut *b, w, h, s) {
+                    let _ = black_box(adf::fuse_adf(v, t, o, &adf_p, &mut scratch));
+                }
+                if let Ok(o) = FrameMut::with_stride(&mut *raw, w, h, s) {
+                    let _ = black_box(adf::fuse_adf_raw(v, t, o, &adf_p, &mut scratch));
+                }
+                if let Ok(o) = FrameMut::with_stride(&mut *b, w, h, s) {
+                    let _ = black_box(tsifsd::fuse_tsifsd(v, t, o, &ts_p, &mut scratch));
+                }
+                if let Ok(o) = FrameMut::with_stride(&mut *raw, w, h, s) {
+                    let _ = black_box(tsifsd::fuse_tsifsd_raw(v, t, o, &ts_p, &mut scratch));
+                }
+                if let Ok(o) = FrameMut::with_stride(&mut *b, w, h, s) {
+                    let _ = black_box(ifevip::fuse_ifevip(v, t, o, &ife_p, &mut scratch));
+                }
+                if let Ok(o) = FrameMut::with_stride(&mut *b, w, h, s) {
+                    let _ = black_box(fuse_method(v, t, o, &black_box(Method::Tsifsd(ts_p)), &mut scratch));
+                }
+                let _ = black_box(ifevip::background(t, &ife_p, &mut scratch));
+                let _ = black_box(ifevip::scratch_pixels(w, h, &ife_p));
+                if let Ok([x, y, _]) = scratch.planes(w * h) {
+                    let _ = black_box(adf::diffuse(v, &adf_p, x, y));
+                    let _ = black_box(box_sum_u8(v, black_box(17), ts_p.mean_border(), x, y));
+                }
+                if let Ok(strip) = v.sub_rows(black_box(1), black_box(5)) {
+                    let _ = black_box(strip.get(black_box(3), black_box(2)));
+                }
+            }
+            if let (Ok(src), Ok(dst)) = (FrameRef::new(a, sw, sh), FrameMut::new(&mut *b, dw, dh)) {
+                fusion_nostd::rescale::rescale_general_u8(src, dst, black_box(Filter::Cubic));
             }
         }
     }

@@ -5,8 +5,9 @@
 //! Across builds and targets: the core is integer arithmetic throughout the fusion path (the
 //! only floating point is the `f32` rescaler, which the pipeline does not use), and the
 //! firmware budget run (`fusion budget`, `host-harness/src/budget/`) compares the Cortex-M7 and
-//! RV32 outputs with the host's byte for byte; `fw_checksums_match_the_host` below checks the
-//! same thing against the checksums the firmware self-test prints, without an emulator.
+//! RV32 outputs with the host's byte for byte; `fw_selftest_matches_the_host` below compares the
+//! checksums the firmware self-test prints (release, fat LTO, Cortex-M7 and RV32 under QEMU)
+//! with this test build's (x86-64, debug assertions on) when the images and QEMU are there.
 
 use fusion_nostd::pipeline::{Method, Pipeline, RescalePolicy, fuse};
 use fusion_nostd::{AdfParams, FrameMut, FrameRef, IfevipParams, ScratchMut, TsifsdParams, Variant};
@@ -150,5 +151,98 @@ fn strided_views_give_the_packed_result() {
             let got: Vec<u8> = (0..gh).flat_map(|y| obuf[y * os..y * os + gw].to_vec()).collect();
             assert!(got == want, "{p:?}: strided result differs");
         }
+    }
+}
+
+/// FNV-1a, as the firmware computes it.
+fn fnv1a(data: &[u8]) -> u32 {
+    data.iter().fold(0x811c_9dc5u32, |h, &b| (h ^ u32::from(b)).wrapping_mul(0x0100_0193))
+}
+
+/// The newest modification time of the files under `dir`.
+fn newest(dir: &std::path::Path) -> Option<std::time::SystemTime> {
+    let mut t = None;
+    for e in std::fs::read_dir(dir).ok()?.flatten() {
+        let p = e.path();
+        let m = if p.is_dir() { newest(&p) } else { e.metadata().ok()?.modified().ok() };
+        t = t.max(m);
+    }
+    t
+}
+
+/// The firmware's built-in self-test pair (`fw/src/runner.rs`, `self_test`): VIS 256² with a
+/// ramp-textured box, TIR 128² hashed noise, TIR upscaled, the three methods with default
+/// (flight) parameters. The host result must equal each target's, byte for byte (checked by
+/// FNV-1a and the guard bits the image prints).
+#[test]
+fn fw_selftest_matches_the_host() {
+    let vis = Gray {
+        width: 256,
+        height: 256,
+        data: (0..256 * 256)
+            .map(|i| {
+                let (x, y) = (i % 256, i / 256);
+                if (64..192).contains(&x) && (96..160).contains(&y) { (x + y) as u8 } else { 3 }
+            })
+            .collect(),
+    };
+    let tir = Gray {
+        width: 128,
+        height: 128,
+        data: (0..128 * 128usize).map(|i| (i.wrapping_mul(2_654_435_761) >> 13) as u8 / 4 + 60).collect(),
+    };
+    let mut host = Vec::new();
+    for (name, method) in [
+        ("adf", Method::Adf(AdfParams::default())),
+        ("tsifsd", Method::Tsifsd(TsifsdParams::default())),
+        ("ifevip", Method::Ifevip(IfevipParams::default())),
+    ] {
+        let p = Pipeline { rescale: RescalePolicy::TirUp, method };
+        let fused = host_harness::cli::fuse::fuse_core(&vis, &tir, &p, false).unwrap();
+        host.push(format!(
+            "@fw selftest {name} guards 0x{:02x} fnv1a {:08x}",
+            fused.guards.0,
+            fnv1a(&fused.image.data)
+        ));
+    }
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let Some(core_time) = newest(&root.join("fusion-nostd/src")) else { return };
+    let targets = [
+        ("thumbv7em-none-eabihf", vec!["qemu-system-arm", "-machine", "mps2-an500", "-cpu", "cortex-m7"]),
+        (
+            "riscv32imac-unknown-none-elf",
+            vec!["qemu-system-riscv32", "-machine", "virt", "-bios", "none", "-m", "64M"],
+        ),
+    ];
+    for (target, qemu) in targets {
+        let elf = root.join("fw/target").join(target).join("release/fusion-fw");
+        let fresh = std::fs::metadata(&elf).and_then(|m| m.modified()).is_ok_and(|t| t >= core_time);
+        if !fresh {
+            println!(
+                "{target}: no firmware image newer than the core sources; skipped (cd fw && cargo build --release)"
+            );
+            continue;
+        }
+        // An empty folder (no job.bin): the image runs its self-test.
+        let dir = std::env::temp_dir().join(format!("fusion-fw-selftest-{}-{target}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let run = std::process::Command::new("timeout")
+            .arg("60")
+            .args(&qemu)
+            .args(["-nographic", "-semihosting-config", "enable=on,target=native", "-kernel"])
+            .arg(&elf)
+            .current_dir(&dir)
+            .output();
+        let _ = std::fs::remove_dir_all(&dir);
+        let Some(run) = run.ok().filter(|o| o.status.code() != Some(127)) else {
+            println!("{target}: {} not available; skipped", qemu[0]);
+            continue;
+        };
+        let console = String::from_utf8_lossy(&run.stdout);
+        let lines: Vec<String> =
+            console.lines().filter(|l| l.starts_with("@fw selftest")).map(|l| l.trim().to_string()).collect();
+        assert!(run.status.success(), "{target}: firmware self-test failed:\n{console}");
+        assert_eq!(lines, host, "{target}: firmware and host results differ");
+        println!("{target}: {} self-test results identical to the host's", lines.len());
     }
 }

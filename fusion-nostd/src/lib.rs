@@ -12,6 +12,53 @@
 //! * [`filters`] — integer filters shared by the methods.
 //! * [`pipeline`] — the per-frame entry point: rescale one band onto the other's grid, fuse.
 //! * [`Error`] — the one small `Copy` error type; bad input is an `Err`, never a panic.
+//!
+//! # Robustness
+//!
+//! A core that panics on a flight computer loses the navigation chain, and one that silently
+//! writes a wrong frame corrupts it. The contract:
+//!
+//! | input | outcome |
+//! |---|---|
+//! | a width or height of 0 | [`Error::ZeroDimension`] when the view is built (and from [`Pipeline::scratch_pixels`]) |
+//! | a side above [`MAX_DIMENSION`] (2¹⁴) | [`Error::DimensionTooLarge`] (views, [`Pipeline::scratch_pixels`]) |
+//! | a stride below the width | [`Error::StrideTooSmall`] |
+//! | a buffer shorter than `(h − 1)·stride + w`, or a geometry whose length overflows `usize` | [`Error::BufferTooSmall`] |
+//! | VIS, TIR and output sizes that do not fit the rescale policy (policy `None` with different sizes, an output that is not the fusion grid, a method called with frames of different sizes) | [`Error::SizeMismatch`] |
+//! | scratch planes (or the band plane, when the pipeline rescales) shorter than [`Pipeline::scratch_pixels`] | [`Error::ScratchTooSmall`] with both numbers |
+//! | a parameter outside its documented range | [`Error::InvalidParameter`] naming the field; [`pipeline::fuse_raw`] with IFEVIP (no pre-cast value): `name: "method"` |
+//! | `f32` NaN, +∞, −∞ | [`Error::NonFinite`] (destination untouched) |
+//! | `f32` magnitude above [`rescale::F32_MAX_MAGNITUDE`] (2¹²⁰) | [`Error::ValueOutOfRange`]: the filter's overshoot could overflow to ±∞ |
+//! | `f32` denormals, ±0, the largest accepted magnitude | ordinary values; the output is finite |
+//! | one pixel, one row, one column, odd sizes, 2¹⁴ × 1, 1 × 2¹⁴, any non-2× rescale ratio, TIR larger than VIS | valid: `Ok`, every method and variant |
+//! | constant, black, saturated, checkerboard, anti-correlated bands | valid: `Ok`; where the published arithmetic is undefined (0/0, a degenerate eigenvector, zero entropy, …) a documented guard rule applies and [`Guards`] says which |
+//! | `u16` samples | the full 16-bit range is valid (there is no bit-depth parameter); integer outputs saturate, never wrap |
+//!
+//! On `Err` the output view may hold a partial result (the fusion entries) and must not be used;
+//! nothing outside a view is ever written. The output does not depend on what the scratch held.
+//! `tests/tests/robustness.rs` asserts every row of this table.
+//!
+//! How it is checked:
+//! * **Lints**: outside tests the crate denies `unwrap`, `expect`, `panic!`, `unreachable!`,
+//!   `todo!`, `unimplemented!` and indexing/slicing (`clippy::indexing_slicing`).
+//! * **No panic path in the linked image**: `fw/` has an `exercise` function that calls every
+//!   public entry point (the rescaler for u8, u16 and f32, [`pipeline::fuse`],
+//!   [`pipeline::fuse_raw`], [`pipeline::fuse_method`], each method's u8 and pre-cast entry,
+//!   the stage functions, with sizes, strides and parameters hidden from the optimiser by
+//!   `black_box`), and with `--features panic-check` its panic handler calls an undefined symbol:
+//!   the firmware links only if the optimiser removed every panic path (release, fat LTO,
+//!   Cortex-M7 and RV32). `fw/panic-sites.sh` lists the functions that still reach one. `.ci/run`
+//!   builds it (see `fw/README.md`, "No-panic status").
+//! * **Fuzzing**: `fuzz/` (`cargo +nightly fuzz run pipeline|rescale_u8|rescale_u16|rescale_f32`)
+//!   decodes arbitrary bytes into sizes, strides, buffer lengths, policies, methods, parameters,
+//!   scratch sizes and pixels, and checks the expected `Err`, no write outside the view,
+//!   determinism with dirty scratch, raw-vs-u8 consistency and the rescalers against each other;
+//!   the workspace test `tests/tests/fuzz_replay.rs` replays the committed corpus on stable.
+//! * **Numerical stress**: `fusion stress` runs every method and variant, core and f64
+//!   reference, over adversarial frames (`BENCHMARKS.md`, "Stress").
+//! * **Determinism**: `tests/tests/determinism.rs` (dirty and reused scratch, strides, the
+//!   firmware's results on Cortex-M7 and RV32 against the host's); `fusion budget` compares
+//!   every target run with the host byte for byte.
 #![no_std]
 #![cfg_attr(
     not(test),

@@ -122,6 +122,84 @@ fn walk<T: Copy + Default, U, const ZERO_UP: bool, const ZERO_DOWN: bool>(
     }
 }
 
+/// The three samples of column `x` (`−1 ≤ x ≤ len`) of the rows `up`, `mid`, `down`
+/// (`None`: outside the frame, zeros), columns beyond the edges by `border`; `None` only for
+/// an empty row.
+#[inline]
+pub fn column<T: Copy + Default>(rows: [Option<&[T]>; 3], x: isize, border: Border) -> Option<[T; 3]> {
+    let len = rows[1].map_or(0, <[T]>::len);
+    let x = if x >= 0 && (x as usize) < len {
+        x as usize
+    } else {
+        match border {
+            Border::Zero => return Some([T::default(); 3]),
+            Border::Replicate => x.min(len as isize - 1).max(0) as usize,
+            Border::Circular => x.rem_euclid(len.max(1) as isize) as usize,
+        }
+    };
+    let at = |r: Option<&[T]>| match r {
+        Some(r) => r.get(x).copied(),
+        None => Some(T::default()),
+    };
+    Some([at(rows[0])?, at(rows[1])?, at(rows[2])?])
+}
+
+/// Calls `f(i, column)` for the `n + 2` columns `x0 − 1 ..= x0 + n` of the rows (see
+/// [`column`]), `i` counting from 0: the columns a 3×3 filter needs for the outputs
+/// `x0 .. x0 + n`. The interior is a plain zip; only columns outside the row go through the
+/// border rule.
+#[inline(always)]
+pub fn for_columns<T: Copy + Default>(
+    rows: [Option<&[T]>; 3],
+    border: Border,
+    x0: usize,
+    n: usize,
+    mut f: impl FnMut(usize, [T; 3]),
+) {
+    let len = rows[1].map_or(0, <[T]>::len);
+    let first = x0 as isize - 1;
+    // Columns inside the row: x in [max(first, 0), min(x0 + n, len − 1)].
+    let lo = x0.saturating_sub(1);
+    let hi = (x0 + n + 1).min(len);
+    let mut i = lo as isize - first; // 0 or 1
+    if first < 0
+        && let Some(c) = column(rows, first, border)
+    {
+        f(0, c);
+    }
+    if lo < hi {
+        let zeros = [T::default(); 3];
+        match rows {
+            [Some(u), Some(m), Some(d)] => {
+                let cols = u
+                    .get(lo..hi)
+                    .unwrap_or(&[])
+                    .iter()
+                    .zip(m.get(lo..hi).unwrap_or(&[]))
+                    .zip(d.get(lo..hi).unwrap_or(&[]));
+                for ((&u, &m), &d) in cols {
+                    f(i as usize, [u, m, d]);
+                    i += 1;
+                }
+            }
+            [u, Some(m), d] => {
+                for (k, &m) in m.get(lo..hi).unwrap_or(&[]).iter().enumerate() {
+                    let pick = |r: Option<&[T]>| r.and_then(|r| r.get(lo + k).copied()).unwrap_or(zeros[0]);
+                    f(i as usize, [pick(u), m, pick(d)]);
+                    i += 1;
+                }
+            }
+            _ => {}
+        }
+    }
+    let last = (x0 + n) as isize;
+    if last >= len as isize
+        && let Some(c) = column(rows, last, border)
+    {
+        f(n + 1, c);
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

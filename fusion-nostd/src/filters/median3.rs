@@ -5,7 +5,7 @@
 //! identity for 3×3 windows. Rows outside the frame are `None` (zeros, MATLAB `medfilt2`'s
 //! default); the columns beyond the edges follow the [`Border`] rule.
 
-use super::border::{Border, Neighbourhood, map_neighbourhoods};
+use super::border::{Border, Neighbourhood, for_columns, map_neighbourhoods};
 
 #[inline]
 fn sort3([a, b, c]: [u8; 3]) -> [u8; 3] {
@@ -43,6 +43,31 @@ pub fn median3_row<U>(
     map_neighbourhoods(up, mid, down, border, out, |n, o| f(median9(n), o));
 }
 
+/// Most outputs of one [`median3_chunk`] call (its column buffers live on the stack).
+pub const CHUNK: usize = 256;
+
+/// The medians of the pixels `x0 .. x0 + out.len()` (at most [`CHUNK`]) of `mid`, rows `up` /
+/// `down` around it (`None`: zeros), columns beyond the edges by `border`: the same values as
+/// [`median3_row`], with each column sorted once for its three windows.
+#[inline(always)]
+pub fn median3_chunk(rows: [Option<&[u8]>; 3], border: Border, x0: usize, out: &mut [u8]) {
+    let n = out.len().min(CHUNK);
+    let mut lo = [0u8; CHUNK + 2];
+    let mut mi = [0u8; CHUNK + 2];
+    let mut hi = [0u8; CHUNK + 2];
+    for_columns(rows, border, x0, n, |i, c| {
+        if let (Some(l), Some(m), Some(h)) = (lo.get_mut(i), mi.get_mut(i), hi.get_mut(i)) {
+            [*l, *m, *h] = sort3(c);
+        }
+    });
+    let cols = lo.windows(3).zip(mi.windows(3)).zip(hi.windows(3));
+    for (((l, m), h), o) in cols.zip(out.iter_mut().take(n)) {
+        if let (&[l0, l1, l2], &[m0, m1, m2], &[h0, h1, h2]) = (l, m, h) {
+            *o = med3(l0.max(l1).max(l2), med3(m0, m1, m2), h0.min(h1).min(h2));
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -72,6 +97,38 @@ mod tests {
             let [d, e, f] = mid;
             let [g, h, i] = dn;
             assert_eq!(got, Some(brute([a, b, c, d, e, f, g, h, i])));
+        }
+    }
+
+    /// The chunked medians equal the neighbourhood medians, every border, chunk offsets and
+    /// missing rows included.
+    #[test]
+    fn chunks_equal_rows() {
+        let mut seed = 3u32;
+        let mut row = |n: usize| -> [u8; 40] {
+            let mut r = [0u8; 40];
+            for v in r.iter_mut().take(n) {
+                seed = seed.wrapping_mul(1664525).wrapping_add(1013904223);
+                *v = ((seed >> 24) % 5) as u8 * 60;
+            }
+            r
+        };
+        for w in [1usize, 2, 3, 9, 40] {
+            let (a, b, c) = (row(w), row(w), row(w));
+            let (a, b, c) = (&a[..w], &b[..w], &c[..w]);
+            for (up, down) in [(Some(a), Some(c)), (None, Some(c)), (Some(a), None), (None, None)] {
+                for border in [Border::Zero, Border::Replicate, Border::Circular] {
+                    let mut want = [0u8; 40];
+                    median3_row(up, b, down, border, want.iter_mut(), |m, o| *o = m);
+                    for x0 in 0..w {
+                        for n in 1..=w - x0 {
+                            let mut got = [0u8; 40];
+                            median3_chunk([up, Some(b), down], border, x0, &mut got[..n]);
+                            assert_eq!(got[..n], want[x0..x0 + n], "w {w} x0 {x0} n {n} {border:?}");
+                        }
+                    }
+                }
+            }
         }
     }
 

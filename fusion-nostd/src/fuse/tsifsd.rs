@@ -14,11 +14,16 @@
 //! | flight saliency `S_k = \|Scharr_x\| + \|Scharr_y\|` | `u64` | integer | ≤ 8160 |
 //! | weights | `i64` | `S_k`, both shifted right together until `S_VIS + S_IR < 2²³` | relative error < 2⁻²² |
 //! | fused raw value | `i32` | Q16 ([`RAW_FRAC_BITS`]) | one exact rational division per pixel, rounded half away from zero; \|F\| < 2¹⁰ levels, never saturates |
+//! | 8-bit output, `clamp(⌊U / (2N·σ)⌋, 0, 255)` (see `fused_u8`) | `i32` when `σ < 2¹⁴` (flight: always), else `i64` | integer | exact: the same bits as casting the raw value |
 //!
 //! Per pixel: `F = (Σ_VIS + Σ_IR)/(2N) + (S_VIS·N·D_VIS + S_IR·N·D_IR) / (N·(S_VIS + S_IR))`,
 //! evaluated as one fraction `num / (N·σ)` in `i64` (|num| < 2⁶¹), so the only rounding is the
 //! final one to Q16 (the classic core is exact up to that rounding and the 2⁻²² weight scaling).
-//! The 35×35 mean costs O(1) per pixel (running sums, [`crate::filters::box_sum`]).
+//! The 8-bit output folds that rounding and the cast's into one floor division, which needs no
+//! 64-bit division (a library call on the 32-bit targets): three 32-bit divisions for the
+//! flight saliency. The 35×35 mean costs O(1) per pixel (running sums,
+//! [`crate::filters::box_sum`]); the 3×3 median and the Scharr gradient sort or smooth each
+//! column once for its three windows (row chunks of 256 pixels on the stack).
 //!
 //! # Variants and guards
 //!
@@ -43,14 +48,14 @@
 //!
 //! # Scratch
 //!
-//! Three `i32` planes of W·H: the two box sums and the horizontal-pass plane (which then holds
-//! the raw output rows).
+//! Three `i32` planes of W·H: the two box sums and the horizontal-pass plane; about 5 KiB of
+//! stack for the row chunks.
 
-use super::{Guards, Variant, round_away_sat_u8};
-use crate::filters::border::{Border, Neighbourhood, NeighbourhoodOp, map_neighbourhoods_op};
+use super::{Guards, Variant};
+use crate::filters::border::Border;
 use crate::filters::box_sum::box_sum_u8;
-use crate::filters::median3::{median3_row, median9};
-use crate::filters::scharr::{scharr_l1, scharr_l1_row};
+use crate::filters::median3::{CHUNK, median3_chunk};
+use crate::filters::scharr::scharr_l1_chunk;
 use crate::{Error, FrameMut, FrameRef, ScratchMut};
 
 /// Fractional bits of the raw fused value written by [`fuse_tsifsd_raw`] (Q16).
@@ -93,22 +98,144 @@ impl TsifsdParams {
 /// `round(n / d)`, half away from zero, `d > 0`.
 #[inline(always)]
 fn div_round(n: i64, d: i64) -> i64 {
+    let d = d.max(1); // d > 0 already; lets the optimiser drop the division's panic paths
     if n >= 0 { (2 * n + d) / (2 * d) } else { -((-2 * n + d) / (2 * d)) }
+}
+
+/// The weights of one pixel: `(w_VIS, w_IR, σ = w_VIS + w_IR)`, both saliencies shifted right
+/// together until `σ < 2²³` (½, ½ when both are 0), and `true` when both were 0.
+#[inline(always)]
+fn weights(sal_v: u64, sal_i: u64) -> (i64, i64, i64, bool) {
+    let zero = sal_v == 0 && sal_i == 0;
+    let (sal_v, sal_i) = if zero { (1, 1) } else { (sal_v, sal_i) };
+    let shift = (64 - (sal_v + sal_i).leading_zeros()).saturating_sub(23);
+    let (wv, wi) = ((sal_v >> shift) as i64, (sal_i >> shift) as i64);
+    (wv, wi, wv + wi, zero)
+}
+
+/// The fused value of one pixel as the fraction `num / den` (Q16 once divided), `den > 0`,
+/// and `true` when both saliencies were 0.
+#[inline(always)]
+fn fraction(iv: u8, ii: u8, sum_v: i32, sum_i: i32, sal_v: u64, sal_i: u64, taps: i64) -> (i64, i64, bool) {
+    let (wv, wi, sigma, zero) = weights(sal_v, sal_i); // σ ≥ 1 and < 2²³
+    let (sv, si) = (i64::from(sum_v), i64::from(sum_i));
+    let dv = taps * i64::from(iv) - sv;
+    let di = taps * i64::from(ii) - si;
+    let num = (((sv + si) * sigma) << 15) + ((wv * dv + wi * di) << 16);
+    (num, taps * sigma, zero)
 }
 
 /// Fused Q16 value of one pixel; `true` when both saliencies were 0.
 #[inline(always)]
 fn combine(iv: u8, ii: u8, sum_v: i32, sum_i: i32, sal_v: u64, sal_i: u64, taps: i64) -> (i32, bool) {
-    let zero = sal_v == 0 && sal_i == 0;
-    let (sal_v, sal_i) = if zero { (1, 1) } else { (sal_v, sal_i) };
-    let shift = (64 - (sal_v + sal_i).leading_zeros()).saturating_sub(23);
-    let (wv, wi) = ((sal_v >> shift) as i64, (sal_i >> shift) as i64);
-    let sigma = wv + wi; // ≥ 1 and < 2²³
-    let (sv, si) = (i64::from(sum_v), i64::from(sum_i));
-    let dv = taps * i64::from(iv) - sv;
-    let di = taps * i64::from(ii) - si;
-    let num = (((sv + si) * sigma) << 15) + ((wv * dv + wi * di) << 16);
-    (div_round(num, taps * sigma) as i32, zero)
+    let (num, den, zero) = fraction(iv, ii, sum_v, sum_i, sal_v, sal_i, taps);
+    (div_round(num, den) as i32, zero)
+}
+
+/// `⌊u / v⌋` for `u < 256·v` (`v > 0`) without a 64-bit division (a library call on the
+/// 32-bit targets): estimated by one 32-bit division of the top bits
+/// (`v` cut to 24 bits, so the estimate is off by at most one) and corrected exactly.
+#[cfg_attr(target_arch = "x86_64", allow(dead_code))]
+#[inline(always)]
+fn div_small(u: u64, v: u64) -> u32 {
+    let s = (64 - v.leading_zeros()).saturating_sub(24);
+    // u >> s < 256·((v >> s) + 1) ≤ 2³²; v >> s < 2²⁴.
+    let (u2, v2) = ((u >> s) as u32, ((v >> s) as u32).max(1));
+    let k = u2 / v2;
+    let prod = u64::from(k) * v; // k ≤ 256, v < 2⁵³
+    if prod > u {
+        k.wrapping_sub(1)
+    } else if u - prod >= v {
+        k + 1
+    } else {
+        k
+    }
+}
+
+/// `(⌊a / b⌋, a mod b)` (floor division, remainder in `0..b`) for `b > 0`.
+#[inline(always)]
+fn floor_divmod(a: i32, b: i32) -> (i32, i32) {
+    let (q, r) = (a / b.max(1), a % b.max(1));
+    if r < 0 { (q - 1, r + b) } else { (q, r) }
+}
+
+/// The 8-bit output of one pixel and whether it saturated, from its weights `w_VIS`, `w_IR`
+/// (`σ = w_VIS + w_IR`, `1 ≤ σ < 2²³`), without a 64-bit division.
+///
+/// With `num / den` the fused Q16 value ([`fraction`]), `num = 2¹⁵·N`,
+/// `N = 2·taps·S + (w_VIS − w_IR)·(Σ_IR − Σ_VIS)`, `S = w_VIS·I_VIS + w_IR·I_IR`,
+/// `den = taps·σ`, the raw value is `q = round(num/den)` (half away from zero) and the output
+/// [`round_away_sat_u8`](super::round_away_sat_u8)`(q, 16)`. Both roundings fold into one floor
+/// (nested floors of integers): output `= clamp(k, 0, 255)` with
+/// `k = ⌊U / (2·den)⌋`, `U = N + den + ⌊den / 2¹⁶⌋`; `q` lies outside `[−2¹⁵, 255·2¹⁶ + 2¹⁵)`
+/// exactly when `k ≥ 256`, `U < 0`, or `U = 0` with `2¹⁶ | den`.
+///
+/// When `σ < 2¹⁴` (always for the flight saliency) everything fits `i32`: with
+/// `Σ_IR − Σ_VIS = 2·taps·a + r` (`|a| ≤ 128`, `0 ≤ r < 2·taps`), `⌊U / (2·taps)⌋ =
+/// S + (w_VIS − w_IR)·a + ⌊((w_VIS − w_IR)·r + den + ⌊den/2¹⁶⌋) / (2·taps)⌋` and `k` is that
+/// floor-divided by `σ`: three 32-bit divisions. Otherwise `U` is formed in `i64` and divided
+/// by [`div_small`] (or by the hardware on x86-64).
+#[inline(always)]
+fn fused_u8(iv: u8, ii: u8, sv: i32, si: i32, wv: u32, wi: u32, taps: u32) -> (u8, bool) {
+    let sigma = wv + wi;
+    // taps ≤ 63² < 2¹², σ < 2²³: S < 255·2²³ < 2³¹.
+    let s = wv * u32::from(iv) + wi * u32::from(ii);
+    let (k, u_zero, den_low) = if sigma < 1 << 14 {
+        let (sigma, taps, s) = (sigma as i32, taps as i32, s as i32);
+        let (wd, c) = (wv as i32 - wi as i32, 2 * taps);
+        let den = taps * sigma; // < 2²⁶
+        let (a, r) = floor_divmod(si - sv, c);
+        let (f, rt) = floor_divmod(wd * r + den + (den >> 16), c); // |·| < 2²⁸
+        let x = s + wd * a + f; // ⌊U / (2·taps)⌋
+        (floor_divmod(x, sigma).0, x == 0 && rt == 0, den & 0xFFFF)
+    } else {
+        let den = u64::from(taps) * u64::from(sigma); // < 2³⁵
+        let n = i64::from(2 * taps) * i64::from(s) + (i64::from(wv) - i64::from(wi)) * i64::from(si - sv);
+        let u = n + (den + (den >> 16)) as i64; // |U| < 2⁴⁶
+        let v = den << 1;
+        let k = if u < 0 {
+            -1
+        } else if u as u64 >= v << 8 {
+            256
+        } else {
+            // x86-64 divides 64 bits in hardware; the flight targets estimate with 32 bits.
+            #[cfg(target_arch = "x86_64")]
+            let k = (u as u64 / v) as i32;
+            #[cfg(not(target_arch = "x86_64"))]
+            let k = div_small(u as u64, v) as i32;
+            k
+        };
+        (k, u == 0, (den & 0xFFFF) as i32)
+    };
+    let saturated = !(0..256).contains(&k) || (u_zero && den_low == 0);
+    (k.clamp(0, 255) as u8, saturated)
+}
+
+/// The weights of the classic saliencies `(Σ − N·Med)²` from the two signed differences
+/// (`|·| < 2²⁰`), as [`weights`] gives them, and `true` when both saliencies are 0.
+#[inline(always)]
+fn weights_classic(dv: i32, di: i32) -> (u32, u32, bool) {
+    let square = |d: i32| u64::from(d.unsigned_abs()) * u64::from(d.unsigned_abs());
+    let (wv, wi, _, zero) = weights(square(dv), square(di));
+    (wv as u32, wi as u32, zero)
+}
+
+/// The weights of the flight saliencies (gradients ≤ 8160: their sum is already below 2²³,
+/// nothing to shift), as [`weights`] gives them, and `true` when both are 0.
+#[inline(always)]
+fn weights_flight(gv: i32, gi: i32) -> (u32, u32, bool) {
+    let (gv, gi) = (gv.unsigned_abs(), gi.unsigned_abs());
+    let zero = gv == 0 && gi == 0;
+    if zero { (1, 1, true) } else { (gv, gi, false) }
+}
+
+/// The 8-bit output of one pixel, [`round_away_sat_u8`](super::round_away_sat_u8)`(combine(…), 16)`
+/// (see [`fused_u8`]); returns `(output, both saliencies 0, saturated)`.
+#[cfg(test)]
+fn combine_u8(iv: u8, ii: u8, sum_v: i32, sum_i: i32, sal_v: u64, sal_i: u64, taps: i64) -> (u8, bool, bool) {
+    let (wv, wi, _, zero) = weights(sal_v, sal_i);
+    let (out, saturated) = fused_u8(iv, ii, sum_v, sum_i, wv as u32, wi as u32, taps as u32);
+    (out, zero, saturated)
 }
 
 fn check_sizes(vis: &FrameRef<'_, u8>, tir: &FrameRef<'_, u8>, out: (usize, usize)) -> Result<(), Error> {
@@ -121,58 +248,84 @@ fn check_sizes(vis: &FrameRef<'_, u8>, tir: &FrameRef<'_, u8>, out: (usize, usiz
     Ok(())
 }
 
-/// The per-pixel fusion of one row, as a [`NeighbourhoodOp`] over the TIR neighbourhoods.
-/// The item's `i32` holds the VIS saliency value on entry (classic: the signed `Σ − N·Med`,
-/// flight: the gradient) and the raw fused value on return.
-struct FusePixel<S, G> {
-    taps: i64,
-    /// Saliency from (value, box sum).
-    saliency: S,
-    /// TIR saliency value from the neighbourhood.
-    sal_tir: G,
-    any_zero: bool,
+/// Where [`run`] puts the fused rows.
+enum Out<'a> {
+    /// The 8-bit output ([`combine_u8`]).
+    U8(FrameMut<'a, u8>),
+    /// The raw Q16 values ([`combine`]).
+    Raw(FrameMut<'a, i32>),
 }
 
-type Item<'a> = ((((&'a mut i32, &'a u8), &'a u8), &'a i32), &'a i32);
+/// One chunk's pixels: box sums, the two saliency values (`saliency` turns them into weights),
+/// and the pixels themselves.
+struct Chunk<'a> {
+    iv: &'a [u8],
+    ii: &'a [u8],
+    sv: &'a [i32],
+    si: &'a [i32],
+    a: &'a [i32],
+    b: &'a [i32],
+}
 
-impl<'a, S: Fn(i32, i32) -> u64, G: Fn(Neighbourhood<u8>) -> i32> NeighbourhoodOp<u8, Item<'a>>
-    for FusePixel<S, G>
-{
-    #[inline(always)]
-    fn apply(&mut self, n: Neighbourhood<u8>, ((((o, &iv), &ii), &sv), &si): Item<'a>) {
-        let (sal_v, sal_i) = ((self.saliency)(*o, sv), (self.saliency)((self.sal_tir)(n), si));
-        let (v, zero) = combine(iv, ii, sv, si, sal_v, sal_i, self.taps);
+/// Fuses one chunk into the 8-bit `out`: `(some pixel had both saliencies 0, some output
+/// saturated)`. `weights` turns the two saliency values into `(w_VIS, w_IR, both 0)`.
+#[inline(always)]
+fn fuse_chunk_u8(
+    c: &Chunk<'_>,
+    taps: u32,
+    weights: impl Fn(i32, i32) -> (u32, u32, bool),
+    out: &mut [u8],
+) -> (bool, bool) {
+    let (mut zero, mut saturated) = (false, false);
+    let pixels = out.iter_mut().zip(c.iv).zip(c.ii).zip(c.sv).zip(c.si).zip(c.a).zip(c.b);
+    for ((((((o, &iv), &ii), &sv), &si), &a), &b) in pixels {
+        let (wv, wi, z) = weights(a, b);
+        let (v, s) = fused_u8(iv, ii, sv, si, wv, wi, taps);
         *o = v;
-        self.any_zero |= zero;
+        zero |= z;
+        saturated |= s;
+    }
+    (zero, saturated)
+}
+
+/// Fuses one chunk into the raw Q16 `out`: `true` when some pixel had both saliencies 0.
+#[inline(always)]
+fn fuse_chunk_raw(c: &Chunk<'_>, taps: i64, saliency: impl Fn(i32) -> u64, out: &mut [i32]) -> bool {
+    let mut zero = false;
+    let pixels = out.iter_mut().zip(c.iv).zip(c.ii).zip(c.sv).zip(c.si).zip(c.a).zip(c.b);
+    for ((((((o, &iv), &ii), &sv), &si), &a), &b) in pixels {
+        let (v, z) = combine(iv, ii, sv, si, saliency(a), saliency(b), taps);
+        *o = v;
+        zero |= z;
+    }
+    zero
+}
+
+/// The rows `y − 1, y, y + 1` of a frame: outside rows are `None` (zeros) for the classic
+/// variant and repeat the edge row for the flight variant.
+fn rows3(f: FrameRef<'_, u8>, y: usize, classic: bool) -> [Option<&[u8]>; 3] {
+    let h = f.height();
+    if classic {
+        [y.checked_sub(1).map(|r| f.row(r)), Some(f.row(y)), (y + 1 < h).then(|| f.row(y + 1))]
+    } else {
+        [Some(f.row_clamped(y as isize - 1)), Some(f.row(y)), Some(f.row_clamped(y as isize + 1))]
     }
 }
 
-/// One output row (see [`FusePixel`]); `true` when some pixel had both saliencies 0.
-#[allow(clippy::too_many_arguments)]
+/// `s[x0 .. x0 + n]` (empty when out of range).
 #[inline(always)]
-fn fuse_row(
-    rows_tir: (Option<&[u8]>, &[u8], Option<&[u8]>),
-    border: Border,
-    iv: &[u8],
-    sum_v: &[i32],
-    sum_i: &[i32],
-    taps: i64,
-    saliency: impl Fn(i32, i32) -> u64,
-    sal_tir: impl Fn(Neighbourhood<u8>) -> i32,
-    out: &mut [i32],
-) -> bool {
-    let op = FusePixel { taps, saliency, sal_tir, any_zero: false };
-    let pixels = out.iter_mut().zip(iv).zip(rows_tir.1).zip(sum_v).zip(sum_i);
-    map_neighbourhoods_op(rows_tir.0, rows_tir.1, rows_tir.2, border, pixels, op).any_zero
+fn cut<T>(s: &[T], x0: usize, n: usize) -> &[T] {
+    s.get(x0..x0 + n).unwrap_or(&[])
 }
 
-/// The one code path: box sums, saliencies, weights; hands each raw Q16 row to `emit(y, row)`.
+/// The one code path: box sums, then row by row and chunk by chunk the two saliencies and the
+/// fused pixels into `out`. Returns the guards (`OUTPUT_SATURATED` only for the 8-bit output).
 fn run(
     vis: FrameRef<'_, u8>,
     tir: FrameRef<'_, u8>,
     params: &TsifsdParams,
     scratch: &mut ScratchMut<'_>,
-    mut emit: impl FnMut(usize, &[i32]),
+    mut out: Out<'_>,
 ) -> Result<Guards, Error> {
     params.validate()?;
     let (w, h) = vis.size();
@@ -181,52 +334,63 @@ fn run(
     let taps = i64::from(params.mean_size) * i64::from(params.mean_size);
     box_sum_u8(vis, radius, params.mean_border(), tmp, sum_v)?;
     box_sum_u8(tir, radius, params.mean_border(), tmp, sum_i)?;
-    let mut guards = Guards::NONE;
-    for (y, ((sv, si), out)) in
-        sum_v.chunks_exact(w).zip(sum_i.chunks_exact(w)).zip(tmp.chunks_exact_mut(w)).enumerate()
-    {
+    let (mut zero, mut saturated) = (false, false);
+    let classic = params.variant == Variant::Classic;
+    // Classic: zero-padded median, saliency (Σ − N·Med)²; flight: replicate-padded Scharr L1.
+    let border = if classic { Border::Zero } else { Border::Replicate };
+    for (y, (sv, si)) in sum_v.chunks_exact(w.max(1)).zip(sum_i.chunks_exact(w.max(1))).enumerate() {
+        let (rows_v, rows_t) = (rows3(vis, y, classic), rows3(tir, y, classic));
         let (iv, ii) = (vis.row(y), tir.row(y));
-        let zero = match params.variant {
-            Variant::Classic => {
-                // Saliency (Σ − N·Med)², zero-padded median.
-                let above = y.checked_sub(1);
-                let below = (y + 1 < h).then_some(y + 1);
-                let med_v = |m: u8, o: &mut i32| *o = i32::from(m);
-                median3_row(
-                    above.map(|r| vis.row(r)),
-                    iv,
-                    below.map(|r| vis.row(r)),
-                    Border::Zero,
-                    out.iter_mut(),
-                    med_v,
-                );
-                let tir_rows = (above.map(|r| tir.row(r)), ii, below.map(|r| tir.row(r)));
-                let saliency = |med: i32, sum: i32| {
-                    let d = i64::from(sum) - taps * i64::from(med);
-                    d.unsigned_abs() * d.unsigned_abs()
-                };
-                fuse_row(tir_rows, Border::Zero, iv, sv, si, taps, saliency, |n| i32::from(median9(n)), out)
+        let mut x0 = 0;
+        while x0 < w {
+            let n = CHUNK.min(w - x0);
+            let (mut a, mut b) = ([0i32; CHUNK], [0i32; CHUNK]);
+            let (Some(a), Some(b)) = (a.get_mut(..n), b.get_mut(..n)) else { break };
+            let part = |s| cut(s, x0, n);
+            if classic {
+                for (rows, sums, dst) in [(rows_v, part(sv), &mut *a), (rows_t, part(si), &mut *b)] {
+                    let mut med = [0u8; CHUNK];
+                    median3_chunk(rows, border, x0, med.get_mut(..n).unwrap_or(&mut []));
+                    for ((d, &m), &s) in dst.iter_mut().zip(&med).zip(sums) {
+                        *d = s - taps as i32 * i32::from(m); // |Σ − N·Med| < 2²⁰
+                    }
+                }
+            } else {
+                scharr_l1_chunk(rows_v, border, x0, a);
+                scharr_l1_chunk(rows_t, border, x0, b);
             }
-            Variant::Flight => {
-                let (yu, yd) = (y as isize - 1, y as isize + 1);
-                let grad_v = |g: i32, o: &mut i32| *o = g;
-                scharr_l1_row(
-                    Some(vis.row_clamped(yu)),
-                    iv,
-                    Some(vis.row_clamped(yd)),
-                    Border::Replicate,
-                    out.iter_mut(),
-                    grad_v,
-                );
-                let tir_rows = (Some(tir.row_clamped(yu)), ii, Some(tir.row_clamped(yd)));
-                let saliency = |g: i32, _| u64::from(g.unsigned_abs());
-                fuse_row(tir_rows, Border::Replicate, iv, sv, si, taps, saliency, scharr_l1, out)
+            let chunk = Chunk { iv: cut(iv, x0, n), ii: cut(ii, x0, n), sv: part(sv), si: part(si), a, b };
+            let square = |v: i32| u64::from(v.unsigned_abs()) * u64::from(v.unsigned_abs());
+            let plain = |v: i32| u64::from(v.unsigned_abs());
+            match &mut out {
+                Out::U8(f) => {
+                    let dst = f.row_mut(y).get_mut(x0..x0 + n).unwrap_or(&mut []);
+                    let (z, s) = if classic {
+                        fuse_chunk_u8(&chunk, taps as u32, weights_classic, dst)
+                    } else {
+                        fuse_chunk_u8(&chunk, taps as u32, weights_flight, dst)
+                    };
+                    zero |= z;
+                    saturated |= s;
+                }
+                Out::Raw(f) => {
+                    let dst = f.row_mut(y).get_mut(x0..x0 + n).unwrap_or(&mut []);
+                    zero |= if classic {
+                        fuse_chunk_raw(&chunk, taps, square, dst)
+                    } else {
+                        fuse_chunk_raw(&chunk, taps, plain, dst)
+                    };
+                }
             }
-        };
-        if zero {
-            guards |= Guards::TSIFSD_ZERO_SALIENCY;
+            x0 += n;
         }
-        emit(y, out);
+    }
+    let mut guards = Guards::NONE;
+    if zero {
+        guards |= Guards::TSIFSD_ZERO_SALIENCY;
+    }
+    if saturated {
+        guards |= Guards::OUTPUT_SATURATED;
     }
     Ok(guards)
 }
@@ -239,43 +403,184 @@ fn run(
 pub fn fuse_tsifsd(
     vis: FrameRef<'_, u8>,
     tir: FrameRef<'_, u8>,
-    mut out: FrameMut<'_, u8>,
+    out: FrameMut<'_, u8>,
     params: &TsifsdParams,
     scratch: &mut ScratchMut<'_>,
 ) -> Result<Guards, Error> {
     check_sizes(&vis, &tir, out.size())?;
-    let mut saturated = false;
-    let guards = run(vis, tir, params, scratch, |y, raw| {
-        for (o, &v) in out.row_mut(y).iter_mut().zip(raw) {
-            saturated |= !(-(1 << 15)..(255 << 16) + (1 << 15)).contains(&v);
-            *o = round_away_sat_u8(i64::from(v), RAW_FRAC_BITS);
-        }
-    })?;
-    Ok(if saturated { guards | Guards::OUTPUT_SATURATED } else { guards })
+    run(vis, tir, params, scratch, Out::U8(out))
 }
 
 /// Fuses like [`fuse_tsifsd`] but writes the real-valued result before the 8-bit cast in Q16
 /// ([`RAW_FRAC_BITS`]; `raw / 65536.0` grey levels). [`fuse_tsifsd`] is this value cast with
-/// [`round_away_sat_u8`]`(raw, 16)`.
+/// [`round_away_sat_u8`](super::round_away_sat_u8)`(raw, 16)`.
 pub fn fuse_tsifsd_raw(
     vis: FrameRef<'_, u8>,
     tir: FrameRef<'_, u8>,
-    mut raw: FrameMut<'_, i32>,
+    raw: FrameMut<'_, i32>,
     params: &TsifsdParams,
     scratch: &mut ScratchMut<'_>,
 ) -> Result<Guards, Error> {
     check_sizes(&vis, &tir, raw.size())?;
-    run(vis, tir, params, scratch, |y, row| {
-        for (o, &v) in raw.row_mut(y).iter_mut().zip(row) {
-            *o = v;
-        }
-    })
+    run(vis, tir, params, scratch, Out::Raw(raw))
 }
 
 #[cfg(test)]
 mod tests {
+    extern crate std;
+    use super::super::round_away_sat_u8;
     use super::*;
     use crate::Scratch;
+
+    /// The 8-bit combine against the cast of the exact raw value, and its saturation flag,
+    /// on random pixels (huge and zero saliencies, every tap count, extreme box sums).
+    #[test]
+    fn combine_u8_is_the_cast_of_combine() {
+        let mut s = 11u64;
+        let mut next = || {
+            s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            s >> 17
+        };
+        for k in 0..400_000u32 {
+            let n = 2 * (next() % 32) as i64 + 1;
+            let taps = n * n;
+            let (iv, ii) = ((next() & 255) as u8, (next() & 255) as u8);
+            let sum = |r: u64| match r % 4 {
+                0 => 0,
+                1 => (255 * taps) as i32,
+                _ => (r % (255 * taps as u64 + 1)) as i32,
+            };
+            let (sv, si) = (sum(next()), sum(next()));
+            let sal = |r: u64| match k.wrapping_add(r as u32) % 5 {
+                0 => 0,
+                1 => r % 8161,
+                2 => r >> (r % 47),
+                3 => 1 << (r % 41),
+                _ => r % (1 << 40),
+            };
+            let (sal_v, sal_i) = (sal(next()), sal(next()));
+            let (raw, zero) = combine(iv, ii, sv, si, sal_v, sal_i, taps);
+            let want = round_away_sat_u8(i64::from(raw), RAW_FRAC_BITS);
+            let want_sat = !(-(1 << 15)..(255 << 16) + (1 << 15)).contains(&raw);
+            let got = combine_u8(iv, ii, sv, si, sal_v, sal_i, taps);
+            assert_eq!(got, (want, zero, want_sat), "{iv} {ii} {sv} {si} {sal_v} {sal_i} {taps}");
+        }
+    }
+
+    /// Small weights, every pixel pair class and a dense grid of box sums, exhaustively: the
+    /// ties and the saturation edges (`U = 0`, `k = 256`) of [`fused_u8`] included.
+    #[test]
+    fn combine_u8_on_a_dense_small_grid() {
+        for taps in [1i64, 9, 25] {
+            let top = 255 * taps as i32;
+            for wv in 0..6u64 {
+                for wi in 0..6u64 {
+                    for iv in [0u8, 1, 2, 127, 128, 254, 255] {
+                        for ii in [0u8, 1, 128, 255] {
+                            for sv in (0..=top).step_by((taps as usize * 7).max(1)) {
+                                for si in (0..=top).step_by((taps as usize * 5).max(1)) {
+                                    let (raw, zero) = combine(iv, ii, sv, si, wv, wi, taps);
+                                    let want = round_away_sat_u8(i64::from(raw), RAW_FRAC_BITS);
+                                    let want_sat = !(-(1 << 15)..(255 << 16) + (1 << 15)).contains(&raw);
+                                    let got = combine_u8(iv, ii, sv, si, wv, wi, taps);
+                                    assert_eq!(
+                                        got,
+                                        (want, zero, want_sat),
+                                        "{iv} {ii} {sv} {si} {wv} {wi} {taps}"
+                                    );
+                                }
+                            }
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    /// `U = 0` with `2¹⁶ | den`: `N = −den − den/2¹⁶` (σ = 2¹⁷, taps = 1), the raw value is
+    /// `round(−32768.5) = −32769`, saturated low although `k = 0`.
+    #[test]
+    fn combine_u8_low_saturation_edge() {
+        let (raw, _) = combine(253, 0, 0, 2, 257, 130815, 1);
+        assert_eq!(raw, -32769);
+        assert_eq!(combine_u8(253, 0, 0, 2, 257, 130815, 1), (0, false, true));
+        let (raw, zero) = combine(253, 0, 0, 2, 257, 130815, 9);
+        let sat = !(-(1 << 15)..(255 << 16) + (1 << 15)).contains(&raw);
+        assert_eq!(
+            combine_u8(253, 0, 0, 2, 257, 130815, 9),
+            (round_away_sat_u8(i64::from(raw), 16), zero, sat)
+        );
+    }
+
+    #[test]
+    fn div_small_is_exact() {
+        let mut s = 5u64;
+        let mut next = || {
+            s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            s
+        };
+        for _ in 0..1_000_000 {
+            let v = (next() >> (11 + next() % 53)).max(1);
+            let k = next() % 256;
+            let u = k * v + next() % v;
+            assert_eq!(u64::from(div_small(u, v)), u / v, "{u} {v}");
+        }
+        for v in [1u64, 2, 3, (1 << 24) - 1, 1 << 24, (1 << 24) + 1, (1 << 52) - 1] {
+            for u in [0, v - 1, v, 255 * v, 256 * v - 1] {
+                assert_eq!(u64::from(div_small(u, v)), u / v, "{u} {v}");
+            }
+        }
+    }
+
+    /// The 8-bit path equals the cast of the raw path on whole frames (both variants; a
+    /// checkerboard drives the classic output far out of range).
+    #[test]
+    fn u8_path_is_the_cast_of_the_raw_path() -> Result<(), Error> {
+        let (w, h) = (37usize, 29usize);
+        let mut s = 1u32;
+        let mut frame = |checker: bool| -> std::vec::Vec<u8> {
+            (0..w * h)
+                .map(|i| {
+                    s = s.wrapping_mul(1664525).wrapping_add(1013904223);
+                    if checker { if (i % w + i / w) % 2 == 0 { 255 } else { 0 } } else { (s >> 24) as u8 }
+                })
+                .collect()
+        };
+        for (vis, tir) in [
+            (frame(false), frame(false)),
+            (frame(true), frame(false)),
+            (std::vec![9u8; w * h], std::vec![9u8; w * h]),
+        ] {
+            for variant in [Variant::Classic, Variant::Flight] {
+                for mean_size in [3u16, 35] {
+                    let params = TsifsdParams { variant, mean_size };
+                    let mut scratch = Scratch::<{ 37 * 29 }>::new();
+                    let mut raw = std::vec![0i32; w * h];
+                    let g_raw = fuse_tsifsd_raw(
+                        FrameRef::new(&vis, w, h)?,
+                        FrameRef::new(&tir, w, h)?,
+                        FrameMut::new(&mut raw, w, h)?,
+                        &params,
+                        &mut scratch.view_mut(),
+                    )?;
+                    let mut out = std::vec![0u8; w * h];
+                    let g = fuse_tsifsd(
+                        FrameRef::new(&vis, w, h)?,
+                        FrameRef::new(&tir, w, h)?,
+                        FrameMut::new(&mut out, w, h)?,
+                        &params,
+                        &mut scratch.view_mut(),
+                    )?;
+                    let want: std::vec::Vec<u8> =
+                        raw.iter().map(|&v| round_away_sat_u8(i64::from(v), RAW_FRAC_BITS)).collect();
+                    assert_eq!(out, want);
+                    let sat = raw.iter().any(|v| !(-(1 << 15)..(255 << 16) + (1 << 15)).contains(v));
+                    assert_eq!(g, if sat { g_raw | Guards::OUTPUT_SATURATED } else { g_raw });
+                }
+            }
+        }
+        Ok(())
+    }
 
     /// 3×3 frames, 3×3 circular mean (every window is the whole frame): VIS has one 90 in the
     /// centre, TIR is black. B_VIS = 10, every median 0, S_VIS = 100, S_IR = 0, so w_VIS = 1

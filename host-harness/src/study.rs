@@ -220,7 +220,7 @@ mod tests {
         img.data[3 * 20 + 12] = 200;
         img.data[5 * 20 + 15] = 200;
         let (x, y, side) = target_square(&[&img], 10, 0.0);
-        assert_eq!(side, 3);
+        assert_eq!(side, 4, "columns 12..=15 (4) by rows 3..=5 (3)");
         assert!(x <= 12 && x + side >= 16 && y <= 3 && y + side >= 6, "({x}, {y}, {side})");
         // nothing bright: the largest square at the origin
         assert_eq!(

@@ -17,7 +17,7 @@
 //! | 9. keys `max(Feat, 0) + VIS` = `VIS·2²⁴ + max(R·2²⁴ + (IR−VIS)·r_H,24, 0)` | recomputed | `i64` Q24 ([`peak::KEY_BITS`]) | ≤ 255·2⁻²⁵ from `r_H`'s Q24 |
 //! | 10. `m·k` = exact sum of the top `k` keys by histogram selection ([`peak`]) | planes A, C | `i128` Q24 | exact given the keys |
 //! | 11. `g = min(255/m, 0.8)` as `G = g·2⁴⁰`, `B = g·r_H·2⁴⁰` (B saturated at 2⁵²) | — | Q40 | ≤ 2⁻⁴¹ |
-//! | 12. `F = VIS ⊕ uint8(R·G + (IR−VIS)·B)` | out | `i64` Q40, round half away, saturate | ≤ 2⁻³² before rounding |
+//! | 12. `F = VIS ⊕ uint8(R·G + (IR−VIS)·B)` | out (frames ≥ 8·256·511 px: the added value tabulated per `(R, IR−VIS)` in plane A) | `i64` Q40, round half away, saturate | ≤ 2⁻³² before rounding |
 //!
 //! The output differs from the exact-arithmetic result only where a rounding (steps 1, 7, 12)
 //! sits within the stated error of a .5 tie; the VIFB tests count those pixels.
@@ -42,7 +42,8 @@
 //! Three `i32` planes of [`scratch_pixels`] each: `max(W·H, D²)` plus the resizes'
 //! intermediate frames and tap tables (`D` × the shorter side, ≤ 4·max(W,H)+2·D entries);
 //! at most `W·H` for frames from 512² up to 1024² — even a 1×1 frame needs `D²`.
-//! No other memory except ≈ 12 KiB of stack (histograms, quadtree).
+//! No other memory except stack for the histograms and the quadtree: ≈ 12 KiB on the flight
+//! targets, ≈ 30 KiB on x86-64 (four interleaved partial histograms each).
 
 pub mod bezier;
 pub mod entropy;
@@ -194,13 +195,31 @@ fn resize_ir(
     Ok(())
 }
 
+/// Interleaved partial histograms on x86-64: runs of equal values then update different
+/// counters (no chain of dependent increments through memory); one on the flight targets,
+/// where the indexing would only add instructions.
+const PARTS: usize = if cfg!(target_arch = "x86_64") { 4 } else { 1 };
+
+/// The partial histogram of pixel `i`.
+#[inline(always)]
+fn part(i: usize) -> usize {
+    i & (PARTS.next_power_of_two() - 1).max(usize::from(PARTS > 1))
+}
+
+/// Grey-level histogram ([`PARTS`] interleaved partial histograms, summed at the end).
 fn histogram(frame: FrameRef<'_, u8>) -> [u32; 256] {
-    let mut hist = [0u32; 256];
+    let mut parts = [[0u32; 256]; PARTS];
     for row in frame.rows() {
-        for &v in row {
-            if let Some(h) = hist.get_mut(usize::from(v)) {
+        for (i, &v) in row.iter().enumerate() {
+            if let Some(h) = parts.get_mut(part(i)).and_then(|p| p.get_mut(usize::from(v))) {
                 *h += 1;
             }
+        }
+    }
+    let mut hist = [0u32; 256];
+    for part in &parts {
+        for (h, &c) in hist.iter_mut().zip(part) {
+            *h += c;
         }
     }
     hist
@@ -247,6 +266,81 @@ pub fn background(
 #[inline(always)]
 fn bg_u8(bg: i32) -> i32 {
     (bg.max(0).saturating_add(1 << (BG_BITS - 1)) >> BG_BITS).min(255)
+}
+
+/// The step-9 key `VIS·2²⁴ + max(R·2²⁴ + (IR − VIS)·r_H, 0)` (Q24), saturating.
+#[inline(always)]
+fn key_general(t: u8, v: u8, feat_r: i32, ratio_q24: i64) -> i64 {
+    let feat = (i64::from(feat_r) << peak::KEY_BITS)
+        .saturating_add((i64::from(t) - i64::from(v)).saturating_mul(ratio_q24));
+    (i64::from(v) << peak::KEY_BITS).saturating_add(feat.max(0))
+}
+
+/// [`key_general`] for `r_H < 2⁷` (`ratio_q24` fits `i32`) and `R ≤ 255`: every term is below
+/// 2⁴⁰, nothing saturates, so plain `i64` arithmetic gives the same key.
+#[inline(always)]
+fn key_small(t: u8, v: u8, feat_r: i32, ratio_q24: i32) -> i64 {
+    let feat =
+        (i64::from(feat_r) << peak::KEY_BITS) + i64::from(i32::from(t) - i32::from(v)) * i64::from(ratio_q24);
+    (i64::from(v) << peak::KEY_BITS) + feat.max(0)
+}
+
+/// Entries of the step-12 table: one per `(R, IR − VIS)`, `R` in `0..=255`, `IR − VIS` in
+/// `−255..=255`.
+const ADD_TABLE_LEN: usize = 256 * 511;
+
+/// Step 12: `F = VIS ⊕ uint8(R·G + (IR − VIS)·B)` (Q40 gains, round half away, saturate) for
+/// every pixel; returns whether some output saturated. The added value depends on
+/// `(R, IR − VIS)` only; with a `table` of [`ADD_TABLE_LEN`] it is computed once per pair
+/// instead of once per pixel (the same values).
+fn output_pass(
+    vis: FrameRef<'_, u8>,
+    tir: FrameRef<'_, u8>,
+    r_plane: &[i32],
+    mut out: FrameMut<'_, u8>,
+    g_q: i64,
+    b_q: i64,
+    table: Option<&mut [i32]>,
+) -> bool {
+    let w = vis.width();
+    let half = 1i64 << (GAIN_BITS - 1);
+    // uint8(g·Feat), or 256 when it saturates.
+    let add = |r: i32, d: i32| {
+        let val = i64::from(r) * g_q + i64::from(d) * b_q;
+        if val <= 0 { 0 } else { ((val + half) >> GAIN_BITS).min(256) as i32 }
+    };
+    let mut saturated = false;
+    let mut put = |o: &mut u8, v: u8, add: i32| {
+        let sum = i32::from(v) + add;
+        saturated |= sum > 255;
+        *o = sum.min(255) as u8;
+    };
+    let rows = out.rows_mut().zip(vis.rows()).zip(tir.rows()).zip(r_plane.chunks_exact(w.max(1)));
+    match table {
+        Some(table) => {
+            for (r, row) in table.chunks_exact_mut(511).enumerate() {
+                for (d, slot) in row.iter_mut().enumerate() {
+                    *slot = add(r as i32, d as i32 - 255);
+                }
+            }
+            let table: &[i32] = table;
+            for (((o, v), t), rr) in rows {
+                for (((o, &v), &t), &r) in o.iter_mut().zip(v).zip(t).zip(rr) {
+                    // R = max(IR − uint8(bg), 0) ∈ 0..=255.
+                    let idx = (r as usize) * 511 + (usize::from(t) + 255 - usize::from(v));
+                    put(o, v, table.get(idx).copied().unwrap_or(0));
+                }
+            }
+        }
+        None => {
+            for (((o, v), t), rr) in rows {
+                for (((o, &v), &t), &r) in o.iter_mut().zip(v).zip(t).zip(rr) {
+                    put(o, v, add(r, i32::from(t) - i32::from(v)));
+                }
+            }
+        }
+    }
+    saturated
 }
 
 /// IFEVIP of an aligned VIS/TIR pair into `out` (see the module docs). Returns the guards that
@@ -299,23 +393,55 @@ pub fn fuse_ifevip(
     let [a, b, c] = scratch.planes(needed)?;
 
     // 7 + 9. R = IR ⊖ uint8(bg) in place in C; keys max(Feat, 0) + VIS (Q24) into A (low
-    // 32 bits) and B (high 32 bits).
-    for (((rr, ir), vv), (ka, kb)) in c
+    // 32 bits) and B (high 32 bits), counted into the coarse histogram of step 10 on the way.
+    // Interleaved partial histograms (see `PARTS`).
+    let mut coarse_parts = [[0u32; peak::BINS]; PARTS];
+    let rows = c
         .chunks_exact_mut(w.max(1))
         .zip(tir.rows())
         .zip(vis.rows())
-        .zip(a.chunks_exact_mut(w.max(1)).zip(b.chunks_exact_mut(w.max(1))))
-    {
-        for ((((r, &t), &v), ka), kb) in rr.iter_mut().zip(ir).zip(vv).zip(ka.iter_mut()).zip(kb.iter_mut()) {
-            let feat_r = (i32::from(t) - bg_u8(*r)).max(0);
-            *r = feat_r;
-            let feat = (i64::from(feat_r) << peak::KEY_BITS)
-                .saturating_add((i64::from(t) - i64::from(v)).saturating_mul(ratio_q24));
-            let key = (i64::from(v) << peak::KEY_BITS).saturating_add(feat.max(0));
-            peak::store(key, ka, kb);
+        .zip(a.chunks_exact_mut(w.max(1)).zip(b.chunks_exact_mut(w.max(1))));
+    let small_ratio = i32::try_from(ratio_q24).ok();
+    for (((rr, ir), vv), (ka, kb)) in rows {
+        let pixels = rr.iter_mut().zip(ir).zip(vv).zip(ka.iter_mut()).zip(kb.iter_mut()).enumerate();
+        match small_ratio {
+            // r_H < 128: |(IR − VIS)·r_H| < 2³⁹, so nothing below saturates and plain i64
+            // arithmetic gives the same keys (< 2⁴¹).
+            Some(ratio) => {
+                for (i, ((((r, &t), &v), ka), kb)) in pixels {
+                    let feat_r = (i32::from(t) - bg_u8(*r)).max(0);
+                    *r = feat_r;
+                    let key = key_small(t, v, feat_r, ratio);
+                    peak::store(key, ka, kb);
+                    if let Some(h) =
+                        coarse_parts.get_mut(part(i)).and_then(|p| p.get_mut(peak::coarse_bin(key)))
+                    {
+                        *h += 1;
+                    }
+                }
+            }
+            None => {
+                for (i, ((((r, &t), &v), ka), kb)) in pixels {
+                    let feat_r = (i32::from(t) - bg_u8(*r)).max(0);
+                    *r = feat_r;
+                    let key = key_general(t, v, feat_r, ratio_q24);
+                    peak::store(key, ka, kb);
+                    if let Some(h) =
+                        coarse_parts.get_mut(part(i)).and_then(|p| p.get_mut(peak::coarse_bin(key)))
+                    {
+                        *h += 1;
+                    }
+                }
+            }
         }
     }
     let r_plane: &[i32] = c;
+    let mut coarse = [0u32; peak::BINS];
+    for part in &coarse_parts {
+        for (h, &n) in coarse.iter_mut().zip(part) {
+            *h += n;
+        }
+    }
 
     // 10. Peak m·k: sum of the top k keys.
     let ppm = u64::from(params.top_ppm);
@@ -326,7 +452,7 @@ pub fn fuse_ifevip(
     if flight {
         k = k.max(1);
     }
-    let top = peak::top_k_sum(a, b, w * h, k);
+    let top = peak::top_k_sum_with(a, b, w * h, k, &coarse);
 
     // 11. Gains in Q40.
     let cap = u128::from(params.gain_cap_percent);
@@ -349,24 +475,74 @@ pub fn fuse_ifevip(
     let g_q = i64::try_from(gain_q40).unwrap_or(i64::MAX);
     let b_q = i64::try_from(ratio_gain.min(1 << 52)).unwrap_or(1 << 52);
 
-    // 12. F = VIS ⊕ uint8(g·Feat).
-    let half = 1i64 << (GAIN_BITS - 1);
-    let mut saturated = false;
-    for (((o, v), t), rr) in
-        out.rows_mut().zip(vis.rows()).zip(tir.rows()).zip(r_plane.chunks_exact(w.max(1)))
-    {
-        for (((o, &v), &t), &r) in o.iter_mut().zip(v).zip(t).zip(rr) {
-            let val = i64::from(r) * g_q + (i64::from(t) - i64::from(v)) * b_q;
-            let add = if val <= 0 { 0 } else { (val + half) >> GAIN_BITS };
-            saturated |= add > 255;
-            let add = add.min(255);
-            let sum = i64::from(v) + add;
-            saturated |= sum > 255;
-            *o = sum.min(255) as u8;
-        }
-    }
+    // 12. F = VIS ⊕ uint8(g·Feat), tabulated for large frames in plane A (free after step 10).
+    let table = a.get_mut(..ADD_TABLE_LEN).filter(|_| w * h >= 8 * ADD_TABLE_LEN);
+    let saturated = output_pass(vis, tir, r_plane, out, g_q, b_q, table);
     if saturated {
         guards |= Guards::OUTPUT_SATURATED;
     }
     Ok(guards)
+}
+
+#[cfg(test)]
+mod tests {
+    extern crate std;
+    use super::*;
+
+    #[test]
+    fn small_keys_equal_general_keys() {
+        for ratio in [0i32, 1, 1 << 23, (1 << 24) + 12345, i32::MAX] {
+            for t in 0..=255u8 {
+                for v in 0..=255u8 {
+                    for feat_r in [0i32, 1, 17, 128, 254, 255] {
+                        assert_eq!(
+                            key_small(t, v, feat_r, ratio),
+                            key_general(t, v, feat_r, i64::from(ratio))
+                        );
+                    }
+                }
+            }
+        }
+    }
+
+    /// The tabulated step 12 against the per-pixel one, saturating gains included.
+    #[test]
+    fn tabulated_output_equals_direct_output() -> Result<(), Error> {
+        let (w, h) = (61usize, 37usize);
+        let mut s = 5u32;
+        let mut next = || {
+            s = s.wrapping_mul(1664525).wrapping_add(1013904223);
+            (s >> 24) as u8
+        };
+        let vis: std::vec::Vec<u8> = (0..w * h).map(|_| next()).collect();
+        let tir: std::vec::Vec<u8> = (0..w * h).map(|_| next()).collect();
+        let r: std::vec::Vec<i32> = tir.iter().map(|&t| (i32::from(t) - i32::from(next())).max(0)).collect();
+        for (g_q, b_q) in
+            [(1i64 << 39, 1i64 << 40), (7 << 37, 3 << 41), (1 << 40, 1 << 52), (0, 0), (123_456_789, -5)]
+        {
+            let mut direct = std::vec![0u8; w * h];
+            let sat_d = output_pass(
+                FrameRef::new(&vis, w, h)?,
+                FrameRef::new(&tir, w, h)?,
+                &r,
+                FrameMut::new(&mut direct, w, h)?,
+                g_q,
+                b_q,
+                None,
+            );
+            let mut table = std::vec![0i32; ADD_TABLE_LEN];
+            let mut tabulated = std::vec![0u8; w * h];
+            let sat_t = output_pass(
+                FrameRef::new(&vis, w, h)?,
+                FrameRef::new(&tir, w, h)?,
+                &r,
+                FrameMut::new(&mut tabulated, w, h)?,
+                g_q,
+                b_q,
+                Some(&mut table),
+            );
+            assert_eq!((direct, sat_d), (tabulated, sat_t), "{g_q} {b_q}");
+        }
+        Ok(())
+    }
 }

@@ -7,9 +7,11 @@
 //! adds the keys above the selected bin and keeps the ones in it — until the bin holds one
 //! value `T`; the sum is `Σ above + (k − #above)·T`. Two passes over the keys, then a few
 //! over the candidates (usually a few hundred); no sort, exact for any key distribution.
+//! IFEVIP counts pass 1 while it stores the keys ([`top_k_sum_with`]), so only pass 2 reads
+//! them back.
 
 /// Bins per histogram.
-const BINS: usize = 1024;
+pub const BINS: usize = 1024;
 
 /// Fractional bits of the keys.
 pub const KEY_BITS: u32 = 24;
@@ -44,22 +46,38 @@ pub fn store(key: i64, lo: &mut i32, hi: &mut i32) {
     *hi = h;
 }
 
+/// The coarse histogram of pass 1: one bin per integer grey level of the key (`key >> 24`),
+/// the top bin open-ended.
+pub type Coarse = [u32; BINS];
+
+/// The coarse bin of a key (see [`Coarse`]).
+#[inline(always)]
+pub fn coarse_bin(key: i64) -> usize {
+    ((key.max(0) >> KEY_BITS) as u64).min(BINS as u64 - 1) as usize
+}
+
 /// Sum of the `k` largest of the `n` non-negative keys held in `lo_plane`/`hi_plane` (see
 /// [`store`]); the planes are reordered. `k = 0` gives 0; `k ≥ n` sums all keys.
 pub fn top_k_sum(lo_plane: &mut [i32], hi_plane: &mut [i32], n: usize, k: u64) -> i128 {
+    let n = n.min(lo_plane.len()).min(hi_plane.len());
+    let mut hist = [0u32; BINS];
+    for (&l, &h) in lo_plane.iter().zip(hi_plane.iter()).take(n) {
+        if let Some(c) = hist.get_mut(coarse_bin(unpack(l, h))) {
+            *c = c.wrapping_add(1);
+        }
+    }
+    top_k_sum_with(lo_plane, hi_plane, n, k, &hist)
+}
+
+/// [`top_k_sum`] with pass 1 done by the caller: `hist` is the [`Coarse`] histogram of the
+/// `n` keys (e.g. counted while storing them).
+pub fn top_k_sum_with(lo_plane: &mut [i32], hi_plane: &mut [i32], n: usize, k: u64, hist: &Coarse) -> i128 {
     let n = n.min(lo_plane.len()).min(hi_plane.len());
     let k = k.min(n as u64);
     if k == 0 {
         return 0;
     }
-    let coarse = |key: i64| ((key.max(0) >> KEY_BITS) as u64).min(BINS as u64 - 1) as usize;
-    let mut hist = [0u32; BINS];
-    for (&l, &h) in lo_plane.iter().zip(hi_plane.iter()).take(n) {
-        if let Some(c) = hist.get_mut(coarse(unpack(l, h))) {
-            *c = c.wrapping_add(1);
-        }
-    }
-    let (t, above) = select(&hist, k);
+    let (t, above) = select(hist, k);
     let mut need = k - above;
     let mut sum: i128 = 0;
     // The selected bin is [lo, lo + 2^shift), open-ended when it is the top coarse bin.

@@ -135,7 +135,7 @@ fn combine(iv: u8, ii: u8, sum_v: i32, sum_i: i32, sal_v: u64, sal_i: u64, taps:
 /// `⌊u / v⌋` for `u < 256·v` (`v > 0`) without a 64-bit division (a library call on the
 /// 32-bit targets): estimated by one 32-bit division of the top bits
 /// (`v` cut to 24 bits, so the estimate is off by at most one) and corrected exactly.
-#[cfg_attr(target_arch = "x86_64", allow(dead_code))]
+#[cfg_attr(all(target_arch = "x86_64", not(test)), allow(dead_code))]
 #[inline(always)]
 fn div_small(u: u64, v: u64) -> u32 {
     let s = (64 - v.leading_zeros()).saturating_sub(24);
@@ -177,38 +177,68 @@ fn floor_divmod(a: i32, b: i32) -> (i32, i32) {
 /// by [`div_small`] (or by the hardware on x86-64).
 #[inline(always)]
 fn fused_u8(iv: u8, ii: u8, sv: i32, si: i32, wv: u32, wi: u32, taps: u32) -> (u8, bool) {
+    // x86-64: one f64 division beats three dependent integer divisions.
+    #[cfg(not(target_arch = "x86_64"))]
+    if wv + wi < 1 << 14 {
+        return fused_u8_small(iv, ii, sv, si, wv, wi, taps);
+    }
+    fused_u8_wide(iv, ii, sv, si, wv, wi, taps)
+}
+
+/// [`fused_u8`] for `σ < 2¹⁴`, all in `i32` with three 32-bit floor divisions.
+#[cfg_attr(target_arch = "x86_64", allow(dead_code))]
+#[inline(always)]
+fn fused_u8_small(iv: u8, ii: u8, sv: i32, si: i32, wv: u32, wi: u32, taps: u32) -> (u8, bool) {
+    let (sigma, taps) = ((wv + wi) as i32, taps as i32);
+    let s = (wv * u32::from(iv) + wi * u32::from(ii)) as i32; // < 255·2¹⁴
+    let (wd, c) = (wv as i32 - wi as i32, 2 * taps);
+    let den = taps * sigma; // < 2²⁶
+    let (a, r) = floor_divmod(si - sv, c);
+    let (f, rt) = floor_divmod(wd * r + den + (den >> 16), c); // |·| < 2²⁸
+    let x = s + wd * a + f; // ⌊U / (2·taps)⌋
+    finish_u8(floor_divmod(x, sigma).0, x == 0 && rt == 0, den & 0xFFFF)
+}
+
+/// [`fused_u8`] for any `σ < 2²³`: `U` in `i64` (`|U| < 2⁴⁶`), `⌊U / (2·den)⌋` by
+/// [`quotient`].
+#[inline(always)]
+fn fused_u8_wide(iv: u8, ii: u8, sv: i32, si: i32, wv: u32, wi: u32, taps: u32) -> (u8, bool) {
     let sigma = wv + wi;
     // taps ≤ 63² < 2¹², σ < 2²³: S < 255·2²³ < 2³¹.
     let s = wv * u32::from(iv) + wi * u32::from(ii);
-    let (k, u_zero, den_low) = if sigma < 1 << 14 {
-        let (sigma, taps, s) = (sigma as i32, taps as i32, s as i32);
-        let (wd, c) = (wv as i32 - wi as i32, 2 * taps);
-        let den = taps * sigma; // < 2²⁶
-        let (a, r) = floor_divmod(si - sv, c);
-        let (f, rt) = floor_divmod(wd * r + den + (den >> 16), c); // |·| < 2²⁸
-        let x = s + wd * a + f; // ⌊U / (2·taps)⌋
-        (floor_divmod(x, sigma).0, x == 0 && rt == 0, den & 0xFFFF)
+    let den = u64::from(taps) * u64::from(sigma); // < 2³⁵
+    let n = i64::from(2 * taps) * i64::from(s) + (i64::from(wv) - i64::from(wi)) * i64::from(si - sv);
+    let u = n + (den + (den >> 16)) as i64;
+    let v = den << 1;
+    let k = if u < 0 {
+        -1
+    } else if u as u64 >= v << 8 {
+        256
     } else {
-        let den = u64::from(taps) * u64::from(sigma); // < 2³⁵
-        let n = i64::from(2 * taps) * i64::from(s) + (i64::from(wv) - i64::from(wi)) * i64::from(si - sv);
-        let u = n + (den + (den >> 16)) as i64; // |U| < 2⁴⁶
-        let v = den << 1;
-        let k = if u < 0 {
-            -1
-        } else if u as u64 >= v << 8 {
-            256
-        } else {
-            // x86-64 divides 64 bits in hardware; the flight targets estimate with 32 bits.
-            #[cfg(target_arch = "x86_64")]
-            let k = (u as u64 / v) as i32;
-            #[cfg(not(target_arch = "x86_64"))]
-            let k = div_small(u as u64, v) as i32;
-            k
-        };
-        (k, u == 0, (den & 0xFFFF) as i32)
+        quotient(u as u64, v) as i32
     };
+    finish_u8(k, u == 0, (den & 0xFFFF) as i32)
+}
+
+/// The output and the saturation flag from `k` (see [`fused_u8`]).
+#[inline(always)]
+fn finish_u8(k: i32, u_zero: bool, den_low: i32) -> (u8, bool) {
     let saturated = !(0..256).contains(&k) || (u_zero && den_low == 0);
     (k.clamp(0, 255) as u8, saturated)
+}
+
+/// `⌊u / v⌋` for `u < 256·v`, `v < 2³⁷` (`u < 2⁴⁵`): by [`div_small`] on the 32-bit targets;
+/// on x86-64 by one `f64` division, exact here: `u` and `v` convert exactly (< 2⁵³), and a
+/// quotient below the integer `k` misses it by at least `1/v ≥ 2⁻³⁷`, far more than the
+/// division's rounding error `k·2⁻⁵³ < 2⁻⁴⁴`, so it never rounds up to `k` (and an exact
+/// integer quotient stays exact).
+#[inline(always)]
+fn quotient(u: u64, v: u64) -> u32 {
+    #[cfg(target_arch = "x86_64")]
+    let k = (u as f64 / v as f64) as u32;
+    #[cfg(not(target_arch = "x86_64"))]
+    let k = div_small(u, v);
+    k
 }
 
 /// The weights of the classic saliencies `(Σ − N·Med)²` from the two signed differences
@@ -510,6 +540,40 @@ mod tests {
             combine_u8(253, 0, 0, 2, 257, 130815, 9),
             (round_away_sat_u8(i64::from(raw), 16), zero, sat)
         );
+    }
+
+    /// Both forms of [`fused_u8`] (the `i32` one runs only on the 32-bit targets) on small
+    /// weights, and the `f64` quotient against the integer division.
+    #[test]
+    fn small_and_wide_forms_agree() {
+        let mut s = 77u64;
+        let mut next = || {
+            s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            s >> 16
+        };
+        for k in 0..300_000u32 {
+            let n = 2 * (next() % 32) as u32 + 1;
+            let taps = n * n;
+            let top = 255 * taps as u64 + 1;
+            let (sv, si) = ((next() % top) as i32, (next() % top) as i32);
+            let (iv, ii) = ((next() & 255) as u8, (next() & 255) as u8);
+            let (mut wv, mut wi) = ((next() % (1 << 13)) as u32, (next() % (1 << 13)) as u32);
+            if k % 7 == 0 {
+                (wv, wi) = (wv % 3, wi % 3);
+            }
+            if wv + wi == 0 {
+                wv = 1;
+            }
+            assert_eq!(
+                fused_u8_small(iv, ii, sv, si, wv, wi, taps),
+                fused_u8_wide(iv, ii, sv, si, wv, wi, taps),
+                "{iv} {ii} {sv} {si} {wv} {wi} {taps}"
+            );
+            let v = (next() >> (next() % 28)).clamp(1, (1 << 37) - 1);
+            let u = (next() % 256) * v + next() % v;
+            assert_eq!(u64::from(quotient(u, v)), u / v, "{u} {v}");
+            assert_eq!(u64::from(div_small(u, v)), u / v, "{u} {v}");
+        }
     }
 
     #[test]

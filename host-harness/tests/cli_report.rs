@@ -1,4 +1,5 @@
-//! `fusion report` end to end on a tiny rendered dataset (VIS 128², TIR 64² and 128², 2 frames).
+//! `fusion report` end to end on a tiny rendered dataset (VIS 128², TIR 64² and 128², 2 frames):
+//! the core's four method rows and the study's four host-only ones (gff, mgff, tepgfl, drif).
 
 use host_harness::io::{ColorPolicy, load_gray_u8};
 use std::process::Command;
@@ -21,7 +22,12 @@ fn report_writes_every_table_chart_and_conclusion() {
         assert!(md.contains(&format!("## Table {t}")), "table {t} missing");
     }
     let verdicts = md.matches("confirmed**").count();
-    assert!(verdicts >= 9, "{verdicts} verdicts");
+    assert!(verdicts >= 16, "{verdicts} verdicts");
+    for finding in
+        ["*GFF darkens with TIR upscaling*", "*TEPGFL halos*", "*DRIF is textureless*", "*DRIF is slow*"]
+    {
+        assert!(md.contains(finding), "{finding} missing");
+    }
 
     // Every cell has a value per frame; rescaling PSNRs are finite and plausible.
     let tables = std::fs::read_to_string(out.join("tables.csv")).unwrap();
@@ -41,6 +47,31 @@ fn report_writes_every_table_chart_and_conclusion() {
         }
     }
     assert_eq!(t2, 3, "area, bicubic, lanczos3");
+    // Eight method rows in Tables 4 (TIR up) and 7; drif has no Table 5 (VIS down) row and a
+    // "different res" Table 6 row.
+    let rows = |table: &str, col: &str| -> Vec<String> {
+        tables
+            .lines()
+            .map(|l| l.split(',').collect::<Vec<_>>())
+            .filter(|f| f[0] == table && f[2] == col)
+            .map(|f| f[1].to_string())
+            .collect()
+    };
+    let all = ["adf", "drif", "gff", "ifevip", "mgff", "tepgfl", "tsifsd", "tsifsd-classic"];
+    assert_eq!(rows("t4-eclipse", "AG"), all);
+    assert_eq!(rows("t4-light", "level"), all);
+    assert_eq!(
+        rows("t5-light", "halo"),
+        ["adf", "gff", "ifevip", "mgff", "tepgfl", "tsifsd", "tsifsd-classic"]
+    );
+    assert_eq!(rows("t7", "big"), all);
+    assert_eq!(rows("t7", "small").len(), 7);
+    let t6 = rows("t6-eclipse", "PSNR_S");
+    assert_eq!(t6.len(), 7 * 3 + 1);
+    assert!(t6.contains(&"drif|different res".to_string()) && t6.contains(&"gff|VIS down".to_string()));
+    for name in ["gff", "mgff", "tepgfl", "drif"] {
+        assert!(md.contains(&format!("| {name} | host f64 |")), "Table 7 row of {name}");
+    }
 
     let charts = std::fs::read_dir(&out)
         .unwrap()
@@ -49,5 +80,6 @@ fn report_writes_every_table_chart_and_conclusion() {
         .count();
     assert_eq!(charts, 10, "5 per-frame charts per illumination");
     let sheet = load_gray_u8(&out.join("contact_sheet.png"), ColorPolicy::Refuse).unwrap();
-    assert_eq!((sheet.width, sheet.height), (6 * 256 + 7 * 4, 2 * 256 + 3 * 4));
+    // VIS, TIR up, then the eight methods
+    assert_eq!((sheet.width, sheet.height), (10 * 256 + 11 * 4, 2 * 256 + 3 * 4));
 }

@@ -14,6 +14,15 @@
 //!   inputs: VIS down (compared with the reference area-downscaled to 512²), TIR up, same res.
 //! * **Table 7** — median core time per method on both grids (one thread).
 //!
+//! The study's four other methods (GFF, MGFF, TEPGFL, DRIF; [`crate::study_methods`]) have no
+//! core path: they run on the host in f64, one thread, and are timed that way (once per frame).
+//! DRIF fuses VIS 1024² with TIR 512² as they are and outputs on the VIS grid: it has a row in
+//! Table 4 (compared with the same sources as the others), none in Table 5, and one Table 6 row
+//! ("different res") against its fusion of the noiseless same-resolution pair. Tables 4/5 also
+//! give the target's brightness relative to the sources and a halo measure, so that the study's
+//! qualitative findings (GFF darkens with TIR upscaling, TEPGFL halos, DRIF textureless and slow)
+//! can be checked with numbers.
+//!
 //! Everything goes to `OUT/`: `report.md` (our tables beside the study's numbers and the
 //! conclusions), one CSV per table, per-frame CSV and charts, and a contact sheet.
 
@@ -25,6 +34,8 @@ use crate::study::{
     Dataset, NamedMethod, contact_sheet, core_methods, fuse_timed, median, source_on_grid, target_square,
     tile,
 };
+use crate::study_methods::guided_filter::box_mean;
+use crate::study_methods::{HostMethod, fuse_host_u8};
 use anyhow::{Context, Result};
 use clap::Args;
 use fusion_nostd::Filter;
@@ -78,8 +89,10 @@ impl Cells {
         if v.is_empty() { f64::NAN } else { v.iter().sum::<f64>() / v.len() as f64 }
     }
 
+    /// Median of the values (NaN when there are none).
     fn median(&self, table: &str, row: &str, col: &str) -> f64 {
-        median(&mut self.values(table, row, col).to_vec())
+        let v = self.values(table, row, col);
+        if v.is_empty() { f64::NAN } else { median(&mut v.to_vec()) }
     }
 }
 
@@ -135,6 +148,84 @@ fn put_noise(cells: &mut Cells, table: &str, row: &str, n: &NoiseMetrics) {
     for (col, v) in [("MSE_S", n.mse_s), ("PSNR_S", n.psnr_s), ("SSIM_S", n.ssim_s)] {
         cells.push(table, row, col, v);
     }
+}
+
+/// The target and the band around its outline on one grid, from the noiseless sources.
+struct TargetZone {
+    /// Pixels where either noiseless source is above [`TARGET_LEVEL`].
+    target: Vec<bool>,
+    /// Pixels within [`HALO_RADIUS`] px of the target's outline (either side): their window
+    /// holds both target and background pixels.
+    band: Vec<bool>,
+}
+
+/// Grey level above which a noiseless source pixel belongs to the target.
+const TARGET_LEVEL: u8 = 10;
+/// Half-width of the band around the outline where halos are measured, px.
+const HALO_RADIUS: usize = 8;
+
+impl TargetZone {
+    fn new(vis_clean: &Gray<u8>, tir_clean: &Gray<u8>) -> Self {
+        let target: Vec<bool> =
+            vis_clean.data.iter().zip(&tir_clean.data).map(|(&v, &t)| v.max(t) > TARGET_LEVEL).collect();
+        let frac = box_mean(
+            &Gray {
+                width: vis_clean.width,
+                height: vis_clean.height,
+                data: target.iter().map(|&t| f64::from(u8::from(t))).collect(),
+            },
+            HALO_RADIUS,
+        );
+        let band = frac.data.iter().map(|&f| f > 1e-9 && f < 1.0 - 1e-9).collect();
+        Self { target, band }
+    }
+}
+
+/// Mean of `fused` over the target divided by the mean of `½(vis + tir)` there (NaN without a
+/// target): below 1 the fusion is darker than the sources' average on the target.
+fn target_level(zone: &TargetZone, vis: &Gray<u8>, tir: &Gray<u8>, fused: &Gray<u8>) -> f64 {
+    let (mut f, mut s) = (0.0, 0.0);
+    for (i, _) in zone.target.iter().enumerate().filter(|(_, t)| **t) {
+        f += f64::from(fused.data[i]);
+        s += 0.5 * (f64::from(vis.data[i]) + f64::from(tir.data[i]));
+    }
+    if s > 0.0 { f / s } else { f64::NAN }
+}
+
+/// Halo measure: the mean distance (grey levels) by which `fused` leaves the range
+/// `[min(vis, tir), max(vis, tir)]` of its two sources, over the band around the target's
+/// outline. A fusion that only mixes its sources scores 0; over- and undershoots next to edges
+/// (halos, ringing) raise it.
+fn halo(zone: &TargetZone, vis: &Gray<u8>, tir: &Gray<u8>, fused: &Gray<u8>) -> f64 {
+    let (mut sum, mut n) = (0.0, 0usize);
+    for (i, _) in zone.band.iter().enumerate().filter(|(_, b)| **b) {
+        let (v, t, f) = (vis.data[i], tir.data[i], fused.data[i]);
+        let (lo, hi) = (v.min(t), v.max(t));
+        sum += f64::from(f.saturating_sub(hi)) + f64::from(lo.saturating_sub(f));
+        n += 1;
+    }
+    if n > 0 { sum / n as f64 } else { f64::NAN }
+}
+
+/// Every row name of Tables 4–7: the core's methods, then the host-only ones.
+fn row_names(methods: &[NamedMethod]) -> Vec<&'static str> {
+    methods.iter().map(|m| m.name).chain(HostMethod::ALL.iter().map(|h| h.name())).collect()
+}
+
+/// The Table 6 row of a method's noise with TIR upscaled (DRIF: at different resolutions).
+fn tir_up_row(name: &str) -> String {
+    if name == HostMethod::Drif.name() { format!("{name}|different res") } else { format!("{name}|TIR up") }
+}
+
+/// One method's fusions of a frame pair: TIR up (DRIF: different res), VIS down, the noisy
+/// same-res pair, the noiseless same-res reference and that reference area-downscaled.
+struct Run {
+    name: &'static str,
+    up: Gray<u8>,
+    down: Option<Gray<u8>>,
+    same: Option<Gray<u8>>,
+    reference: Gray<u8>,
+    ref_down: Option<Gray<u8>>,
 }
 
 /// Fraction of pixels at 255 in `fused` that are below 255 in `vis`.
@@ -197,6 +288,10 @@ pub fn run(args: &ReportArgs) -> Result<()> {
             }
             let tir_up = source_on_grid(&tir_n, (big, big), Filter::Cubic)?;
             let vis_down = source_on_grid(&vis_n, (small, small), Filter::Area)?;
+            // Target zones for the level and halo measures, from the noiseless sources.
+            let clean_tir_up = source_on_grid(&tir_c, (big, big), Filter::Cubic)?;
+            let zone_big = TargetZone::new(&vis_c, &clean_tir_up);
+            let zone_small = TargetZone::new(&source_on_grid(&vis_c, (small, small), Filter::Area)?, &tir_c);
             // Fusions one after the other (timed), then their metrics in parallel.
             let mut runs = Vec::new();
             for m in &methods {
@@ -219,39 +314,106 @@ pub fn run(args: &ReportArgs) -> Result<()> {
                 let ref_down = source_on_grid(&reference.fused, (small, small), Filter::Area)?;
                 cells.push("t7", name, "big", up.seconds);
                 cells.push("t7", name, "small", down.seconds);
-                runs.push((name, up.fused, down.fused, same.fused, reference.fused, ref_down));
+                runs.push(Run {
+                    name,
+                    up: up.fused,
+                    down: Some(down.fused),
+                    same: Some(same.fused),
+                    reference: reference.fused,
+                    ref_down: Some(ref_down),
+                });
+            }
+            // The host-only methods (f64): the timed fusions one at a time (rescale included),
+            // then the untimed ones (noisy same-res, noiseless reference) in parallel.
+            let mut host_runs = Vec::new();
+            for host in HostMethod::ALL {
+                let name = host.name();
+                let t = Instant::now();
+                let up = if host.different_resolution() {
+                    fuse_host_u8(host, &vis_n, &tir_n)?.0
+                } else {
+                    fuse_host_u8(host, &vis_n, &source_on_grid(&tir_n, (big, big), Filter::Cubic)?)?.0
+                };
+                cells.push("t7", name, "big", t.elapsed().as_secs_f64());
+                let down = if host.different_resolution() {
+                    None
+                } else {
+                    let t = Instant::now();
+                    let down =
+                        fuse_host_u8(host, &source_on_grid(&vis_n, (small, small), Filter::Area)?, &tir_n)?.0;
+                    cells.push("t7", name, "small", t.elapsed().as_secs_f64());
+                    Some(down)
+                };
+                host_runs.push((host, up, down));
+            }
+            let untimed = HostMethod::ALL
+                .par_iter()
+                .map(|&host| -> Result<_> {
+                    let reference = fuse_host_u8(host, &vis_c, &tir1024_c)?.0;
+                    let same = if host.different_resolution() {
+                        None
+                    } else {
+                        Some(fuse_host_u8(host, &vis_n, &tir1024_n)?.0)
+                    };
+                    Ok((reference, same))
+                })
+                .collect::<Result<Vec<_>>>()?;
+            for ((host, up, down), (reference, same)) in host_runs.into_iter().zip(untimed) {
+                let ref_down = if down.is_some() {
+                    Some(source_on_grid(&reference, (small, small), Filter::Area)?)
+                } else {
+                    None
+                };
+                runs.push(Run { name: host.name(), up, down, same, reference, ref_down });
             }
             let measured: Vec<_> = runs
                 .par_iter()
-                .map(|(_, up, down, same, reference, ref_down)| {
-                    (
-                        fusion_metrics(&vis_n, &tir_up, up),
-                        fusion_metrics(&vis_down, &tir_n, down),
-                        newly_saturated(&vis_n, up),
-                        newly_saturated(&vis_down, down),
-                        [
-                            noise_metrics(down, ref_down),
-                            noise_metrics(up, reference),
-                            noise_metrics(same, reference),
-                        ],
-                    )
+                .map(|r| {
+                    let up = (
+                        fusion_metrics(&vis_n, &tir_up, &r.up),
+                        newly_saturated(&vis_n, &r.up),
+                        target_level(&zone_big, &vis_n, &tir_up, &r.up),
+                        halo(&zone_big, &vis_n, &tir_up, &r.up),
+                    );
+                    let down = r.down.as_ref().map(|d| {
+                        (
+                            fusion_metrics(&vis_down, &tir_n, d),
+                            newly_saturated(&vis_down, d),
+                            target_level(&zone_small, &vis_down, &tir_n, d),
+                            halo(&zone_small, &vis_down, &tir_n, d),
+                        )
+                    });
+                    let mut noise = Vec::new();
+                    if let (Some(d), Some(rd)) = (&r.down, &r.ref_down) {
+                        noise.push(("VIS down".to_string(), noise_metrics(d, rd)));
+                    }
+                    noise.push((tir_up_row(r.name), noise_metrics(&r.up, &r.reference)));
+                    if let Some(same) = &r.same {
+                        noise.push((format!("{}|same res", r.name), noise_metrics(same, &r.reference)));
+                    }
+                    (up, down, noise)
                 })
                 .collect();
             let mut sheet_fused = Vec::new();
-            for ((name, up, ..), (m_up, m_down, sat_up, sat_down, noise)) in runs.into_iter().zip(measured) {
-                put_fusion(&mut cells, &format!("t4-{ill}"), name, &m_up);
-                put_fusion(&mut cells, &format!("t5-{ill}"), name, &m_down);
-                cells.push(&format!("t4-{ill}"), name, "sat", sat_up);
-                cells.push(&format!("t5-{ill}"), name, "sat", sat_down);
-                for (input, n) in ["VIS down", "TIR up", "same res"].iter().zip(&noise) {
-                    put_noise(&mut cells, &format!("t6-{ill}"), &format!("{name}|{input}"), n);
+            for (run, (up, down, noise)) in runs.into_iter().zip(measured) {
+                let name = run.name;
+                for (table, m) in [("t4", Some(up)), ("t5", down)] {
+                    let Some((metrics, sat, level, halo)) = m else { continue };
+                    let t = format!("{table}-{ill}");
+                    put_fusion(&mut cells, &t, name, &metrics);
+                    cells.push(&t, name, "sat", sat);
+                    cells.push(&t, name, "level", level);
+                    cells.push(&t, name, "halo", halo);
+                }
+                for (row, n) in &noise {
+                    let row = if row == "VIS down" { format!("{name}|VIS down") } else { row.clone() };
+                    put_noise(&mut cells, &format!("t6-{ill}"), &row, n);
                 }
                 if f == sheet_frame {
-                    sheet_fused.push(up);
+                    sheet_fused.push(run.up);
                 }
             }
             if f == sheet_frame {
-                let clean_tir_up = source_on_grid(&tir_c, (big, big), Filter::Cubic)?;
                 let square =
                     target_square(&[&vis_c, &clean_tir_up, &dataset.image("vis_light", f, false)?], 4, 0.15);
                 let mut row = vec![tile(&vis_n, square, 256)?, tile(&tir_up, square, 256)?];
@@ -293,7 +455,8 @@ fn write_csvs(cells: &Cells, out: &Path) -> Result<()> {
 }
 
 /// Per-frame metric curves (as the study's figures 10 and 12): for each illumination, the
-/// 1:2 metrics with TIR upscaled and the noise PSNR_S, one line per method.
+/// 1:2 metrics with TIR upscaled and the noise PSNR_S, one line per method (core and host;
+/// DRIF at different resolutions).
 fn write_charts(cells: &Cells, methods: &[NamedMethod], frames: usize, out: &Path) -> Result<Vec<PathBuf>> {
     let mut written = Vec::new();
     for (ill, _) in ILLUMINATIONS {
@@ -304,13 +467,13 @@ fn write_charts(cells: &Cells, methods: &[NamedMethod], frames: usize, out: &Pat
             ("t4", "SSIM", "SSIM, TIR upscaled"),
             ("t6", "PSNR_S", "PSNR_S (noisy vs noiseless fusion), TIR upscaled"),
         ] {
-            let series: Vec<Series> = methods
-                .iter()
-                .map(|m| {
-                    let row = if table == "t6" { format!("{}|TIR up", m.name) } else { m.name.to_string() };
+            let series: Vec<Series> = row_names(methods)
+                .into_iter()
+                .map(|name| {
+                    let row = if table == "t6" { tir_up_row(name) } else { name.to_string() };
                     let v = cells.values(&format!("{table}-{ill}"), &row, col);
                     Series {
-                        name: m.name.into(),
+                        name: name.into(),
                         points: v.iter().enumerate().map(|(i, &y)| (i as f64, y)).collect(),
                     }
                 })
@@ -357,6 +520,12 @@ fn study_t45(table: &str, method: &str) -> Option<[f64; 5]> {
         ("tsifsd", false) => [10.89, 0.842, 0.893, 1.076, 11.7],
         ("ifevip", true) => [20.35, 1.50, 0.818, 1.26, 15.52],
         ("ifevip", false) => [16.67, 1.91, 0.906, 1.03, 14.72],
+        ("gff", true) => [15.35, 1.52, 0.878, 1.94, 11.76],
+        ("gff", false) => [15.39, 1.51, 0.927, 1.00, 11.62],
+        ("mgff", true) => [16.13, 1.01, 0.837, 1.94, 12.14],
+        ("mgff", false) => [13.74, 1.05, 0.900, 1.160, 11.90],
+        ("tepgfl", true) => [14.97, 0.94, 0.784, 1.12, 18.63],
+        ("tepgfl", false) => [12.94, 0.873, 0.831, 0.437, 17.6],
         _ => return None,
     })
 }
@@ -373,6 +542,16 @@ fn study_t6_psnr(method: &str, input: &str) -> Option<(f64, f64)> {
         ("ifevip", "VIS down") => (21.21, 20.00),
         ("ifevip", "TIR up") => (26.10, 26.06),
         ("ifevip", "same res") => (25.86, 25.84),
+        ("gff", "VIS down") => (22.22, 22.82),
+        ("gff", "TIR up") => (24.91, 26.67),
+        ("gff", "same res") => (28.56, 29.13),
+        ("mgff", "VIS down") => (24.96, 23.89),
+        ("mgff", "TIR up") => (28.84, 28.73),
+        ("mgff", "same res") => (28.58, 28.45),
+        ("tepgfl", "VIS down") => (21.14, 21.81),
+        ("tepgfl", "TIR up") => (23.97, 26.21),
+        ("tepgfl", "same res") => (24.64, 26.55),
+        ("drif", "different res") => (27.12, 26.30),
         _ => return None,
     })
 }
@@ -382,6 +561,11 @@ fn study_t7(method: &str) -> Option<(f64, f64)> {
         "adf" => (0.012, 0.045),
         "tsifsd" => (0.013, 0.056),
         "ifevip" => (0.024, 0.094),
+        "gff" => (0.153, 0.549),
+        "mgff" => (0.136, 0.536),
+        "tepgfl" => (0.241, 1.040),
+        // "~6 s (different resolution)": VIS 1024² with TIR 512², output on the 1024² grid
+        "drif" => (f64::NAN, 6.0),
         _ => return None,
     })
 }
@@ -411,7 +595,9 @@ fn markdown(
          noise: blur σ = {} px, white σ² = {}, TIR also 1/f σ² = {}), means over the frames (PSNR: frames with a finite \
          value). Our scene is not the study's, so absolute values differ; the orderings are what we compare. \
          \"study\" columns: Advances in Space Research 2023 (shared/reference/study-results.md). Fusion runs \
-         through the no_std core (flight variants unless named `-classic`); metrics in f64. FMI variant: \
+         through the no_std core (flight variants unless named `-classic`), except the study's other four \
+         methods (gff, mgff, tepgfl, drif), which have no core path and run on the host in f64 \
+         (`host_harness::study_methods`); metrics in f64. FMI variant: \
          Fast-FMI on Sobel gradient magnitudes, 3×3 windows, mean of VIS–F and TIR–F (see \
          `host_harness::metrics::fmi`). Generated by `fusion report` in {seconds:.0} s.\n",
         dataset.dir.display(),
@@ -456,6 +642,8 @@ fn markdown(
             );
         }
     }
+    let names = row_names(methods);
+    let drif = HostMethod::Drif.name();
     // Tables 4, 5
     for (table, what) in [
         ("t4", format!("Table 4 — VIS + TIR upscaled ({big}² grid)")),
@@ -464,25 +652,42 @@ fn markdown(
         let _ = writeln!(md, "\n## {what}\n");
         let _ = writeln!(
             md,
-            "| method | illumination | AG | MI | FMI | SSIM | RMSE | newly 255 % | study (eclipse) AG / MI / FMI / SSIM / RMSE |\n|---|---|---|---|---|---|---|---|---|"
+            "\"target level\": mean of the fused image over the target divided by the mean of ½(VIS + TIR) there (< 1: \
+             darker than the sources' average); \"halo\": mean grey levels by which the fused image leaves the range \
+             [min, max] of its two sources within {HALO_RADIUS} px of the target's outline (target: a noiseless \
+             source above {TARGET_LEVEL}).{}\n",
+            if table == "t4" {
+                " drif fuses VIS with the TIR frame at its own size (no upscale) and outputs on this grid; it is \
+                 compared with the same sources as the others."
+            } else {
+                " drif has no row here: it fuses at the VIS resolution by design."
+            }
+        );
+        let _ = writeln!(
+            md,
+            "| method | illumination | AG | MI | FMI | SSIM | RMSE | newly 255 % | target level | halo | study (eclipse) AG / MI / FMI / SSIM / RMSE |\n|---|---|---|---|---|---|---|---|---|---|---|"
         );
         for (ill, _) in ILLUMINATIONS {
             let t = format!("{table}-{ill}");
-            for m in methods {
-                let study = match (ill, study_t45(table, m.name)) {
+            for &name in &names {
+                if table == "t5" && name == drif {
+                    continue;
+                }
+                let study = match (ill, study_t45(table, name)) {
                     ("eclipse", Some(s)) => s.iter().map(|v| v.to_string()).collect::<Vec<_>>().join(" / "),
                     _ => String::new(),
                 };
                 let _ = writeln!(
                     md,
-                    "| {} | {ill} | {} | {} | {} | {} | {} | {} | {study} |",
-                    m.name,
-                    fmt(cells.mean(&t, m.name, "AG"), 2),
-                    fmt(cells.mean(&t, m.name, "MI"), 3),
-                    fmt(cells.mean(&t, m.name, "FMI"), 3),
-                    fmt(cells.mean(&t, m.name, "SSIM"), 3),
-                    fmt(cells.mean(&t, m.name, "RMSE"), 2),
-                    fmt(100.0 * cells.mean(&t, m.name, "sat"), 3),
+                    "| {name} | {ill} | {} | {} | {} | {} | {} | {} | {} | {} | {study} |",
+                    fmt(cells.mean(&t, name, "AG"), 2),
+                    fmt(cells.mean(&t, name, "MI"), 3),
+                    fmt(cells.mean(&t, name, "FMI"), 3),
+                    fmt(cells.mean(&t, name, "SSIM"), 3),
+                    fmt(cells.mean(&t, name, "RMSE"), 2),
+                    fmt(100.0 * cells.mean(&t, name, "sat"), 3),
+                    fmt(cells.mean(&t, name, "level"), 3),
+                    fmt(cells.mean(&t, name, "halo"), 2),
                 );
             }
         }
@@ -494,17 +699,23 @@ fn markdown(
     );
     let _ = writeln!(
         md,
+        "drif \"different res\": VIS {big}² with TIR {small}² (noisy) against drif's fusion of the noiseless \
+         {big}²/{big}² pair.\n"
+    );
+    let _ = writeln!(
+        md,
         "| method | input | MSE_S ecl | MSE_S light | PSNR_S ecl | PSNR_S light | SSIM_S ecl | SSIM_S light | study PSNR_S ecl / light |\n|---|---|---|---|---|---|---|---|---|"
     );
-    for m in methods {
-        for input in ["VIS down", "TIR up", "same res"] {
-            let row = format!("{}|{input}", m.name);
+    for &name in &names {
+        let inputs: &[&str] =
+            if name == drif { &["different res"] } else { &["VIS down", "TIR up", "same res"] };
+        for &input in inputs {
+            let row = format!("{name}|{input}");
             let v = |ill: &str, col: &str| cells.mean(&format!("t6-{ill}"), &row, col);
-            let study = study_t6_psnr(m.name, input).map_or(String::new(), |(e, l)| format!("{e} / {l}"));
+            let study = study_t6_psnr(name, input).map_or(String::new(), |(e, l)| format!("{e} / {l}"));
             let _ = writeln!(
                 md,
-                "| {} | {input} | {} | {} | {} | {} | {} | {} | {study} |",
-                m.name,
+                "| {name} | {input} | {} | {} | {} | {} | {} | {} | {study} |",
                 fmt(v("eclipse", "MSE_S"), 5),
                 fmt(v("light", "MSE_S"), 5),
                 format_psnr(v("eclipse", "PSNR_S")),
@@ -518,20 +729,23 @@ fn markdown(
     let _ = writeln!(md, "\n## Table 7 — run time per frame pair (median over frames and illuminations)\n");
     let _ = writeln!(
         md,
-        "Core on the host, one thread, rescale included; the study's figures are MATLAB on an i7-8750H.\n"
+        "Core methods: the no_std fixed-point core on the host, one thread, rescale included, median of the \
+         repeats. gff, mgff, tepgfl, drif have no core path: they are timed with their f64 host implementation, \
+         one thread, one run per frame, rescale included (drif: no rescale, VIS {big}² with TIR {small}², output \
+         {big}²; it has no {small}² time). The study's figures are MATLAB on an i7-8750H.\n"
     );
     let _ = writeln!(
         md,
-        "| method | VIS down ({small}²) ms | TIR up ({big}²) ms | study 512² ms | study 1024² ms |\n|---|---|---|---|---|"
+        "| method | engine | VIS down ({small}²) ms | TIR up ({big}²) ms | study 512² ms | study 1024² ms |\n|---|---|---|---|---|---|"
     );
-    for m in methods {
-        let (a, b) = study_t7(m.name).map_or((f64::NAN, f64::NAN), |(a, b)| (a * 1e3, b * 1e3));
+    for &name in &names {
+        let (a, b) = study_t7(name).map_or((f64::NAN, f64::NAN), |(a, b)| (a * 1e3, b * 1e3));
+        let engine = if methods.iter().any(|m| m.name == name) { "core (fixed point)" } else { "host f64" };
         let _ = writeln!(
             md,
-            "| {} | {} | {} | {} | {} |",
-            m.name,
-            fmt(1e3 * cells.median("t7", m.name, "small"), 1),
-            fmt(1e3 * cells.median("t7", m.name, "big"), 1),
+            "| {name} | {engine} | {} | {} | {} | {} |",
+            fmt(1e3 * cells.median("t7", name, "small"), 1),
+            fmt(1e3 * cells.median("t7", name, "big"), 1),
             fmt(a, 0),
             fmt(b, 0)
         );
@@ -554,17 +768,19 @@ fn markdown(
             verdict(down_best == "area")
         );
     }
-    for m in methods {
-        let psnr = |input: &str| {
-            (cells.mean("t6-eclipse", &format!("{}|{input}", m.name), "PSNR_S")
-                + cells.mean("t6-light", &format!("{}|{input}", m.name), "PSNR_S"))
-                / 2.0
-        };
-        let (up, down) = (psnr("TIR up"), psnr("VIS down"));
+    // Mean of a cell over both illuminations.
+    let both = |table: &str, row: &str, col: &str| {
+        (cells.mean(&format!("{table}-eclipse"), row, col) + cells.mean(&format!("{table}-light"), row, col))
+            / 2.0
+    };
+    for &name in names.iter().filter(|&&n| n != drif) {
+        let (up, down) = (
+            both("t6", &format!("{name}|TIR up"), "PSNR_S"),
+            both("t6", &format!("{name}|VIS down"), "PSNR_S"),
+        );
         let _ = writeln!(
             md,
-            "1. *Upscaling TIR beats downscaling VIS for noise* ({}, Table 6): PSNR_S {} dB (TIR up) vs {} dB (VIS down) — {}.",
-            m.name,
+            "1. *Upscaling TIR beats downscaling VIS for noise* ({name}, Table 6): PSNR_S {} dB (TIR up) vs {} dB (VIS down) — {}.",
             fmt(up, 2),
             fmt(down, 2),
             verdict(up > down)
@@ -572,25 +788,19 @@ fn markdown(
     }
     let sat = |name: &str, ill: &str| cells.mean(&format!("t4-{ill}"), name, "sat");
     let ifevip_light = sat("ifevip", "light");
-    let others_light =
-        methods.iter().filter(|m| m.name != "ifevip").map(|m| sat(m.name, "light")).fold(0.0, f64::max);
+    let others_light = names.iter().filter(|&&n| n != "ifevip").map(|&n| sat(n, "light")).fold(0.0, f64::max);
     let _ = writeln!(
         md,
-        "1. *IFEVIP saturates the target in light*: {} % of its pixels newly at 255 in light ({} % in eclipse), at most {} % for the other methods — {}.",
+        "1. *IFEVIP saturates the target in light*: {} % of its pixels newly at 255 in light ({} % in eclipse), at most {} % for the other seven methods — {}.",
         fmt(100.0 * ifevip_light, 3),
         fmt(100.0 * sat("ifevip", "eclipse"), 3),
         fmt(100.0 * others_light, 3),
         verdict(ifevip_light > others_light && ifevip_light > 0.0)
     );
-    let noise_rank = best(methods.iter().map(|m| {
-        let v = (cells.mean("t6-eclipse", &format!("{}|TIR up", m.name), "PSNR_S")
-            + cells.mean("t6-light", &format!("{}|TIR up", m.name), "PSNR_S"))
-            / 2.0;
-        (m.name, v)
-    }));
+    let noise_rank = best(names.iter().map(|&n| (n, both("t6", &tir_up_row(n), "PSNR_S"))));
     let _ = writeln!(
         md,
-        "1. *TSIFSD or ADF is the method to fly (TIR up)*: the most noise-robust method here (PSNR_S, TIR up) is {noise_rank} — {}.",
+        "1. *TSIFSD or ADF is the method to fly (TIR up)*: the most noise-robust of the eight methods here (PSNR_S, TIR up; drif at different res) is {noise_rank} — {}.",
         verdict(noise_rank.starts_with("tsifsd") || noise_rank == "adf")
     );
     let fastest = best(methods.iter().map(|m| (m.name, -cells.median("t7", m.name, "big"))));
@@ -599,11 +809,80 @@ fn markdown(
         "1. *TSIFSD and ADF are the fast ones*: the fastest core method at {big}² here is {fastest} (the study: ADF, then TSIFSD) — {}.",
         verdict(fastest.starts_with("tsifsd") || fastest == "adf")
     );
+    // GFF darkens with TIR upscaling: its target level with TIR up, against its own with VIS down
+    // and against the sources' average (1).
+    let gff = HostMethod::Gff.name();
+    let (gff_up, gff_down) = (both("t4", gff, "level"), both("t5", gff, "level"));
+    let others_up: Vec<f64> = names
+        .iter()
+        .filter(|&&n| n != gff)
+        .map(|&n| both("t4", n, "level"))
+        .filter(|v| v.is_finite())
+        .collect();
+    let (lo, hi) =
+        others_up.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| (a.min(v), b.max(v)));
     let _ = writeln!(
         md,
-        "\n## Figures\n\n![contact sheet](contact_sheet.png)\n\nContact sheet (frame {}): rows eclipse, light; columns VIS (noisy), TIR upscaled, then {} (TIR up), cropped to the target.\n",
+        "1. *GFF darkens with TIR upscaling*: GFF's target level is {} with TIR up against {} with VIS down (1 = the \
+         sources' average; the other methods with TIR up: {}–{}) — {}.",
+        fmt(gff_up, 3),
+        fmt(gff_down, 3),
+        fmt(lo, 3),
+        fmt(hi, 3),
+        verdict(gff_up < gff_down && gff_up < 1.0)
+    );
+    // TEPGFL halos: the largest halo measure of the eight methods (TIR up).
+    let tepgfl = HostMethod::Tepgfl.name();
+    let halo_rank = best(names.iter().map(|&n| (n, both("t4", n, "halo"))));
+    let _ = writeln!(
+        md,
+        "1. *TEPGFL halos*: halo measure around the target (TIR up) {} grey levels for tepgfl; the largest of the \
+         eight is {halo_rank} ({}); median of the others {} — {}.",
+        fmt(both("t4", tepgfl, "halo"), 2),
+        fmt(both("t4", halo_rank, "halo"), 2),
+        fmt(
+            median(
+                &mut names
+                    .iter()
+                    .filter(|&&n| n != tepgfl)
+                    .map(|&n| both("t4", n, "halo"))
+                    .collect::<Vec<_>>()
+            ),
+            2
+        ),
+        verdict(halo_rank == tepgfl)
+    );
+    // DRIF textureless (lowest AG of the eight, Table 4) and slow (the longest run time).
+    let ag_low = best(names.iter().map(|&n| (n, -both("t4", n, "AG"))));
+    let _ = writeln!(
+        md,
+        "1. *DRIF is textureless*: AG (Table 4, both illuminations) {} for drif; the lowest of the eight is {ag_low} \
+         ({}); the highest {} — {}.",
+        fmt(both("t4", drif, "AG"), 2),
+        fmt(both("t4", ag_low, "AG"), 2),
+        fmt(names.iter().map(|&n| both("t4", n, "AG")).filter(|v| v.is_finite()).fold(f64::NAN, f64::max), 2),
+        verdict(ag_low == drif)
+    );
+    let slowest = best(names.iter().map(|&n| (n, cells.median("t7", n, "big"))));
+    let second = names
+        .iter()
+        .filter(|&&n| n != drif)
+        .map(|&n| cells.median("t7", n, "big"))
+        .filter(|v| v.is_finite())
+        .fold(f64::NAN, f64::max);
+    let _ = writeln!(
+        md,
+        "1. *DRIF is slow*: drif takes {} ms per frame pair at {big}² (f64, one thread; the study: ~6 s), the slowest \
+         of the others {} ms; the slowest of the eight is {slowest} — {}.",
+        fmt(1e3 * cells.median("t7", drif, "big"), 0),
+        fmt(1e3 * second, 0),
+        verdict(slowest == drif)
+    );
+    let _ = writeln!(
+        md,
+        "\n## Figures\n\n![contact sheet](contact_sheet.png)\n\nContact sheet (frame {}): rows eclipse, light; columns VIS (noisy), TIR upscaled, then {} (TIR up; drif at different res), cropped to the target.\n",
         frames / 2,
-        methods.iter().map(|m| m.name).collect::<Vec<_>>().join(", ")
+        names.join(", ")
     );
     for c in charts {
         if let Some(name) = c.file_name().and_then(|n| n.to_str()) {

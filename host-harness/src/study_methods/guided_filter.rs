@@ -18,43 +18,58 @@ use crate::io::Gray;
 
 /// Mean over the `(2r+1)²` window centred on each pixel, clipped to the image (the divisor is
 /// the number of pixels inside the clipped window).
+///
+/// Rows are averaged from prefix sums; columns by a sliding sum of row means kept in a ring of
+/// `2r + 2` rows (the clipped window is a rectangle, so its mean is the mean over its rows of
+/// the row means), so the cost is O(1) per pixel and the working set a few hundred rows at most.
 pub fn box_mean(img: &Gray<f64>, r: usize) -> Gray<f64> {
-    let (w, h) = (img.width, img.height);
-    if w == 0 || h == 0 {
-        return img.clone();
+    let mut out = vec![0.0; img.data.len()];
+    box_mean_into(&img.data, img.width, r, &mut out);
+    Gray { width: img.width, height: img.height, data: out }
+}
+
+/// [`box_mean`] of the `w`-wide plane `src` into `out` (same length).
+pub fn box_mean_into(src: &[f64], w: usize, r: usize, out: &mut [f64]) {
+    if w == 0 || src.is_empty() {
+        return;
     }
-    // Rows: mean over the clipped horizontal window, from prefix sums.
-    let mut horiz = vec![0.0; w * h];
+    let h = src.len() / w;
+    let inv_x: Vec<f64> = (0..w).map(|x| 1.0 / ((x + r + 1).min(w) - x.saturating_sub(r)) as f64).collect();
     let mut prefix = vec![0.0; w + 1];
-    for (row, out) in img.data.chunks_exact(w).zip(horiz.chunks_exact_mut(w)) {
+    let slots = (2 * r + 2).min(h + 1);
+    let mut ring = vec![0.0; slots * w];
+    // The clipped horizontal mean of row `y` into its ring slot.
+    let mut row_mean = |y: usize, ring: &mut [f64]| {
+        let row = &src[y * w..(y + 1) * w];
         for (x, &v) in row.iter().enumerate() {
             prefix[x + 1] = prefix[x] + v;
         }
-        for (x, o) in out.iter_mut().enumerate() {
-            let (lo, hi) = (x.saturating_sub(r), (x + r + 1).min(w));
-            *o = (prefix[hi] - prefix[lo]) / (hi - lo) as f64;
+        let dst = &mut ring[(y % slots) * w..(y % slots + 1) * w];
+        for (x, d) in dst.iter_mut().enumerate() {
+            *d = (prefix[(x + r + 1).min(w)] - prefix[x.saturating_sub(r)]) * inv_x[x];
         }
-    }
-    // Columns: a sliding sum of whole rows. The clipped window is a rectangle, so the mean over
-    // it is the mean over its rows of the row means.
-    let mut out = vec![0.0; w * h];
+    };
     let mut acc = vec![0.0; w];
-    for row in horiz.chunks_exact(w).take(r.min(h - 1) + 1) {
-        acc.iter_mut().zip(row).for_each(|(a, &v)| *a += v);
+    for y in 0..=r.min(h - 1) {
+        row_mean(y, &mut ring);
+        let slot = &ring[(y % slots) * w..(y % slots + 1) * w];
+        acc.iter_mut().zip(slot).for_each(|(a, &v)| *a += v);
     }
     for y in 0..h {
-        let count = ((y + r + 1).min(h) - y.saturating_sub(r)) as f64;
-        out[y * w..(y + 1) * w].iter_mut().zip(&acc).for_each(|(o, &a)| *o = a / count);
+        let inv_y = 1.0 / ((y + r + 1).min(h) - y.saturating_sub(r)) as f64;
+        out[y * w..(y + 1) * w].iter_mut().zip(&acc).for_each(|(o, &a)| *o = a * inv_y);
         if y + r + 1 < h {
-            let add = &horiz[(y + r + 1) * w..(y + r + 2) * w];
-            acc.iter_mut().zip(add).for_each(|(a, &v)| *a += v);
+            let yy = y + r + 1;
+            row_mean(yy, &mut ring);
+            let slot = &ring[(yy % slots) * w..(yy % slots + 1) * w];
+            acc.iter_mut().zip(slot).for_each(|(a, &v)| *a += v);
         }
         if y >= r {
-            let sub = &horiz[(y - r) * w..(y - r + 1) * w];
-            acc.iter_mut().zip(sub).for_each(|(a, &v)| *a -= v);
+            let yy = y - r;
+            let slot = &ring[(yy % slots) * w..(yy % slots + 1) * w];
+            acc.iter_mut().zip(slot).for_each(|(a, &v)| *a -= v);
         }
     }
-    Gray { width: w, height: h, data: out }
 }
 
 /// The guided filter of `input` with guidance `guide` (same size), window radius `r`,
@@ -64,31 +79,33 @@ pub fn box_mean(img: &Gray<f64>, r: usize) -> Gray<f64> {
 /// Panics if the two images differ in size (callers check sizes first).
 pub fn guided_filter(guide: &Gray<f64>, input: &Gray<f64>, r: usize, eps: f64) -> Gray<f64> {
     assert_eq!((guide.width, guide.height), (input.width, input.height), "guided filter: sizes differ");
-    let (w, h) = (guide.width, guide.height);
-    let mean_i = box_mean(guide, r);
-    let mean_p = box_mean(input, r);
-    let prod = |f: &dyn Fn(f64, f64) -> f64| Gray {
-        width: w,
-        height: h,
-        data: guide.data.iter().zip(&input.data).map(|(&i, &p)| f(i, p)).collect(),
-    };
-    let corr_ip = box_mean(&prod(&|i, p| i * p), r);
-    let corr_ii = box_mean(&prod(&|i, _| i * i), r);
-    let mut a = Gray::new(w, h);
-    let mut b = Gray::new(w, h);
-    for k in 0..w * h {
-        let (mi, mp) = (mean_i.data[k], mean_p.data[k]);
-        let var = (corr_ii.data[k] - mi * mi).max(0.0);
-        let cov = corr_ip.data[k] - mi * mp;
+    let (w, n) = (guide.width, guide.data.len());
+    let (i_img, p_img) = (&guide.data, &input.data);
+    // Five planes, reused: the window means of I and p, then of a and b; the products; the
+    // correlations, then a and b in place.
+    let (mut mean_i, mut mean_p, mut tmp, mut a, mut b) =
+        (vec![0.0; n], vec![0.0; n], vec![0.0; n], vec![0.0; n], vec![0.0; n]);
+    box_mean_into(i_img, w, r, &mut mean_i);
+    box_mean_into(p_img, w, r, &mut mean_p);
+    tmp.iter_mut().zip(i_img.iter().zip(p_img)).for_each(|(t, (&i, &p))| *t = i * p);
+    box_mean_into(&tmp, w, r, &mut a); // corr(I, p)
+    tmp.iter_mut().zip(i_img).for_each(|(t, &i)| *t = i * i);
+    box_mean_into(&tmp, w, r, &mut b); // corr(I, I)
+    for k in 0..n {
+        let (mi, mp) = (mean_i[k], mean_p[k]);
+        let var = (b[k] - mi * mi).max(0.0);
+        let cov = a[k] - mi * mp;
         let den = var + eps;
         let ak = if den > 0.0 { cov / den } else { 0.0 };
-        a.data[k] = ak;
-        b.data[k] = mp - ak * mi;
+        a[k] = ak;
+        b[k] = mp - ak * mi;
     }
-    let mean_a = box_mean(&a, r);
-    let mean_b = box_mean(&b, r);
-    let data = (0..w * h).map(|k| mean_a.data[k] * guide.data[k] + mean_b.data[k]).collect();
-    Gray { width: w, height: h, data }
+    box_mean_into(&a, w, r, &mut mean_i); // mean of a
+    box_mean_into(&b, w, r, &mut mean_p); // mean of b
+    for k in 0..n {
+        tmp[k] = mean_i[k] * i_img[k] + mean_p[k];
+    }
+    Gray { width: w, height: guide.height, data: tmp }
 }
 
 #[cfg(test)]

@@ -400,9 +400,12 @@ pub fn fuse_ifevip(
         .chunks_exact_mut(w.max(1))
         .zip(tir.rows())
         .zip(vis.rows())
-        .zip(a.chunks_exact_mut(w.max(1)).zip(b.chunks_exact_mut(w.max(1))));
+        // Zipped one after the other, not as a pair: a zip of two exact-chunk iterators takes
+        // the random-access path, whose length division keeps a panic site in the image.
+        .zip(a.chunks_exact_mut(w.max(1)))
+        .zip(b.chunks_exact_mut(w.max(1)));
     let small_ratio = i32::try_from(ratio_q24).ok();
-    for (((rr, ir), vv), (ka, kb)) in rows {
+    for ((((rr, ir), vv), ka), kb) in rows {
         let pixels = rr.iter_mut().zip(ir).zip(vv).zip(ka.iter_mut()).zip(kb.iter_mut()).enumerate();
         match small_ratio {
             // r_H < 128: |(IR − VIS)·r_H| < 2³⁹, so nothing below saturates and plain i64

@@ -72,13 +72,86 @@ pub fn decompose(
             leaves.push(leaf).map_err(|_| overflow)?;
         }
     }
-    leaves.sort_unstable_by_key(|l| (core::cmp::Reverse(l.side), l.col, l.row));
+    heapsort_by_key(&mut leaves, |l| {
+        (u64::from(u16::MAX - l.side) << 32) | (u64::from(l.col) << 16) | u64::from(l.row)
+    });
     Ok(leaves)
+}
+
+/// Sorts `v` by ascending `key` (here: side descending, then column, then row) in place.
+///
+/// A heapsort written with checked accesses instead of `sort_unstable_by_key`: core's sort keeps
+/// a panic path for comparators that are not total orders, which no caller here can reach but
+/// the optimiser cannot remove, and the firmware's no-panic link check refuses it. O(n log n),
+/// no extra memory.
+fn heapsort_by_key(v: &mut [Leaf], key: impl Fn(&Leaf) -> u64) {
+    let k = |v: &[Leaf], i: usize| v.get(i).map(&key);
+    // Moves the element at `root` down the max-heap `v[..end]`.
+    let sift_down = |v: &mut [Leaf], mut root: usize, end: usize| loop {
+        let mut child = 2 * root + 1;
+        if child >= end {
+            return;
+        }
+        if child + 1 < end && k(v, child + 1) > k(v, child) {
+            child += 1;
+        }
+        if k(v, root) >= k(v, child) {
+            return;
+        }
+        if let (Some(&a), Some(&b)) = (v.get(root), v.get(child)) {
+            if let Some(x) = v.get_mut(root) {
+                *x = b;
+            }
+            if let Some(x) = v.get_mut(child) {
+                *x = a;
+            }
+        }
+        root = child;
+    };
+    let n = v.len();
+    for root in (0..n / 2).rev() {
+        sift_down(v, root, n);
+    }
+    for end in (1..n).rev() {
+        if let (Some(&first), Some(&last)) = (v.first(), v.get(end)) {
+            if let Some(x) = v.first_mut() {
+                *x = last;
+            }
+            if let Some(x) = v.get_mut(end) {
+                *x = first;
+            }
+        }
+        sift_down(v, 0, end);
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    extern crate std;
+
+    #[test]
+    fn heapsort_orders_like_the_core_sort() {
+        let mut s = 12345u32;
+        for n in [0usize, 1, 2, 3, 7, 64, 500] {
+            let mut v: std::vec::Vec<Leaf> = (0..n)
+                .map(|_| {
+                    s = s.wrapping_mul(1_103_515_245).wrapping_add(12345);
+                    Leaf {
+                        side: 1 << ((s >> 8) % 6),
+                        col: ((s >> 12) % 7) as u16,
+                        row: ((s >> 20) % 9) as u16,
+                    }
+                })
+                .collect();
+            let mut expected = v.clone();
+            expected.sort_by_key(|l| (core::cmp::Reverse(l.side), l.col, l.row));
+            heapsort_by_key(&mut v, |l| {
+                (u64::from(u16::MAX - l.side) << 32) | (u64::from(l.col) << 16) | u64::from(l.row)
+            });
+            assert_eq!(v, expected, "n = {n}");
+        }
+    }
 
     #[test]
     fn flat_grid_is_one_leaf_and_a_spike_splits_to_the_minimum() -> Result<(), Error> {

@@ -123,6 +123,29 @@ impl<'a, T: Copy> FrameRef<'a, T> {
         let data = self.data.get(y0 * self.stride..).unwrap_or(&[]);
         FrameRef::with_stride(data, self.width, y1 - y0, self.stride)
     }
+
+    /// The `w × h` window whose top-left pixel is `(x0, y0)` as a view of its own (for
+    /// region-of-interest processing); [`Error::InvalidParameter`] (`"rect"`) when it does not
+    /// lie inside the frame or is empty.
+    pub fn sub_rect(&self, x0: usize, y0: usize, w: usize, h: usize) -> Result<FrameRef<'a, T>, Error> {
+        let start = window_start(self.size(), self.stride, (x0, y0, w, h))?;
+        let data = self.data.get(start..).unwrap_or(&[]);
+        FrameRef::with_stride(data, w, h, self.stride)
+    }
+}
+
+/// The buffer offset of the window `(x0, y0, w, h)` of a `size` frame with row `stride`, after
+/// checking the window is non-empty and inside the frame.
+fn window_start(
+    size: (usize, usize),
+    stride: usize,
+    (x0, y0, w, h): (usize, usize, usize, usize),
+) -> Result<usize, Error> {
+    let inside = |o: usize, n: usize, len: usize| n > 0 && o.checked_add(n).is_some_and(|e| e <= len);
+    if !inside(x0, w, size.0) || !inside(y0, h, size.1) {
+        return Err(Error::InvalidParameter { name: "rect" });
+    }
+    y0.checked_mul(stride).and_then(|o| o.checked_add(x0)).ok_or(Error::InvalidParameter { name: "rect" })
 }
 
 /// A writable view of a 2-D frame; see [`FrameRef`].
@@ -210,6 +233,20 @@ impl<'a, T: Copy> FrameMut<'a, T> {
         }
         let data = self.data.get_mut(y0 * self.stride..).unwrap_or(&mut []);
         FrameMut::with_stride(data, self.width, y1 - y0, self.stride)
+    }
+
+    /// The `w × h` window whose top-left pixel is `(x0, y0)` as a writable view of its own;
+    /// see [`FrameRef::sub_rect`].
+    pub fn sub_rect_mut(
+        &mut self,
+        x0: usize,
+        y0: usize,
+        w: usize,
+        h: usize,
+    ) -> Result<FrameMut<'_, T>, Error> {
+        let start = window_start(self.size(), self.stride, (x0, y0, w, h))?;
+        let data = self.data.get_mut(start..).unwrap_or(&mut []);
+        FrameMut::with_stride(data, w, h, self.stride)
     }
 }
 
@@ -320,6 +357,11 @@ mod tests {
         assert_eq!(strip.size(), (3, 2));
         assert_eq!(strip.row(1), &[8, 9, 10]);
         assert!(view.sub_rows(2, 2).is_err());
+        let win = view.sub_rect(1, 1, 2, 2)?;
+        assert_eq!((win.row(0), win.row(1)), (&[5u8, 6][..], &[9u8, 10][..]));
+        assert!(view.sub_rect(2, 0, 2, 1).is_err());
+        assert!(view.sub_rect(0, 0, 0, 1).is_err());
+        assert!(view.sub_rect(usize::MAX, 0, 2, 1).is_err());
         Ok(())
     }
 

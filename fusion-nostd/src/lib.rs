@@ -11,6 +11,8 @@
 //! * [`fuse`] — the fusion methods.
 //! * [`filters`] — integer filters shared by the methods.
 //! * [`pipeline`] — the per-frame entry point: rescale one band onto the other's grid, fuse.
+//! * [`scene`] — scene analysis (background, noise, target box, illumination) that lets the
+//!   pipeline skip what the scene does not need ([`pipeline::SkipPolicy`]).
 //! * [`Error`] — the one small `Copy` error type; bad input is an `Err`, never a panic.
 //!
 //! # Robustness
@@ -81,6 +83,7 @@ pub mod frame;
 pub mod fuse;
 pub mod pipeline;
 pub mod rescale;
+pub mod scene;
 pub mod scratch;
 
 pub use error::Error;

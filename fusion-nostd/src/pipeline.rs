@@ -14,6 +14,7 @@ use crate::fuse::Guards;
 use crate::fuse::adf::{AdfParams, fuse_adf, fuse_adf_raw};
 use crate::fuse::ifevip::{IfevipParams, fuse_ifevip};
 use crate::fuse::tsifsd::{TsifsdParams, fuse_tsifsd, fuse_tsifsd_raw};
+use crate::scene::{Decline, Illumination, Rect, Scene, SceneParams, analyze};
 use crate::{Error, Filter, FrameMut, FrameRef, ScratchMut, rescale};
 
 /// Which band is rescaled onto the other's grid.
@@ -45,6 +46,20 @@ impl Default for Method {
     }
 }
 
+/// What the pipeline may skip, after [`crate::scene::analyze`] (see "Scene skipping" below).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub enum SkipPolicy {
+    /// Fuse every pixel (today's behaviour; no analysis runs).
+    #[default]
+    None,
+    /// Fuse (and rescale) only a window around the target, write the background elsewhere.
+    Roi,
+    /// `Roi`, plus the eclipse plan: when VIS has no signal, its side of the work is skipped
+    /// where the method allows (ADF: VIS is taken as its constant background level) and the
+    /// window follows the TIR target alone.
+    All,
+}
+
 /// A whole per-frame configuration.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Pipeline {
@@ -52,6 +67,10 @@ pub struct Pipeline {
     pub rescale: RescalePolicy,
     /// How they are fused.
     pub method: Method,
+    /// What may be skipped (default: nothing).
+    pub skip: SkipPolicy,
+    /// Thresholds of the scene analysis (used when `skip` is not `None`).
+    pub scene: SceneParams,
 }
 
 impl Pipeline {
@@ -88,6 +107,87 @@ pub struct FuseReport {
     pub rescaled: bool,
     /// The guards the method fired.
     pub guards: Guards,
+    /// What the scene skipping did.
+    pub skip: SkipReport,
+}
+
+/// Which skips a [`fuse`] call took: a bit set like [`Guards`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub struct Skips(pub u32);
+
+impl Skips {
+    /// Nothing skipped.
+    pub const NONE: Skips = Skips(0);
+    /// The method ran on a window only ([`SkipReport::computed`]); the background rule wrote
+    /// the rest.
+    pub const ROI: Skips = Skips(1 << 0);
+    /// The rescale ran on the window only.
+    pub const ROI_RESCALE: Skips = Skips(1 << 1);
+    /// Eclipse plan: VIS taken as its constant background level, its diffusion skipped (ADF).
+    pub const ECLIPSE_VIS: Skips = Skips(1 << 2);
+    /// Eclipse plan: the window follows the TIR target alone (VIS has no signal).
+    pub const ECLIPSE_TIR_TARGET: Skips = Skips(1 << 3);
+    /// The frames already shared a grid: no rescale (also without scene skipping).
+    pub const NO_RESCALE: Skips = Skips(1 << 4);
+
+    /// Whether every bit of `other` is set in `self`.
+    pub const fn contains(self, other: Skips) -> bool {
+        self.0 & other.0 == other.0
+    }
+}
+
+impl core::ops::BitOr for Skips {
+    type Output = Skips;
+    fn bitor(self, rhs: Skips) -> Skips {
+        Skips(self.0 | rhs.0)
+    }
+}
+
+impl core::ops::BitOrAssign for Skips {
+    fn bitor_assign(&mut self, rhs: Skips) {
+        self.0 |= rhs.0;
+    }
+}
+
+/// The scene-skipping part of a [`FuseReport`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct SkipReport {
+    /// The policy asked for.
+    pub policy: SkipPolicy,
+    /// VIS illumination (`None` when no analysis ran: policy `None`).
+    pub illumination: Option<Illumination>,
+    /// The pixels guaranteed bit-identical to [`SkipPolicy::None`] (the whole grid when nothing
+    /// was skipped; empty when the pair has no target). With [`Skips::ECLIPSE_VIS`] the
+    /// guarantee is against the same method on VIS replaced by its background level.
+    pub roi: Rect,
+    /// The window the method actually ran on (`roi` plus its halo); outside it the output is
+    /// `background`.
+    pub computed: Rect,
+    /// The value written outside `computed` (`None` when `computed` is the whole grid).
+    pub background: Option<u8>,
+    /// Whether the output outside `roi` is proven bit-identical as well (ADF on an exactly
+    /// constant background).
+    pub exact_outside: bool,
+    /// The skips taken.
+    pub taken: Skips,
+    /// Why the ROI skip was declined (the whole frame was fused), if it was.
+    pub declined: Option<Decline>,
+}
+
+impl SkipReport {
+    /// Nothing skipped on a `grid`-sized frame.
+    pub fn none(policy: SkipPolicy, grid: (usize, usize), rescaled: bool) -> Self {
+        Self {
+            policy,
+            illumination: None,
+            roi: Rect::full(grid),
+            computed: Rect::full(grid),
+            background: None,
+            exact_outside: true,
+            taken: if rescaled { Skips::NONE } else { Skips::NO_RESCALE },
+            declined: None,
+        }
+    }
 }
 
 /// The grid `policy` fuses on, given the two input sizes.
@@ -132,6 +232,9 @@ pub fn fuse(
     scratch: &mut ScratchMut<'_>,
     pipeline: &Pipeline,
 ) -> Result<FuseReport, Error> {
+    if pipeline.skip != SkipPolicy::None {
+        return fuse_skipping(vis, tir, out, scratch, pipeline);
+    }
     on_grid(vis, tir, out.size(), scratch, pipeline.rescale, |v, t, s| {
         fuse_method(v, t, out, &pipeline.method, s)
     })
@@ -174,7 +277,12 @@ fn on_grid(
     }
     if vis.size() == tir.size() {
         let guards = fuse_on_grid(vis, tir, scratch)?;
-        return Ok(FuseReport { grid, rescaled: false, guards });
+        return Ok(FuseReport {
+            grid,
+            rescaled: false,
+            guards,
+            skip: SkipReport::none(SkipPolicy::None, grid, false),
+        });
     }
     let (band, mut planes) = scratch.split_band(grid.0 * grid.1)?;
     let guards = match policy {
@@ -187,5 +295,296 @@ fn on_grid(
             fuse_on_grid(FrameRef::new(band, grid.0, grid.1)?, tir, &mut planes)?
         }
     };
-    Ok(FuseReport { grid, rescaled: true, guards })
+    Ok(FuseReport { grid, rescaled: true, guards, skip: SkipReport::none(SkipPolicy::None, grid, true) })
+}
+
+impl Method {
+    /// Checks the method's parameters.
+    pub fn validate(&self) -> Result<(), Error> {
+        match self {
+            Method::Adf(p) => p.validate(),
+            Method::Tsifsd(p) => p.validate(),
+            Method::Ifevip(p) => p.validate(),
+        }
+    }
+
+    /// Radius of the neighbourhood an output pixel depends on (grid pixels): the window halo
+    /// of the ROI plan. ADF: one pixel per diffusion iteration; TSIFSD: the mean filter's
+    /// radius (the 3×3 median / Scharr is inside it) plus one; IFEVIP: none (it is global).
+    pub fn halo(&self) -> Option<usize> {
+        match self {
+            Method::Adf(p) => Some(usize::from(p.iterations)),
+            Method::Tsifsd(p) => Some(usize::from(p.mean_size / 2) + 1),
+            Method::Ifevip(_) => None,
+        }
+    }
+}
+
+/// The background rule: the value a method gives where both bands are flat at their levels,
+/// `round(½(level_VIS + level_TIR))` — exact for ADF and TSIFSD on a constant pair (ADF: the
+/// detail layers vanish, the base is the mean; TSIFSD: both saliencies vanish, the ½, ½ guard).
+pub fn background_value(scene: &Scene) -> u8 {
+    ((u16::from(scene.vis.background) + u16::from(scene.tir.background) + 1) / 2) as u8
+}
+
+/// What the skip plan decided for one frame.
+enum Plan {
+    /// Fuse the whole frame (the reason, if analysis declined).
+    Full(Option<Decline>),
+    /// Nothing to fuse: the whole output is the background value.
+    Empty,
+    /// Fuse the window `computed`; `roi` inside it is exact.
+    Window { computed: Rect, roi: Rect },
+    /// ADF on an exactly constant background (or VIS taken constant): diffuse `computed`,
+    /// covariance and output over `roi`; everything else is the background value, exactly.
+    AdfWindow { computed: Rect, roi: Rect, vis_constant: bool },
+}
+
+/// Grows a window to even corners (a 2× rescale's phase), clipped to the grid.
+fn align_even(r: Rect, (w, h): (usize, usize)) -> Rect {
+    let hi = |v: usize, n: usize| if v >= n { n } else { (v.saturating_add(1) & !1).min(n) };
+    Rect { x0: r.x0 & !1, y0: r.y0 & !1, x1: hi(r.x1, w), y1: hi(r.y1, h) }
+}
+
+fn plan(scene: &Scene, pipeline: &Pipeline, grid: (usize, usize), eclipse: bool) -> Plan {
+    if let Some(d) = scene.decline {
+        return Plan::Full(Some(d));
+    }
+    let Some(halo) = pipeline.method.halo() else {
+        return Plan::Full(Some(Decline::GlobalStatistic));
+    };
+    let full = Rect::full(grid);
+    let too_large = |r: &Rect| {
+        r.area().saturating_mul(100) > full.area().saturating_mul(pipeline.scene.max_roi_percent.into())
+    };
+    let rescale2 = scene.rescale_needed;
+    match &pipeline.method {
+        Method::Adf(p) => {
+            let vis_constant = eclipse;
+            let varying = if vis_constant { scene.varying_tir } else { scene.varying };
+            if p.variant == crate::Variant::Classic
+                && (scene.tir.background != 0 || scene.vis.background != 0)
+            {
+                // Zero padding drains a non-zero constant background near the frame's edge:
+                // its detail is not 0 there, so the rest of the frame is not provably silent.
+                return Plan::Full(Some(Decline::GlobalStatistic));
+            }
+            let Some(varying) = varying else { return Plan::Empty };
+            let roi = varying.grow(halo, grid);
+            let mut computed = roi.grow(halo, grid);
+            if rescale2 {
+                computed = align_even(computed, grid);
+            }
+            if too_large(&computed) {
+                return if vis_constant {
+                    Plan::AdfWindow { computed: full, roi: full, vis_constant }
+                } else {
+                    Plan::Full(Some(if scene.varying == Some(full) || too_large(&varying) {
+                        Decline::GlobalStatistic
+                    } else {
+                        Decline::RoiTooLarge
+                    }))
+                };
+            }
+            Plan::AdfWindow { computed, roi, vis_constant }
+        }
+        Method::Tsifsd(p) => {
+            let target = if eclipse { scene.target_tir } else { scene.target };
+            let Some(target) = target else { return Plan::Empty };
+            let mut computed = target.grow(halo, grid);
+            if p.variant == crate::Variant::Classic {
+                // Circular mean: a window touching a frame edge wraps to the opposite edge.
+                if computed.x0 == 0 || computed.x1 == grid.0 {
+                    (computed.x0, computed.x1) = (0, grid.0);
+                }
+                if computed.y0 == 0 || computed.y1 == grid.1 {
+                    (computed.y0, computed.y1) = (0, grid.1);
+                }
+            }
+            if rescale2 {
+                computed = align_even(computed, grid);
+            }
+            if too_large(&computed) {
+                return Plan::Full(Some(Decline::RoiTooLarge));
+            }
+            Plan::Window { computed, roi: computed.shrink_inner(halo, grid) }
+        }
+        Method::Ifevip(_) => Plan::Full(Some(Decline::GlobalStatistic)),
+    }
+}
+
+/// `src` brought onto the grid window `win`: a view of `src` itself when the sizes match, else
+/// the window rescaled into `band`. Exact 2× ratios rescale only the source pixels the window's
+/// taps read (plus the two-pixel bicubic margin) — the same bits as the whole-frame rescale,
+/// since the phase is the same and no tap crosses the cut; other ratios rescale the whole frame.
+/// Returns the view and whether only the window was rescaled.
+fn band_window<'b>(
+    src: FrameRef<'b, u8>,
+    grid: (usize, usize),
+    win: Rect,
+    filter: Filter,
+    band: &'b mut [u8],
+) -> Result<(FrameRef<'b, u8>, bool), Error> {
+    let (sw, sh) = src.size();
+    if (sw, sh) == grid {
+        return Ok((src.sub_rect(win.x0, win.y0, win.width(), win.height())?, false));
+    }
+    let up2 = grid == (2 * sw, 2 * sh) && filter == Filter::Cubic && win.x0 % 2 == 0 && win.y0 % 2 == 0;
+    let down2 = (sw, sh) == (2 * grid.0, 2 * grid.1) && filter == Filter::Area;
+    if up2 {
+        let sx0 = (win.x0 / 2).saturating_sub(2);
+        let sy0 = (win.y0 / 2).saturating_sub(2);
+        let sx1 = (win.x1.div_ceil(2) + 2).min(sw);
+        let sy1 = (win.y1.div_ceil(2) + 2).min(sh);
+        let (cw, ch) = (2 * (sx1 - sx0), 2 * (sy1 - sy0));
+        let dst = band.get_mut(..cw * ch).ok_or(Error::ScratchTooSmall { needed: cw * ch, capacity: 0 })?;
+        rescale(src.sub_rect(sx0, sy0, sx1 - sx0, sy1 - sy0)?, FrameMut::new(dst, cw, ch)?, filter)?;
+        let view = FrameRef::new(&*dst, cw, ch)?;
+        return Ok((view.sub_rect(win.x0 - 2 * sx0, win.y0 - 2 * sy0, win.width(), win.height())?, true));
+    }
+    if down2 {
+        let (cw, ch) = (win.width(), win.height());
+        let dst = band.get_mut(..cw * ch).ok_or(Error::ScratchTooSmall { needed: cw * ch, capacity: 0 })?;
+        rescale(src.sub_rect(2 * win.x0, 2 * win.y0, 2 * cw, 2 * ch)?, FrameMut::new(dst, cw, ch)?, filter)?;
+        return Ok((FrameRef::new(&*dst, cw, ch)?, true));
+    }
+    let pixels = grid.0 * grid.1;
+    let dst = band.get_mut(..pixels).ok_or(Error::ScratchTooSmall { needed: pixels, capacity: 0 })?;
+    rescale(src, FrameMut::new(dst, grid.0, grid.1)?, filter)?;
+    let view = FrameRef::new(&*dst, grid.0, grid.1)?;
+    Ok((view.sub_rect(win.x0, win.y0, win.width(), win.height())?, false))
+}
+
+/// Writes `value` to every pixel of `out` outside `keep`.
+fn fill_outside(out: &mut FrameMut<'_, u8>, keep: Rect, value: u8) {
+    for (y, row) in out.rows_mut().enumerate() {
+        if keep.is_empty() || y < keep.y0 || y >= keep.y1 {
+            row.fill(value);
+        } else {
+            let (left, rest) = row.split_at_mut(keep.x0.min(row.len()));
+            left.fill(value);
+            rest.get_mut(keep.width()..).unwrap_or(&mut []).fill(value);
+        }
+    }
+}
+
+/// [`fuse`] with scene skipping (policy `Roi` or `All`).
+fn fuse_skipping(
+    vis: FrameRef<'_, u8>,
+    tir: FrameRef<'_, u8>,
+    mut out: FrameMut<'_, u8>,
+    scratch: &mut ScratchMut<'_>,
+    pipeline: &Pipeline,
+) -> Result<FuseReport, Error> {
+    let grid = fusion_grid(vis.size(), tir.size(), pipeline.rescale)?;
+    if out.size() != grid {
+        return Err(Error::SizeMismatch { expected: grid, got: out.size() });
+    }
+    pipeline.method.validate()?;
+    let scene = analyze(vis, tir, grid, &pipeline.scene)?;
+    let eclipse = pipeline.skip == SkipPolicy::All && scene.illumination == Illumination::Eclipse;
+    let plan = plan(&scene, pipeline, grid, eclipse);
+    let rescaled = scene.rescale_needed;
+    let mut report = SkipReport::none(pipeline.skip, grid, rescaled);
+    report.illumination = Some(scene.illumination);
+    let background = background_value(&scene);
+    let (computed, roi, vis_constant) = match plan {
+        Plan::Full(declined) => {
+            let mut r = on_grid(vis, tir, grid, scratch, pipeline.rescale, |v, t, s| {
+                fuse_method(v, t, out, &pipeline.method, s)
+            })?;
+            r.skip = SkipReport { declined, ..report };
+            return Ok(r);
+        }
+        Plan::Empty => {
+            // Scratch checked as for a full run, so a too-small scratch is an error either way.
+            let pixels = pipeline.scratch_pixels(vis.size(), tir.size())?;
+            scratch.planes(pixels)?;
+            out.fill(background);
+            report.roi = Rect::default();
+            report.computed = Rect::default();
+            report.background = Some(background);
+            report.exact_outside = matches!(pipeline.method, Method::Adf(_)) && !eclipse;
+            report.taken |= Skips::ROI;
+            if eclipse {
+                report.taken |= Skips::ECLIPSE_TIR_TARGET;
+            }
+            return Ok(FuseReport { grid, rescaled: false, guards: Guards::NONE, skip: report });
+        }
+        Plan::Window { computed, roi } => (computed, roi, false),
+        Plan::AdfWindow { computed, roi, vis_constant } => (computed, roi, vis_constant),
+    };
+    let (cw, ch) = (computed.width(), computed.height());
+    let (filter_vis_side, vis_rescaled) = match pipeline.rescale {
+        RescalePolicy::TirUp => (Filter::Cubic, false),
+        RescalePolicy::VisDown | RescalePolicy::None => (Filter::Area, true),
+    };
+    let needs_band = vis.size() != tir.size();
+    let mut no_band: [u8; 0] = [];
+    let (band, mut planes) = if needs_band {
+        let (b, p) = scratch.split_band(grid.0 * grid.1)?;
+        (b, p)
+    } else {
+        let [a, b, c] = scratch.planes(cw * ch)?;
+        (&mut no_band[..], ScratchMut::from_slices([a, b, c]))
+    };
+    let (vis_w, tir_w, window_rescale) = if vis_rescaled {
+        let (v, w) = band_window(vis, grid, computed, filter_vis_side, band)?;
+        (v, tir.sub_rect(computed.x0, computed.y0, cw, ch)?, w)
+    } else {
+        let (t, w) = band_window(tir, grid, computed, filter_vis_side, band)?;
+        (vis.sub_rect(computed.x0, computed.y0, cw, ch)?, t, w)
+    };
+    let mut out_w = out.sub_rect_mut(computed.x0, computed.y0, cw, ch)?;
+    let guards = match (&pipeline.method, plan_is_adf(&pipeline.method)) {
+        (Method::Adf(p), true) => {
+            let exact = Rect {
+                x0: roi.x0 - computed.x0,
+                y0: roi.y0 - computed.y0,
+                x1: roi.x1 - computed.x0,
+                y1: roi.y1 - computed.y0,
+            };
+            let vis_opt = if vis_constant { None } else { Some(vis_w) };
+            let level = scene.vis.background;
+            let g = crate::fuse::adf::fuse_adf_window(
+                vis_opt,
+                level,
+                tir_w,
+                out_w,
+                exact,
+                grid.0 * grid.1,
+                p,
+                &mut planes,
+            )?;
+            fill_outside(&mut out, roi, background);
+            report.exact_outside = !vis_constant;
+            g
+        }
+        _ => {
+            let g = fuse_method(vis_w, tir_w, out_w.reborrow(), &pipeline.method, &mut planes)?;
+            fill_outside(&mut out, computed, background);
+            report.exact_outside = roi == Rect::full(grid);
+            g
+        }
+    };
+    report.roi = roi;
+    report.computed = computed;
+    report.background = (computed != Rect::full(grid)).then_some(background);
+    if computed != Rect::full(grid) || matches!(pipeline.method, Method::Adf(_)) && roi != Rect::full(grid) {
+        report.taken |= Skips::ROI;
+    }
+    if window_rescale {
+        report.taken |= Skips::ROI_RESCALE;
+    }
+    if vis_constant {
+        report.taken |= Skips::ECLIPSE_VIS;
+    }
+    if eclipse && matches!(pipeline.method, Method::Tsifsd(_)) {
+        report.taken |= Skips::ECLIPSE_TIR_TARGET;
+    }
+    Ok(FuseReport { grid, rescaled, guards, skip: report })
+}
+
+fn plan_is_adf(method: &Method) -> bool {
+    matches!(method, Method::Adf(_))
 }

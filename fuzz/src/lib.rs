@@ -393,7 +393,7 @@ pub fn pipeline(data: &[u8]) {
         return;
     }
 
-    let p = Pipeline { rescale: policy, method };
+    let p = Pipeline { rescale: policy, method, ..Default::default() };
     let needed = p.scratch_pixels(v.size(), t.size());
     let needed = match (needed, fault) {
         (Ok(n), _) => n,

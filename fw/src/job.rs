@@ -104,7 +104,7 @@ impl Run {
             2 => Method::Ifevip(IfevipParams { variant: v, ..IfevipParams::default() }),
             _ => Method::Tsifsd(TsifsdParams { variant: v, ..TsifsdParams::default() }),
         };
-        Pipeline { rescale: self.policy, method }
+        Pipeline { rescale: self.policy, method, ..Default::default() }
     }
 
     /// Method name as printed.

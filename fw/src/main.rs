@@ -273,7 +273,7 @@ fn exercise_entry_points() {
             (black_box(40usize), black_box(30usize), black_box(20usize), black_box(15usize), dw, dh);
         for method in methods {
             for policy in policies {
-                let pipeline = black_box(Pipeline { rescale: policy, method: black_box(method) });
+                let pipeline = black_box(Pipeline { rescale: policy, method: black_box(method), ..Default::default() });
                 let [p0, p1, p2] = &mut *planes;
                 let mut scratch = ScratchMut::with_band([p0, p1, p2], &mut *band);
                 if let (Ok(v), Ok(t), Ok(o)) =

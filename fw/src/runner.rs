@@ -197,7 +197,7 @@ pub fn self_test(m: &mut Meter) -> Result<(), FwError> {
     }
     let (vis, tir) = (FrameRef::new(&vis[..], 256, 256)?, FrameRef::new(&tir[..], 128, 128)?);
     for method in job::default_methods() {
-        let pipeline = Pipeline { rescale: RescalePolicy::TirUp, method };
+        let pipeline = Pipeline { rescale: RescalePolicy::TirUp, method, ..Default::default() };
         let report = fuse(vis, tir, FrameMut::new(&mut *out, 256, 256)?, &mut scratch.view_mut(), &pipeline)?;
         say!(
             m.con,

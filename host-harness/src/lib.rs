@@ -9,6 +9,7 @@ pub mod io;
 pub mod metrics;
 pub mod plot;
 pub mod reference;
+pub mod skip;
 pub mod study;
 pub mod study_methods;
 

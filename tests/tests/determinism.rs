@@ -75,7 +75,7 @@ fn output_does_not_depend_on_scratch_contents() {
                 &[RescalePolicy::TirUp, RescalePolicy::VisDown]
             };
             for &rescale in policies {
-                let p = Pipeline { rescale, method };
+                let p = Pipeline { rescale, method, ..Default::default() };
                 let pixels = p.scratch_pixels((vw, vh), (tw, th)).unwrap();
                 let want = fuse_with(&vis, &tir, &p, &mut Dirty::new(pixels, FILLS[0]).view());
                 for (k, fill) in FILLS.iter().enumerate().skip(1) {
@@ -103,7 +103,7 @@ fn scratch_reuse_across_sizes_and_methods() {
     for round in 0..2 {
         for (vis, tir) in &pairs {
             for method in methods() {
-                let p = Pipeline { rescale: RescalePolicy::TirUp, method };
+                let p = Pipeline { rescale: RescalePolicy::TirUp, method, ..Default::default() };
                 let reused = fuse_with(vis, tir, &p, &mut shared.view());
                 let pixels = p.scratch_pixels((vis.width, vis.height), (tir.width, tir.height)).unwrap();
                 let fresh = fuse_with(vis, tir, &p, &mut Dirty::new(pixels, FILLS[0]).view());
@@ -132,7 +132,7 @@ fn strided_views_give_the_packed_result() {
     };
     for method in methods() {
         for rescale in [RescalePolicy::TirUp, RescalePolicy::VisDown] {
-            let p = Pipeline { rescale, method };
+            let p = Pipeline { rescale, method, ..Default::default() };
             let pixels = p.scratch_pixels((vw, vh), (tw, th)).unwrap();
             let want = fuse_with(&vis, &tir, &p, &mut Dirty::new(pixels, FILLS[0]).view());
             let (vs, ts) = (vw + 5, tw + 2);
@@ -197,7 +197,7 @@ fn fw_selftest_matches_the_host() {
         ("tsifsd", Method::Tsifsd(TsifsdParams::default())),
         ("ifevip", Method::Ifevip(IfevipParams::default())),
     ] {
-        let p = Pipeline { rescale: RescalePolicy::TirUp, method };
+        let p = Pipeline { rescale: RescalePolicy::TirUp, method, ..Default::default() };
         let fused = host_harness::cli::fuse::fuse_core(&vis, &tir, &p, false).unwrap();
         host.push(format!(
             "@fw selftest {name} guards 0x{:02x} fnv1a {:08x}",

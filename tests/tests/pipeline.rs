@@ -52,21 +52,23 @@ fn policies_equal_rescale_then_fuse() -> Result<(), Error> {
         let (tw, th) = (vw / 2 + vw % 2, vh / 2);
         let (vis, tir) = (scene(vw, vh, 1), scene(tw, th, 2));
         for method in methods() {
-            let up = run(&vis, &tir, &Pipeline { rescale: RescalePolicy::TirUp, method })?;
+            let up =
+                run(&vis, &tir, &Pipeline { rescale: RescalePolicy::TirUp, method, ..Default::default() })?;
             let by_hand = run(
                 &vis,
                 &resized(&tir, vw, vh, Filter::Cubic),
-                &Pipeline { rescale: RescalePolicy::None, method },
+                &Pipeline { rescale: RescalePolicy::None, method, ..Default::default() },
             )?;
             assert!(up.2 && !by_hand.2, "rescaled flags");
             assert_same(&up.0, &by_hand.0, &format!("tir-up {method:?} {vw}x{vh}"));
             assert_eq!(up.1, by_hand.1);
 
-            let down = run(&vis, &tir, &Pipeline { rescale: RescalePolicy::VisDown, method })?;
+            let down =
+                run(&vis, &tir, &Pipeline { rescale: RescalePolicy::VisDown, method, ..Default::default() })?;
             let by_hand = run(
                 &resized(&vis, tw, th, Filter::Area),
                 &tir,
-                &Pipeline { rescale: RescalePolicy::None, method },
+                &Pipeline { rescale: RescalePolicy::None, method, ..Default::default() },
             )?;
             assert_eq!((down.0.width, down.0.height), (tw, th));
             assert_same(&down.0, &by_hand.0, &format!("vis-down {method:?} {vw}x{vh}"));
@@ -82,7 +84,7 @@ fn core_pipeline_matches_the_reference_pipeline() -> anyhow::Result<()> {
     let (vis, tir) = (scene(256, 256, 11), scene(128, 128, 12));
     for method in methods() {
         for rescale in [RescalePolicy::TirUp, RescalePolicy::VisDown] {
-            let p = Pipeline { rescale, method };
+            let p = Pipeline { rescale, method, ..Default::default() };
             let core = fuse_core(&vis, &tir, &p, false)?;
             let refr = fuse_reference(&vis, &tir, &p)?;
             let max =
@@ -100,7 +102,7 @@ fn core_pipeline_matches_the_reference_pipeline() -> anyhow::Result<()> {
 fn raw_value_casts_to_the_output() -> Result<(), Error> {
     let (vis, tir) = (scene(80, 60, 3), scene(40, 30, 4));
     for method in methods() {
-        let p = Pipeline { rescale: RescalePolicy::TirUp, method };
+        let p = Pipeline { rescale: RescalePolicy::TirUp, method, ..Default::default() };
         let (out, _, _) = run(&vis, &tir, &p)?;
         let mut raw = Gray::<i32>::new(80, 60);
         let mut scratch = CoreScratch::new(p.scratch_pixels((80, 60), (40, 30))?);
@@ -128,10 +130,10 @@ fn bad_geometry_is_an_error() {
     let method = Method::default();
     let (vis, tir) = (scene(64, 64, 1), scene(32, 32, 2));
     // policy none with different sizes
-    let p = Pipeline { rescale: RescalePolicy::None, method };
+    let p = Pipeline { rescale: RescalePolicy::None, method, ..Default::default() };
     assert!(matches!(run(&vis, &tir, &p), Err(Error::SizeMismatch { .. })));
     // wrong output size
-    let p = Pipeline { rescale: RescalePolicy::TirUp, method };
+    let p = Pipeline { rescale: RescalePolicy::TirUp, method, ..Default::default() };
     let mut out = Gray::<u8>::new(32, 32);
     let mut scratch = CoreScratch::new(64 * 64);
     let r =

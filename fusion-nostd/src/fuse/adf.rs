@@ -1100,6 +1100,111 @@ pub fn fuse_adf_raw(
     })
 }
 
+/// ADF of a whole frame computed on a window of it, for the pipeline's scene skipping
+/// ([`crate::pipeline::SkipPolicy`]).
+///
+/// `vis` and `tir` are the window `C` of the frame pair (`vis = None`: VIS is the constant
+/// `vis_level` everywhere, the eclipse plan) and `out` the same window of the output. The
+/// caller guarantees that outside the sub-window `exact` (coordinates inside `C`) the frame's
+/// detail layers are exactly zero — every input pixel within `iterations` of such a pixel
+/// equals its band's constant level, and (classic) that level is 0 — and that `exact` lies at
+/// least `iterations` pixels inside `C` on every side not on the frame's edge. Then the
+/// frame-global covariance is the sum over `exact` with `n = frame_pixels` (the rest adds 0),
+/// the KL weights are the whole frame's, and the pixels of `exact` written to `out` are the
+/// whole-frame result bit for bit; the rest of `out` is not written. Returns the guards the
+/// whole frame would fire ([`Guards::OUTPUT_SATURATED`] for the `exact` pixels only).
+///
+/// Errors: as [`fuse_adf`], [`Error::InvalidParameter`] (`"rect"`) when `exact` is not inside
+/// the window or `frame_pixels` is smaller than the window, (`"vis_level"`) for a non-zero
+/// constant VIS with the classic (zero-padded) variant.
+#[allow(clippy::too_many_arguments)]
+pub fn fuse_adf_window(
+    vis: Option<FrameRef<'_, u8>>,
+    vis_level: u8,
+    tir: FrameRef<'_, u8>,
+    mut out: FrameMut<'_, u8>,
+    exact: crate::scene::Rect,
+    frame_pixels: usize,
+    params: &AdfParams,
+    scratch: &mut ScratchMut<'_>,
+) -> Result<Guards, Error> {
+    params.validate()?;
+    if let Some(v) = &vis {
+        check_sizes(v, &tir, out.size())?;
+    } else if out.size() != tir.size() {
+        return Err(Error::SizeMismatch { expected: tir.size(), got: out.size() });
+    }
+    let (w, h) = tir.size();
+    if exact.is_empty() || !crate::scene::Rect::full((w, h)).covers(&exact) || frame_pixels < w * h {
+        return Err(Error::InvalidParameter { name: "rect" });
+    }
+    if vis.is_none() && vis_level != 0 && params.variant == Variant::Classic {
+        return Err(Error::InvalidParameter { name: "vis_level" });
+    }
+    let [a_vis, a_tir, tmp] = scratch.planes(w * h)?;
+    diffuse(tir, params, a_tir, tmp)?;
+    match vis {
+        Some(v) => diffuse(v, params, a_vis, tmp)?,
+        // A constant frame stays constant under the replicate-border diffusion (every ∇ = 0),
+        // and under the zero border when the constant is 0.
+        None => a_vis.get_mut(..w * h).unwrap_or(&mut []).fill(i32::from(vis_level) << STATE_BITS),
+    }
+    let (a_vis, a_tir) = (&*a_vis, &*a_tir);
+    let level_row = [vis_level; COV_CHUNK];
+    let (ex0, ex1) = (exact.x0, exact.x1);
+    // The rows of `exact`: (VIS pixels, TIR pixels, A_VIS, A_TIR), cut to its columns.
+    let rows = || {
+        (exact.y0..exact.y1).map(move |y| {
+            let iv = vis.map(|v| v.row(y).get(ex0..ex1).unwrap_or(&[]));
+            let it = tir.row(y).get(ex0..ex1).unwrap_or(&[]);
+            let av = a_vis.get(y * w + ex0..y * w + ex1).unwrap_or(&[]);
+            let at = a_tir.get(y * w + ex0..y * w + ex1).unwrap_or(&[]);
+            (iv, it, av, at)
+        })
+    };
+    let mut sums = [0i128; 5];
+    let mut small = true;
+    for (iv, it, av, at) in rows() {
+        let mut x = 0;
+        while x < it.len() {
+            let n = COV_CHUNK.min(it.len() - x);
+            let iv = iv.map_or(level_row.get(..n), |r| r.get(x..x + n)).unwrap_or(&[]);
+            let (it, av, at) = (
+                it.get(x..x + n).unwrap_or(&[]),
+                av.get(x..x + n).unwrap_or(&[]),
+                at.get(x..x + n).unwrap_or(&[]),
+            );
+            let m = moments_small(iv, it, av, at).unwrap_or_else(|| {
+                small = false;
+                moments_exact(iv, it, av, at)
+            });
+            for (s, v) in sums.iter_mut().zip(m) {
+                *s += v;
+            }
+            x += n;
+        }
+    }
+    let [s1, s2, s11, s12, s22] = sums;
+    let n = frame_pixels as i128;
+    let weights = kl_weight(n * s11 - s1 * s1, n * s12 - s1 * s2, n * s22 - s2 * s2, params.variant);
+    let p_ir = weights.p_ir_q30;
+    let p32 = i32::try_from(p_ir).ok().filter(|_| small);
+    let mut saturated = false;
+    for (y, (iv, it, av, at)) in (exact.y0..).zip(rows()) {
+        let dst = out.row_mut(y).get_mut(ex0..ex1).unwrap_or(&mut []);
+        for (x, (((o, &it), &av), &at)) in dst.iter_mut().zip(it).zip(av).zip(at).enumerate() {
+            let iv = iv.and_then(|r| r.get(x).copied()).unwrap_or(vis_level);
+            let v = match p32 {
+                Some(p) => fused_small(p, iv, it, av, at),
+                None => fused_general(p_ir, iv, it, av, at),
+            };
+            saturated |= !(-(1 << 15)..(255 << 16) + (1 << 15)).contains(&v);
+            *o = raw_to_u8(v);
+        }
+    }
+    Ok(if saturated { weights.guards | Guards::OUTPUT_SATURATED } else { weights.guards })
+}
+
 #[cfg(test)]
 mod tests {
     extern crate std;

@@ -325,8 +325,11 @@ pub struct Outcome {
 fn compare_with_host(job: &Job, report: &FwReport, diffs: &mut Vec<String>, what: &str) -> Result<usize> {
     let mut same = 0;
     for (spec, run) in job.runs.iter().zip(&report.runs) {
-        let pipeline =
-            Pipeline { rescale: spec.policy.into(), method: method_for(spec.method, spec.variant) };
+        let pipeline = Pipeline {
+            rescale: spec.policy.into(),
+            method: method_for(spec.method, spec.variant),
+            ..Default::default()
+        };
         let host = fuse_core(&job.vis, &job.tir, &pipeline, false)?;
         let fw = run.image.as_ref().context("no image")?;
         let differ = host.image.data.iter().zip(&fw.data).filter(|(a, b)| a != b).count();
@@ -621,8 +624,11 @@ pub fn memory_report(out: &Outcome) -> Result<String> {
     s.push_str("| grid | method | scratch | frames | total |\n|---|---|---|---|---|\n");
     for grid in [Grid::G512, Grid::G1024] {
         for m in [MethodArg::Adf, MethodArg::Tsifsd, MethodArg::Ifevip] {
-            let pipeline =
-                Pipeline { rescale: grid.policy().into(), method: method_for(m, VariantArg::Flight) };
+            let pipeline = Pipeline {
+                rescale: grid.policy().into(),
+                method: method_for(m, VariantArg::Flight),
+                ..Default::default()
+            };
             let px = pipeline.scratch_pixels((1024, 1024), (512, 512))? as u64;
             let scratch = px * (3 * 4 + 1);
             let side = grid.side() as u64;

@@ -145,7 +145,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
     let mut points = Vec::new();
     for (family, configs) in knobs() {
         for policy in [RescalePolicy::TirUp, RescalePolicy::VisDown] {
-            let default = Pipeline { rescale: policy, method: configs[0].1 };
+            let default = Pipeline { rescale: policy, method: configs[0].1, ..Default::default() };
             let t = Instant::now();
             let reference = fuse_reference(&vis, &tir, &default)?;
             let ref_seconds = t.elapsed().as_secs_f64();
@@ -160,7 +160,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
                 max_abs: 0,
             });
             for (label, method) in &configs {
-                let p = Pipeline { rescale: policy, method: *method };
+                let p = Pipeline { rescale: policy, method: *method, ..Default::default() };
                 let r = fuse_timed(&vis, &tir, &p, args.repeats)?;
                 let (psnr, max_abs) = psnr_and_max(&r.fused, &reference.image);
                 println!(
@@ -180,7 +180,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
             // The classic f64 reference of the same frame, for the engine comparison at equal
             // semantics (classic core vs classic reference).
             if let Some((label, method)) = configs.get(1) {
-                let p = Pipeline { rescale: policy, method: *method };
+                let p = Pipeline { rescale: policy, method: *method, ..Default::default() };
                 let t = Instant::now();
                 let r = fuse_reference(&vis, &tir, &p)?;
                 let secs = t.elapsed().as_secs_f64();

@@ -89,7 +89,8 @@ pub fn run(args: &DemoArgs) -> Result<()> {
             let tir_up = source_on_grid(&tir, g, Filter::Cubic)?;
             let mut fused_all = Vec::new();
             for (mi, m) in methods.iter().enumerate() {
-                let pipeline = Pipeline { rescale: RescalePolicy::TirUp, method: m.method };
+                let pipeline =
+                    Pipeline { rescale: RescalePolicy::TirUp, method: m.method, ..Default::default() };
                 let r = fuse_timed(&vis, &tir, &pipeline, args.repeats)?;
                 let path = args.out.join("fused").join(ill).join(m.name).join(format!("frame_{f:03}.png"));
                 std::fs::create_dir_all(path.parent().unwrap_or(&args.out))?;

@@ -258,7 +258,11 @@ pub fn run(args: &FuseArgs) -> Result<()> {
     let rescale = args.rescale.unwrap_or(RescaleArg::TirUp);
     let fused = match args.method.split() {
         Ok(method) => {
-            let pipeline = Pipeline { rescale: rescale.into(), method: method_for(method, args.variant) };
+            let pipeline = Pipeline {
+                rescale: rescale.into(),
+                method: method_for(method, args.variant),
+                ..Default::default()
+            };
             match args.engine.unwrap_or(EngineArg::Core) {
                 EngineArg::Core => fuse_core(&vis, &tir, &pipeline, args.raw.is_some())?,
                 EngineArg::Reference => fuse_reference(&vis, &tir, &pipeline)?,

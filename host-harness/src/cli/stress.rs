@@ -368,7 +368,7 @@ fn reference_kl_weights(vis: &Gray<u8>, tir: &Gray<u8>, p: &Pipeline, params: &A
 pub fn run_one(case: &Case, geometry: &Geometry, name: &'static str, method: Method) -> Row {
     let vis = case.vis.draw(geometry.vis.0, geometry.vis.1);
     let tir = case.tir.draw(geometry.tir.0, geometry.tir.1);
-    let p = Pipeline { rescale: geometry.rescale, method };
+    let p = Pipeline { rescale: geometry.rescale, method, ..Default::default() };
     let mut row = Row {
         case: case.name,
         geometry: geometry.label(),

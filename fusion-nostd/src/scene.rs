@@ -1,0 +1,534 @@
+//! Scene analysis: what a frame pair needs, found cheaply before fusing it.
+//!
+//! Space is black: in the study's geometry the target covers a few per cent of the frame and
+//! the rest is sensor background. [`analyze`] looks at both bands and returns a [`Scene`]:
+//!
+//! * **Background and noise per band** ([`BandStats`]): the background level is the median of
+//!   a histogram and the noise its median absolute deviation (MAD), both read from a fixed
+//!   subsample (every 4th row, every 2nd pixel of frames above 2¹⁶ pixels; every pixel of
+//!   smaller ones), so one bright target or a few hot pixels move neither.
+//! * **Noise-aware threshold**: a pixel is signal when it exceeds
+//!   `background + max(min_delta, k·1.4826·MAD)` ([`SceneParams`]; `1.4826·MAD` is σ for
+//!   Gaussian noise, `k` = 6 by default). A target pixel also needs its right neighbour above
+//!   the threshold (a 2-pixel run), so an isolated noise spike does not stretch the box.
+//! * **Target box** ([`Scene::target`]): the bounding box, on the fusion grid, of the signal of
+//!   both bands (each band's box mapped onto the grid with a margin covering the rescaler's
+//!   taps), `None` when neither band has signal.
+//! * **Varying box** ([`Scene::varying`]): the bounding box, on the grid, of the pixels that
+//!   differ *at all* from their band's background level — what a method with a frame-global
+//!   statistic needs to prove the rest of the frame is exactly constant (noiseless frames).
+//! * **Illumination of VIS** ([`Illumination`]): `Eclipse` when VIS has no signal run above its
+//!   threshold anywhere (no usable signal), `Saturated` when at least
+//!   [`SceneParams::saturated_percent`] of the sampled signal pixels are 255, else `Light`.
+//! * **Decline** ([`Decline`]): when a band's background is not dark
+//!   (`level > max_background`) or too noisy (`MAD > max_noise_mad`) there is no "empty sky"
+//!   to skip, and the plans must fuse the whole frame. Real scenes (the VIFB pairs) end here.
+//! * Whether a rescale is needed at all ([`Scene::rescale_needed`]: the sizes differ).
+//!
+//! Cost: the subsampled histograms (1/8 of the pixels of a large frame) and one pass over each
+//! band that folds every row to its minimum and maximum, searching for the box edges only in
+//! rows that can hold them — a few instructions per pixel, against ≈ 400 (TSIFSD) to ≈ 4700
+//! (ADF) per pixel for the fusion itself on Cortex-M7 (`fw/budgets.toml`).
+//!
+//! ```
+//! use fusion_nostd::scene::{analyze, Illumination, SceneParams};
+//! use fusion_nostd::FrameRef;
+//! let mut vis = [0u8; 64 * 64];
+//! let tir = [0u8; 32 * 32];
+//! for y in 20..30 {
+//!     for x in 10..40 {
+//!         vis[y * 64 + x] = 200;
+//!     }
+//! }
+//! let scene = analyze(FrameRef::new(&vis, 64, 64)?, FrameRef::new(&tir, 32, 32)?, (64, 64), &SceneParams::default())?;
+//! assert_eq!(scene.illumination, Illumination::Light);
+//! let t = scene.target.unwrap();
+//! assert_eq!((t.x0, t.y0, t.x1, t.y1), (10, 20, 40, 30));
+//! assert!(scene.decline.is_none() && scene.rescale_needed);
+//! # Ok::<(), fusion_nostd::Error>(())
+//! ```
+
+use crate::{Error, FrameRef};
+
+/// A rectangle of pixels `x0..x1` × `y0..y1` (half-open).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub struct Rect {
+    /// First column.
+    pub x0: usize,
+    /// First row.
+    pub y0: usize,
+    /// One past the last column.
+    pub x1: usize,
+    /// One past the last row.
+    pub y1: usize,
+}
+
+impl Rect {
+    /// The whole `w × h` frame.
+    pub const fn full((w, h): (usize, usize)) -> Rect {
+        Rect { x0: 0, y0: 0, x1: w, y1: h }
+    }
+
+    /// Columns.
+    pub const fn width(&self) -> usize {
+        self.x1.saturating_sub(self.x0)
+    }
+
+    /// Rows.
+    pub const fn height(&self) -> usize {
+        self.y1.saturating_sub(self.y0)
+    }
+
+    /// Pixels.
+    pub const fn area(&self) -> usize {
+        self.width().saturating_mul(self.height())
+    }
+
+    /// Whether it holds no pixel.
+    pub const fn is_empty(&self) -> bool {
+        self.width() == 0 || self.height() == 0
+    }
+
+    /// Whether `(x, y)` is inside.
+    pub const fn contains(&self, x: usize, y: usize) -> bool {
+        x >= self.x0 && x < self.x1 && y >= self.y0 && y < self.y1
+    }
+
+    /// The smallest rectangle holding both (an empty one is ignored).
+    #[must_use]
+    pub fn union(self, other: Rect) -> Rect {
+        if self.is_empty() {
+            return other;
+        }
+        if other.is_empty() {
+            return self;
+        }
+        Rect {
+            x0: self.x0.min(other.x0),
+            y0: self.y0.min(other.y0),
+            x1: self.x1.max(other.x1),
+            y1: self.y1.max(other.y1),
+        }
+    }
+
+    /// Grown by `r` on every side, clipped to a `w × h` frame.
+    #[must_use]
+    pub fn grow(self, r: usize, (w, h): (usize, usize)) -> Rect {
+        Rect {
+            x0: self.x0.saturating_sub(r),
+            y0: self.y0.saturating_sub(r),
+            x1: self.x1.saturating_add(r).min(w),
+            y1: self.y1.saturating_add(r).min(h),
+        }
+    }
+
+    /// Shrunk by `r` on every side that is not on the edge of a `w × h` frame (what stays
+    /// exact when a filter of radius `r` runs on this window alone: at the frame's own edge the
+    /// window's border rule is the frame's).
+    #[must_use]
+    pub fn shrink_inner(self, r: usize, (w, h): (usize, usize)) -> Rect {
+        let lo = |v: usize| if v == 0 { 0 } else { v.saturating_add(r) };
+        let hi = |v: usize, n: usize| if v >= n { v } else { v.saturating_sub(r) };
+        let s = Rect { x0: lo(self.x0), y0: lo(self.y0), x1: hi(self.x1, w), y1: hi(self.y1, h) };
+        if s.is_empty() { Rect::default() } else { s }
+    }
+
+    /// Whether every pixel of `other` is inside.
+    pub const fn covers(&self, other: &Rect) -> bool {
+        other.is_empty()
+            || (self.x0 <= other.x0 && self.y0 <= other.y0 && self.x1 >= other.x1 && self.y1 >= other.y1)
+    }
+}
+
+/// Illumination class of the VIS frame.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Illumination {
+    /// Usable signal above the background.
+    Light,
+    /// No usable signal: nothing rises above the noise threshold (the target is in eclipse).
+    Eclipse,
+    /// Signal, but a large part of it clipped at 255.
+    Saturated,
+}
+
+/// Why the analysis (or a plan) declined to skip: the whole frame is fused.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Decline {
+    /// A band's background level is above [`SceneParams::max_background`] (not empty sky).
+    BackgroundNotDark,
+    /// A band's background MAD is above [`SceneParams::max_noise_mad`].
+    TooNoisy,
+    /// The window the method needs covers more than [`SceneParams::max_roi_percent`] of the
+    /// frame: skipping would save little.
+    RoiTooLarge,
+    /// The method uses a frame-global statistic that the plan cannot reproduce exactly from
+    /// the window alone (ADF on a background that is not exactly constant; IFEVIP always).
+    GlobalStatistic,
+}
+
+/// Thresholds of the analysis. [`Default`] is the setting measured in `BENCHMARKS.md`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct SceneParams {
+    /// `k` of the signal threshold `background + max(min_delta, k·1.4826·MAD)`, in tenths
+    /// (60 = 6σ).
+    pub k_sigma_tenths: u16,
+    /// Smallest step above the background that counts as signal, grey levels (`1..`).
+    pub min_delta: u8,
+    /// Highest background level (median) that still counts as empty sky.
+    pub max_background: u8,
+    /// Highest background MAD that still counts as empty sky.
+    pub max_noise_mad: u8,
+    /// Largest window (with halo), per cent of the frame, worth skipping around.
+    pub max_roi_percent: u8,
+    /// Share of the sampled signal pixels at 255, per cent, from which VIS is `Saturated`.
+    pub saturated_percent: u8,
+}
+
+impl Default for SceneParams {
+    fn default() -> Self {
+        Self {
+            k_sigma_tenths: 60,
+            min_delta: 4,
+            max_background: 48,
+            max_noise_mad: 6,
+            max_roi_percent: 60,
+            saturated_percent: 25,
+        }
+    }
+}
+
+impl SceneParams {
+    /// Checks every field's range ([`Error::InvalidParameter`] names the field).
+    pub fn validate(&self) -> Result<(), Error> {
+        if self.min_delta == 0 {
+            return Err(Error::InvalidParameter { name: "min_delta" });
+        }
+        if self.max_roi_percent > 100 {
+            return Err(Error::InvalidParameter { name: "max_roi_percent" });
+        }
+        if self.saturated_percent > 100 {
+            return Err(Error::InvalidParameter { name: "saturated_percent" });
+        }
+        Ok(())
+    }
+}
+
+/// What the analysis found in one band (coordinates of the band's own frame).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct BandStats {
+    /// Background level: the median of the sampled pixels.
+    pub background: u8,
+    /// Noise: the median absolute deviation from `background` of the sampled pixels, in Q8
+    /// grey levels, as the median of grouped data (deviation `d ≥ 1` spread evenly over
+    /// `[d − ½, d + ½)`, `d = 0` over `[0, ½)`), so quantised noise of σ ≈ 0.5–1 does not read 0.
+    pub mad_q8: u16,
+    /// Signal threshold: a pixel is signal when it is above this (may exceed 255: no signal).
+    pub threshold: u16,
+    /// Sampled pixels.
+    pub samples: u32,
+    /// Sampled pixels above `threshold`.
+    pub signal_samples: u32,
+    /// Sampled pixels at 255.
+    pub saturated_samples: u32,
+    /// Bounding box of the signal runs (two neighbours above `threshold`), if any.
+    pub signal: Option<Rect>,
+    /// Bounding box of the pixels different from `background`, if any.
+    pub varying: Option<Rect>,
+}
+
+/// The analysis of one frame pair (boxes on the fusion grid).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Scene {
+    /// The fusion grid.
+    pub grid: (usize, usize),
+    /// VIS statistics (VIS frame coordinates).
+    pub vis: BandStats,
+    /// TIR statistics (TIR frame coordinates).
+    pub tir: BandStats,
+    /// Illumination class of VIS.
+    pub illumination: Illumination,
+    /// Signal box of both bands on the grid (`None`: no signal anywhere).
+    pub target: Option<Rect>,
+    /// Signal box of TIR alone on the grid.
+    pub target_tir: Option<Rect>,
+    /// Box of the pixels differing from the background, both bands, on the grid.
+    pub varying: Option<Rect>,
+    /// The same for TIR alone.
+    pub varying_tir: Option<Rect>,
+    /// Why skipping is refused for this pair, if it is.
+    pub decline: Option<Decline>,
+    /// Whether the two frames have different sizes (a rescale is needed).
+    pub rescale_needed: bool,
+}
+
+/// Histogram of a fixed subsample: every pixel of frames up to 2¹⁶ pixels, else every 2nd
+/// pixel of every 4th row.
+fn histogram(f: FrameRef<'_, u8>) -> ([u32; 256], u32) {
+    let mut hist = [0u32; 256];
+    let small = f.width().saturating_mul(f.height()) <= 1 << 16;
+    let (sy, sx) = if small { (1, 1) } else { (4, 2) };
+    let mut n = 0u32;
+    for row in f.rows().step_by(sy) {
+        for &p in row.iter().step_by(sx) {
+            if let Some(h) = hist.get_mut(usize::from(p)) {
+                *h = h.saturating_add(1);
+            }
+            n = n.saturating_add(1);
+        }
+    }
+    (hist, n)
+}
+
+/// The smallest value whose cumulative count reaches half the samples.
+fn median_of(hist: &[u32; 256], n: u32) -> u8 {
+    let half = n.div_ceil(2).max(1);
+    let mut acc = 0u32;
+    for (v, &c) in hist.iter().enumerate() {
+        acc = acc.saturating_add(c);
+        if acc >= half {
+            return v as u8;
+        }
+    }
+    255
+}
+
+/// The median of a histogram of deviations as grouped data, in Q8: bin `d ≥ 1` spans
+/// `[d − ½, d + ½)`, bin 0 spans `[0, ½)`, interpolated linearly inside the bin.
+fn grouped_median_q8(dev: &[u32; 256], n: u32) -> u16 {
+    let half = u64::from(n) * 128; // n/2 in Q8 counts
+    let mut before = 0u64;
+    for (d, &c) in dev.iter().enumerate() {
+        let c = u64::from(c);
+        if c > 0 && (before + c) * 256 >= half {
+            let (lo, width) = if d == 0 { (0u64, 128u64) } else { ((d as u64) * 256 - 128, 256) };
+            let into = (half - before * 256) * width / (c * 256);
+            return (lo + into).min(u64::from(u16::MAX)) as u16;
+        }
+        before += c;
+    }
+    u16::MAX
+}
+
+/// First and last `x` of `row` where `hit(x)` holds.
+fn span(row: &[u8], hit: impl Fn(&[u8], usize) -> bool) -> Option<(usize, usize)> {
+    let first = (0..row.len()).find(|&x| hit(row, x))?;
+    let last = (first..row.len()).rev().find(|&x| hit(row, x)).unwrap_or(first);
+    Some((first, last))
+}
+
+fn add_span(b: &mut Option<Rect>, y: usize, (x0, x1): (usize, usize)) {
+    let r = Rect { x0, y0: y, x1: x1.saturating_add(1), y1: y.saturating_add(1) };
+    *b = Some(b.map_or(r, |b| b.union(r)));
+}
+
+/// Statistics and boxes of one band.
+fn band_stats(f: FrameRef<'_, u8>, p: &SceneParams) -> BandStats {
+    let (hist, n) = histogram(f);
+    let background = median_of(&hist, n);
+    // Histogram of |p − background|, from the histogram itself.
+    let mut dev = [0u32; 256];
+    for (v, &c) in hist.iter().enumerate() {
+        let d = v.abs_diff(usize::from(background));
+        if let Some(slot) = dev.get_mut(d) {
+            *slot = slot.saturating_add(c);
+        }
+    }
+    let mad_q8 = grouped_median_q8(&dev, n);
+    // k·1.4826·MAD rounded up: k in tenths, 1.4826 as 14826/10⁴, MAD in Q8.
+    let spread = (u64::from(mad_q8) * u64::from(p.k_sigma_tenths) * 14826).div_ceil(100_000 << 8);
+    let delta = spread.max(u64::from(p.min_delta)).min(256) as u16;
+    let threshold = u16::from(background) + delta;
+    let signal_samples = hist
+        .iter()
+        .enumerate()
+        .filter(|&(v, _)| v as u16 > threshold)
+        .map(|(_, &c)| c)
+        .fold(0u32, u32::saturating_add);
+    let saturated_samples = if threshold < 255 { hist.get(255).copied().unwrap_or(0) } else { 0 };
+
+    let (mut signal, mut varying) = (None, None);
+    for (y, row) in f.rows().enumerate() {
+        let (lo, hi) = row.iter().fold((u8::MAX, u8::MIN), |(lo, hi), &v| (lo.min(v), hi.max(v)));
+        if u16::from(hi) > threshold {
+            let run = |r: &[u8], x: usize| {
+                let above = |x: usize| r.get(x).is_some_and(|&v| u16::from(v) > threshold);
+                above(x) && above(x + 1)
+            };
+            if let Some(s) = span(row, run) {
+                // The run's second pixel is signal too.
+                add_span(&mut signal, y, (s.0, s.1.saturating_add(1)));
+            }
+        }
+        if lo != background || hi != background {
+            if let Some(s) = span(row, |r, x| r.get(x).is_some_and(|&v| v != background)) {
+                add_span(&mut varying, y, s);
+            }
+        }
+    }
+    BandStats {
+        background,
+        mad_q8,
+        threshold,
+        samples: n,
+        signal_samples,
+        saturated_samples,
+        signal,
+        varying,
+    }
+}
+
+/// `r` (in a `from`-sized frame) on a `to`-sized grid, grown by a margin that covers the
+/// rescaler's taps (none when the sizes match), clipped to the grid.
+pub fn map_rect(r: Rect, from: (usize, usize), to: (usize, usize)) -> Rect {
+    if from == to {
+        return r;
+    }
+    let axis = |a0: usize, a1: usize, f: usize, t: usize| {
+        let f = f.max(1);
+        let margin = 2 * t.div_ceil(f) + 2;
+        let lo = (a0.saturating_mul(t) / f).saturating_sub(margin);
+        let hi = a1.saturating_mul(t).div_ceil(f).saturating_add(margin).min(t);
+        (lo, hi)
+    };
+    let (x0, x1) = axis(r.x0, r.x1, from.0, to.0);
+    let (y0, y1) = axis(r.y0, r.y1, from.1, to.1);
+    Rect { x0, y0, x1, y1 }
+}
+
+/// Analyses a VIS/TIR pair for the fusion grid `grid` (see the module docs).
+///
+/// Errors: [`Error::InvalidParameter`] for bad [`SceneParams`]; the views were validated when
+/// built, so there is no other.
+pub fn analyze(
+    vis: FrameRef<'_, u8>,
+    tir: FrameRef<'_, u8>,
+    grid: (usize, usize),
+    params: &SceneParams,
+) -> Result<Scene, Error> {
+    params.validate()?;
+    let v = band_stats(vis, params);
+    let t = band_stats(tir, params);
+    let illumination = if v.signal.is_none() {
+        Illumination::Eclipse
+    } else if u64::from(v.saturated_samples) * 100
+        >= u64::from(params.saturated_percent) * u64::from(v.signal_samples.max(1))
+    {
+        Illumination::Saturated
+    } else {
+        Illumination::Light
+    };
+    let on_grid = |b: Option<Rect>, from: (usize, usize)| b.map(|r| map_rect(r, from, grid));
+    let (target_vis, target_tir) = (on_grid(v.signal, vis.size()), on_grid(t.signal, tir.size()));
+    let (varying_vis, varying_tir) = (on_grid(v.varying, vis.size()), on_grid(t.varying, tir.size()));
+    let join = |a: Option<Rect>, b: Option<Rect>| match (a, b) {
+        (Some(a), Some(b)) => Some(a.union(b)),
+        (a, b) => a.or(b),
+    };
+    let dark = |b: &BandStats| b.background <= params.max_background;
+    let quiet = |b: &BandStats| b.mad_q8 <= u16::from(params.max_noise_mad) << 8;
+    let decline = if !dark(&v) || !dark(&t) {
+        Some(Decline::BackgroundNotDark)
+    } else if !quiet(&v) || !quiet(&t) {
+        Some(Decline::TooNoisy)
+    } else {
+        None
+    };
+    Ok(Scene {
+        grid,
+        vis: v,
+        tir: t,
+        illumination,
+        target: join(target_vis, target_tir),
+        target_tir,
+        varying: join(varying_vis, varying_tir),
+        varying_tir,
+        decline,
+        rescale_needed: vis.size() != tir.size(),
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rect_helpers() {
+        let r = Rect { x0: 5, y0: 6, x1: 10, y1: 12 };
+        assert_eq!(r.area(), 30);
+        assert_eq!(r.grow(6, (14, 14)), Rect { x0: 0, y0: 0, x1: 14, y1: 14 });
+        assert_eq!(Rect::full((20, 20)).shrink_inner(3, (20, 20)), Rect::full((20, 20)));
+        assert_eq!(r.grow(2, (20, 20)).shrink_inner(2, (20, 20)), r);
+        assert!(Rect { x0: 2, y0: 2, x1: 4, y1: 4 }.shrink_inner(2, (9, 9)).is_empty());
+        assert_eq!(Rect::default().union(r), r);
+        assert!(r.covers(&Rect { x0: 6, y0: 6, x1: 7, y1: 7 }) && !r.covers(&Rect::full((7, 7))));
+    }
+
+    #[test]
+    fn background_noise_and_threshold() -> Result<(), Error> {
+        // Background 3 with ±1 noise on half the pixels: grouped MAD ½ → 6·1.4826·½ = 4.4 → delta 5.
+        let mut px = [0u8; 40 * 40];
+        for (i, p) in px.iter_mut().enumerate() {
+            *p = match i % 4 {
+                0 => 2,
+                1 => 4,
+                _ => 3,
+            };
+        }
+        let s = band_stats(FrameRef::new(&px, 40, 40)?, &SceneParams::default());
+        assert_eq!((s.background, s.mad_q8, s.threshold), (3, 128, 8));
+        assert_eq!(s.signal, None);
+        assert_eq!(s.varying, Some(Rect { x0: 0, y0: 0, x1: 38, y1: 40 })); // x = 38, 39 are 3 in every row
+        // A single spike does not make a target; a 2-pixel run does.
+        px[100] = 200;
+        assert_eq!(band_stats(FrameRef::new(&px, 40, 40)?, &SceneParams::default()).signal, None);
+        px[101] = 200;
+        let s = band_stats(FrameRef::new(&px, 40, 40)?, &SceneParams::default());
+        assert_eq!(s.signal, Some(Rect { x0: 20, y0: 2, x1: 22, y1: 3 }));
+        Ok(())
+    }
+
+    #[test]
+    fn bright_backgrounds_decline_and_black_vis_is_eclipse() -> Result<(), Error> {
+        let grey = [120u8; 16 * 16];
+        let black = [0u8; 16 * 16];
+        let s = analyze(
+            FrameRef::new(&grey, 16, 16)?,
+            FrameRef::new(&black, 16, 16)?,
+            (16, 16),
+            &SceneParams::default(),
+        )?;
+        assert_eq!(s.decline, Some(Decline::BackgroundNotDark));
+        let s = analyze(
+            FrameRef::new(&black, 16, 16)?,
+            FrameRef::new(&black, 16, 16)?,
+            (16, 16),
+            &SceneParams::default(),
+        )?;
+        assert_eq!(
+            (s.illumination, s.decline, s.target, s.varying),
+            (Illumination::Eclipse, None, None, None)
+        );
+        let mut sat = [0u8; 16 * 16];
+        sat[..64].fill(255);
+        let s = analyze(
+            FrameRef::new(&sat, 16, 16)?,
+            FrameRef::new(&black, 16, 16)?,
+            (16, 16),
+            &SceneParams::default(),
+        )?;
+        assert_eq!(s.illumination, Illumination::Saturated);
+        let bad = SceneParams { min_delta: 0, ..SceneParams::default() };
+        assert!(
+            analyze(FrameRef::new(&black, 16, 16)?, FrameRef::new(&black, 16, 16)?, (16, 16), &bad).is_err()
+        );
+        Ok(())
+    }
+
+    #[test]
+    fn mapped_boxes_cover_the_rescaler_taps() {
+        let r = Rect { x0: 10, y0: 10, x1: 12, y1: 12 };
+        let m = map_rect(r, (32, 32), (64, 64));
+        assert!(m.x0 <= 20 - 4 && m.x1 >= 24 + 4, "{m:?}");
+        assert_eq!(map_rect(r, (32, 32), (32, 32)), r);
+    }
+}

@@ -1,0 +1,328 @@
+//! Scene skipping (`SkipPolicy::Roi`/`All`): the pixels of the reported ROI are bit-identical
+//! to the unskipped run for every method and variant, on rendered and synthetic frames; the
+//! error outside is measured; real scenes (VIFB) make the analysis decline; a black VIS is an
+//! eclipse; bad input is still an `Err`.
+
+use anyhow::Result;
+use fusion_nostd::pipeline::{Method, Pipeline, RescalePolicy, SkipPolicy, Skips};
+use fusion_nostd::scene::{Decline, Illumination, Rect, SceneParams, analyze};
+use fusion_nostd::{AdfParams, Error, IfevipParams, TsifsdParams, Variant};
+use host_harness::io::{ColorPolicy, Gray, load_gray_u8};
+use host_harness::skip::{first_difference_in, fuse_once, skip_error};
+use host_harness::study::Dataset;
+use render_host::{DatasetConfig, render_dataset};
+use std::path::PathBuf;
+
+fn methods() -> Vec<(&'static str, Method)> {
+    vec![
+        ("adf", Method::Adf(AdfParams::default())),
+        ("adf-classic", Method::Adf(AdfParams { variant: Variant::Classic, ..AdfParams::default() })),
+        ("tsifsd", Method::Tsifsd(TsifsdParams::default())),
+        (
+            "tsifsd-classic",
+            Method::Tsifsd(TsifsdParams { variant: Variant::Classic, ..TsifsdParams::default() }),
+        ),
+        ("ifevip", Method::Ifevip(IfevipParams::default())),
+    ]
+}
+
+fn pipeline(method: Method, rescale: RescalePolicy, skip: SkipPolicy) -> Pipeline {
+    Pipeline { rescale, method, skip, ..Pipeline::default() }
+}
+
+/// What one comparison found.
+struct Outcome {
+    taken: Skips,
+    roi: Rect,
+    computed: Rect,
+    psnr: f64,
+    declined: Option<Decline>,
+}
+
+/// Fuses with `skip` and without; asserts the ROI (and, when the report says so, the whole
+/// frame) is bit-identical and the computed window covers the ROI.
+fn check(
+    name: &str,
+    vis: &Gray<u8>,
+    tir: &Gray<u8>,
+    method: Method,
+    rescale: RescalePolicy,
+    skip: SkipPolicy,
+) -> Result<Outcome> {
+    let (full, full_report, _) = fuse_once(vis, tir, &pipeline(method, rescale, SkipPolicy::None))?;
+    let (got, report, _) = fuse_once(vis, tir, &pipeline(method, rescale, skip))?;
+    let s = report.skip;
+    assert!(s.computed.covers(&s.roi), "{name}: computed {:?} does not cover roi {:?}", s.computed, s.roi);
+    let grid = Rect::full(report.grid);
+    assert!(grid.covers(&s.computed), "{name}: window {:?} outside the grid", s.computed);
+    if !s.taken.contains(Skips::ECLIPSE_VIS) {
+        assert_eq!(first_difference_in(&got, &full, s.roi), None, "{name} {skip:?}: ROI {:?} differs", s.roi);
+        if s.exact_outside {
+            assert_eq!(got.data, full.data, "{name} {skip:?}: report claims exact outside the ROI");
+        }
+    }
+    if s.declined.is_some() {
+        assert_eq!(got.data, full.data, "{name}: declined but the output changed");
+        assert_eq!(report.guards, full_report.guards);
+    }
+    if s.roi == grid && !s.taken.contains(Skips::ECLIPSE_VIS) {
+        assert_eq!(report.guards, full_report.guards, "{name}: guards of an unskipped frame");
+    }
+    let e = skip_error(&got, &full);
+    if let Some(bg) = s.background {
+        // Outside the window every pixel is the background value.
+        for (i, &v) in got.data.iter().enumerate() {
+            let (x, y) = (i % got.width, i / got.width);
+            if !s.computed.contains(x, y) {
+                assert_eq!(v, bg, "{name}: ({x}, {y}) outside the window is not the background");
+            }
+        }
+    }
+    println!(
+        "{name:>40} {skip:?}: roi {:?} computed {}/{} px, taken {:?}, declined {:?}, max abs {}, psnr {:.1} dB",
+        (s.roi.x0, s.roi.y0, s.roi.x1, s.roi.y1),
+        s.computed.area(),
+        grid.area(),
+        s.taken,
+        s.declined,
+        e.max_abs,
+        e.psnr
+    );
+    Ok(Outcome { taken: s.taken, roi: s.roi, computed: s.computed, psnr: e.psnr, declined: s.declined })
+}
+
+/// A dark frame with a textured bright target and optional ±1..2 noise (deterministic).
+fn synthetic(w: usize, h: usize, target: Rect, level: u8, noise: u32, seed: u32) -> Gray<u8> {
+    let mut g = Gray::new(w, h);
+    let mut s = seed.wrapping_mul(2654435761).wrapping_add(1);
+    for y in 0..h {
+        for x in 0..w {
+            s ^= s << 13;
+            s ^= s >> 17;
+            s ^= s << 5;
+            let n = if noise == 0 { 0 } else { (s % (2 * noise + 1)) as i32 - noise as i32 };
+            let v = if target.contains(x, y) {
+                level as i32 + ((x * 7 + y * 3) % 40) as i32 + if (x / 4 + y / 4) % 2 == 0 { 30 } else { 0 }
+            } else {
+                3
+            };
+            g.data[y * w + x] = (v + n).clamp(0, 255) as u8;
+        }
+    }
+    g
+}
+
+#[test]
+fn synthetic_frames_roi_is_bit_identical_for_every_method() -> Result<()> {
+    let vis_t = Rect { x0: 70, y0: 60, x1: 110, y1: 100 };
+    let tir_t = Rect { x0: 36, y0: 31, x1: 54, y1: 49 };
+    let mut took_roi = 0;
+    for noise in [0, 1] {
+        let vis = synthetic(192, 160, vis_t, 90, noise, 1);
+        let tir = synthetic(96, 80, tir_t, 120, noise, 2);
+        let tir_same = synthetic(192, 160, vis_t, 120, noise, 3);
+        for (name, method) in methods() {
+            for skip in [SkipPolicy::Roi, SkipPolicy::All] {
+                for (label, v, t, rescale) in [
+                    ("tir-up", &vis, &tir, RescalePolicy::TirUp),
+                    ("vis-down", &vis, &tir, RescalePolicy::VisDown),
+                    ("same-grid", &vis, &tir_same, RescalePolicy::None),
+                ] {
+                    let o = check(
+                        &format!("synthetic noise {noise} {label} {name}"),
+                        v,
+                        t,
+                        method,
+                        rescale,
+                        skip,
+                    )?;
+                    if o.taken.contains(Skips::ROI) {
+                        took_roi += 1;
+                        // The target itself is always inside the exact ROI.
+                        let grid_target = if rescale == RescalePolicy::VisDown {
+                            Rect { x0: 35, y0: 30, x1: 55, y1: 50 }
+                        } else {
+                            vis_t
+                        };
+                        assert!(
+                            o.roi.covers(&grid_target),
+                            "{name} {label}: roi {:?} misses the target",
+                            o.roi
+                        );
+                        assert!(
+                            o.computed.area() < v.width * v.height,
+                            "{name}: ROI skip on the whole frame"
+                        );
+                    }
+                    if matches!(method, Method::Ifevip(_)) {
+                        assert_eq!(o.declined, Some(Decline::GlobalStatistic), "IFEVIP must decline");
+                    }
+                    if matches!(method, Method::Adf(_)) && noise > 0 {
+                        // Noise everywhere: the covariance is not reproducible from a window.
+                        assert_eq!(o.declined, Some(Decline::GlobalStatistic), "{name} noisy");
+                    }
+                }
+            }
+        }
+    }
+    assert!(took_roi >= 12, "only {took_roi} runs took the ROI skip");
+    Ok(())
+}
+
+fn render_small() -> Result<(tempfile::TempDir, Dataset)> {
+    let dir = tempfile::tempdir()?;
+    let cfg = DatasetConfig { tir_sizes: vec![128], ..DatasetConfig::small(3, 256) };
+    render_dataset(&cfg, dir.path(), false)?;
+    let ds = Dataset::open(dir.path())?;
+    Ok((dir, ds))
+}
+
+#[test]
+fn rendered_frames_roi_is_bit_identical_for_every_method() -> Result<()> {
+    let (_dir, ds) = render_small()?;
+    let (mut roi_runs, mut worst_psnr) = (0, f64::INFINITY);
+    for frame in 0..ds.frames() {
+        for noisy in [false, true] {
+            let tir = ds.image("tir128", frame, noisy)?;
+            for set in ["vis_light", "vis_eclipse"] {
+                let vis = ds.image(set, frame, noisy)?;
+                let scene =
+                    analyze(vis.view()?, tir.view()?, (vis.width, vis.height), &SceneParams::default())?;
+                if set == "vis_light" {
+                    assert_eq!(
+                        scene.decline, None,
+                        "frame {frame}: rendered space background must not decline"
+                    );
+                    assert!(scene.target.is_some(), "frame {frame}: no target found");
+                }
+                for (name, method) in methods() {
+                    for skip in [SkipPolicy::Roi, SkipPolicy::All] {
+                        let o = check(
+                            &format!("{set} {frame} {} {name}", host_harness::study::version(noisy)),
+                            &vis,
+                            &tir,
+                            method,
+                            RescalePolicy::TirUp,
+                            skip,
+                        )?;
+                        if o.taken.contains(Skips::ROI) {
+                            roi_runs += 1;
+                        }
+                        if !o.taken.contains(Skips::ECLIPSE_VIS) {
+                            worst_psnr = worst_psnr.min(o.psnr);
+                        }
+                    }
+                }
+            }
+        }
+    }
+    println!("ROI runs {roi_runs}, worst skip PSNR {worst_psnr:.1} dB");
+    assert!(roi_runs > 0);
+    Ok(())
+}
+
+fn shared_dir() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared")
+}
+
+#[test]
+fn vifb_pairs_decline_and_stay_identical() -> Result<()> {
+    let dir = shared_dir().join("data/vifb");
+    let mut pairs = 0;
+    for entry in std::fs::read_dir(&dir)? {
+        let path = entry?.path();
+        let Some(name) = path.file_name().and_then(|n| n.to_str()).and_then(|n| n.strip_suffix("_VIS.png"))
+        else {
+            continue;
+        };
+        let vis = load_gray_u8(&path, ColorPolicy::Bt601)?;
+        let tir = load_gray_u8(&dir.join(format!("{name}_IR.png")), ColorPolicy::Bt601)?;
+        let scene = analyze(vis.view()?, tir.view()?, (vis.width, vis.height), &SceneParams::default())?;
+        assert!(scene.decline.is_some(), "{name}: the analysis must decline a real scene: {scene:?}");
+        for (m, method) in methods() {
+            let o =
+                check(&format!("vifb {name} {m}"), &vis, &tir, method, RescalePolicy::None, SkipPolicy::All)?;
+            assert!(o.declined.is_some() && o.psnr.is_infinite(), "{name} {m}");
+        }
+        pairs += 1;
+    }
+    assert!(pairs >= 4, "found {pairs} VIFB pairs");
+    Ok(())
+}
+
+#[test]
+fn black_vis_is_an_eclipse_and_adf_skips_its_side() -> Result<()> {
+    let vis = Gray { width: 128, height: 128, data: vec![0u8; 128 * 128] };
+    let mut tir = synthetic(64, 64, Rect { x0: 20, y0: 24, x1: 40, y1: 44 }, 100, 0, 5);
+    tir.data.iter_mut().for_each(|p| *p = p.saturating_sub(3)); // background exactly 0
+    let scene = analyze(vis.view()?, tir.view()?, (128, 128), &SceneParams::default())?;
+    assert_eq!(scene.illumination, Illumination::Eclipse);
+    assert_eq!(scene.vis.signal, None);
+    let adf = Method::Adf(AdfParams::default());
+    let (got, report, _) = fuse_once(&vis, &tir, &pipeline(adf, RescalePolicy::TirUp, SkipPolicy::All))?;
+    assert!(report.skip.taken.contains(Skips::ECLIPSE_VIS | Skips::ROI), "{:?}", report.skip);
+    // VIS is exactly its level 0 here, so the eclipse plan must reproduce the unskipped ADF.
+    let (full, _, _) = fuse_once(&vis, &tir, &pipeline(adf, RescalePolicy::TirUp, SkipPolicy::None))?;
+    assert_eq!(got.data, full.data);
+    // A lit VIS of the same scene is not an eclipse.
+    let lit = synthetic(128, 128, Rect { x0: 40, y0: 48, x1: 80, y1: 88 }, 60, 0, 6);
+    let scene = analyze(lit.view()?, tir.view()?, (128, 128), &SceneParams::default())?;
+    assert_eq!(scene.illumination, Illumination::Light);
+    Ok(())
+}
+
+#[test]
+fn bad_input_is_still_an_error() -> Result<()> {
+    let vis = synthetic(64, 64, Rect { x0: 20, y0: 20, x1: 40, y1: 40 }, 80, 0, 7);
+    let tir = synthetic(32, 32, Rect { x0: 10, y0: 10, x1: 20, y1: 20 }, 80, 0, 8);
+    let mut scratch = host_harness::CoreScratch::new(64 * 64);
+    for skip in [SkipPolicy::Roi, SkipPolicy::All] {
+        let p = pipeline(Method::default(), RescalePolicy::TirUp, skip);
+        let mut small = Gray::<u8>::new(32, 32);
+        let r = fusion_nostd::pipeline::fuse(
+            vis.view()?,
+            tir.view()?,
+            small.view_mut()?,
+            &mut scratch.view_mut(),
+            &p,
+        );
+        assert_eq!(r.err(), Some(Error::SizeMismatch { expected: (64, 64), got: (32, 32) }));
+        let mut out = Gray::<u8>::new(64, 64);
+        let mut tiny = host_harness::CoreScratch::new(16);
+        let r =
+            fusion_nostd::pipeline::fuse(vis.view()?, tir.view()?, out.view_mut()?, &mut tiny.view_mut(), &p);
+        assert!(matches!(r, Err(Error::ScratchTooSmall { .. })), "{r:?}");
+        let bad = pipeline(
+            Method::Tsifsd(TsifsdParams { mean_size: 4, ..TsifsdParams::default() }),
+            RescalePolicy::TirUp,
+            skip,
+        );
+        let r = fusion_nostd::pipeline::fuse(
+            vis.view()?,
+            tir.view()?,
+            out.view_mut()?,
+            &mut scratch.view_mut(),
+            &bad,
+        );
+        assert_eq!(r.err(), Some(Error::InvalidParameter { name: "mean_size" }));
+        let bad = Pipeline { scene: SceneParams { min_delta: 0, ..SceneParams::default() }, ..p };
+        let r = fusion_nostd::pipeline::fuse(
+            vis.view()?,
+            tir.view()?,
+            out.view_mut()?,
+            &mut scratch.view_mut(),
+            &bad,
+        );
+        assert_eq!(r.err(), Some(Error::InvalidParameter { name: "min_delta" }));
+        let none = Pipeline { rescale: RescalePolicy::None, ..p };
+        let r = fusion_nostd::pipeline::fuse(
+            vis.view()?,
+            tir.view()?,
+            out.view_mut()?,
+            &mut scratch.view_mut(),
+            &none,
+        );
+        assert!(matches!(r, Err(Error::SizeMismatch { .. })));
+    }
+    Ok(())
+}

@@ -4,11 +4,11 @@
 //! the rest is sensor background. [`analyze`] looks at both bands and returns a [`Scene`]:
 //!
 //! * **Background and noise per band** ([`BandStats`]): the background level is the median of
-//!   a histogram and the noise its median absolute deviation (MAD), both read from a fixed
+//!   a histogram and the noise its upper quartile above it (a robust σ: `1.4826·(q₇₅ − median)`, like the MAD but right for noise clipped at 0), both read from a fixed
 //!   subsample (every 4th row, every 2nd pixel of frames above 2¹⁶ pixels; every pixel of
 //!   smaller ones), so one bright target or a few hot pixels move neither.
 //! * **Noise-aware threshold**: a pixel is signal when it exceeds
-//!   `background + max(min_delta, k·1.4826·MAD)` ([`SceneParams`]; `1.4826·MAD` is σ for
+//!   `background + max(min_delta, k·1.4826·spread)` ([`SceneParams`]; `1.4826·spread` is σ for
 //!   Gaussian noise, `k` = 6 by default). A target pixel also needs its right neighbour above
 //!   the threshold (a 2-pixel run), so an isolated noise spike does not stretch the box.
 //! * **Target box** ([`Scene::target`]): the bounding box, on the fusion grid, of the signal of
@@ -21,7 +21,7 @@
 //!   threshold anywhere (no usable signal), `Saturated` when at least
 //!   [`SceneParams::saturated_percent`] of the sampled signal pixels are 255, else `Light`.
 //! * **Decline** ([`Decline`]): when a band's background is not dark
-//!   (`level > max_background`) or too noisy (`MAD > max_noise_mad`) there is no "empty sky"
+//!   (`level > max_background`) or too noisy (`spread > max_noise_spread`) there is no "empty sky"
 //!   to skip, and the plans must fuse the whole frame. Real scenes (the VIFB pairs) end here.
 //! * Whether a rescale is needed at all ([`Scene::rescale_needed`]: the sizes differ).
 //!
@@ -156,7 +156,7 @@ pub enum Illumination {
 pub enum Decline {
     /// A band's background level is above [`SceneParams::max_background`] (not empty sky).
     BackgroundNotDark,
-    /// A band's background MAD is above [`SceneParams::max_noise_mad`].
+    /// A band's background noise spread is above [`SceneParams::max_noise_spread`].
     TooNoisy,
     /// The window the method needs covers more than [`SceneParams::max_roi_percent`] of the
     /// frame: skipping would save little.
@@ -169,15 +169,15 @@ pub enum Decline {
 /// Thresholds of the analysis. [`Default`] is the setting measured in `BENCHMARKS.md`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub struct SceneParams {
-    /// `k` of the signal threshold `background + max(min_delta, k·1.4826·MAD)`, in tenths
+    /// `k` of the signal threshold `background + max(min_delta, k·1.4826·spread)`, in tenths
     /// (60 = 6σ).
     pub k_sigma_tenths: u16,
     /// Smallest step above the background that counts as signal, grey levels (`1..`).
     pub min_delta: u8,
     /// Highest background level (median) that still counts as empty sky.
     pub max_background: u8,
-    /// Highest background MAD that still counts as empty sky.
-    pub max_noise_mad: u8,
+    /// Highest background noise spread (grey levels) that still counts as empty sky.
+    pub max_noise_spread: u8,
     /// Largest window (with halo), per cent of the frame, worth skipping around.
     pub max_roi_percent: u8,
     /// Share of the sampled signal pixels at 255, per cent, from which VIS is `Saturated`.
@@ -190,7 +190,7 @@ impl Default for SceneParams {
             k_sigma_tenths: 60,
             min_delta: 4,
             max_background: 48,
-            max_noise_mad: 6,
+            max_noise_spread: 6,
             max_roi_percent: 60,
             saturated_percent: 25,
         }
@@ -218,10 +218,12 @@ impl SceneParams {
 pub struct BandStats {
     /// Background level: the median of the sampled pixels.
     pub background: u8,
-    /// Noise: the median absolute deviation from `background` of the sampled pixels, in Q8
-    /// grey levels, as the median of grouped data (deviation `d ≥ 1` spread evenly over
-    /// `[d − ½, d + ½)`, `d = 0` over `[0, ½)`), so quantised noise of σ ≈ 0.5–1 does not read 0.
-    pub mad_q8: u16,
+    /// Noise: the upper quartile minus the background level (Q8 grey levels), the upper
+    /// quartile read from the histogram as grouped data (bin `v` spans `[v − ½, v + ½)`).
+    /// For Gaussian noise `1.4826·spread = σ` — like the MAD, but also right for noise clipped
+    /// at 0 (a black background: half the pixels read 0, the MAD would read ≈ 0) and not fooled
+    /// by quantisation.
+    pub spread_q8: u16,
     /// Signal threshold: a pixel is signal when it is above this (may exceed 255: no signal).
     pub threshold: u16,
     /// Sampled pixels.
@@ -292,21 +294,20 @@ fn median_of(hist: &[u32; 256], n: u32) -> u8 {
     255
 }
 
-/// The median of a histogram of deviations as grouped data, in Q8: bin `d ≥ 1` spans
-/// `[d − ½, d + ½)`, bin 0 spans `[0, ½)`, interpolated linearly inside the bin.
-fn grouped_median_q8(dev: &[u32; 256], n: u32) -> u16 {
-    let half = u64::from(n) * 128; // n/2 in Q8 counts
+/// The upper quartile of a histogram as grouped data, in Q8: bin `v` spans `[v − ½, v + ½)`,
+/// interpolated linearly inside the bin.
+fn upper_quartile_q8(hist: &[u32; 256], n: u32) -> u32 {
+    let target = u64::from(n) * 3 * 64; // ¾·n in Q8 counts
     let mut before = 0u64;
-    for (d, &c) in dev.iter().enumerate() {
+    for (v, &c) in hist.iter().enumerate() {
         let c = u64::from(c);
-        if c > 0 && (before + c) * 256 >= half {
-            let (lo, width) = if d == 0 { (0u64, 128u64) } else { ((d as u64) * 256 - 128, 256) };
-            let into = (half - before * 256) * width / (c * 256);
-            return (lo + into).min(u64::from(u16::MAX)) as u16;
+        if c > 0 && (before + c) * 256 >= target {
+            let into = (target - before * 256) / c; // Q8 fraction of the bin
+            return ((v as u64 * 256 + into).saturating_sub(128)) as u32;
         }
         before += c;
     }
-    u16::MAX
+    255 << 8
 }
 
 /// First and last `x` of `row` where `hit(x)` holds.
@@ -325,17 +326,11 @@ fn add_span(b: &mut Option<Rect>, y: usize, (x0, x1): (usize, usize)) {
 fn band_stats(f: FrameRef<'_, u8>, p: &SceneParams) -> BandStats {
     let (hist, n) = histogram(f);
     let background = median_of(&hist, n);
-    // Histogram of |p − background|, from the histogram itself.
-    let mut dev = [0u32; 256];
-    for (v, &c) in hist.iter().enumerate() {
-        let d = v.abs_diff(usize::from(background));
-        if let Some(slot) = dev.get_mut(d) {
-            *slot = slot.saturating_add(c);
-        }
-    }
-    let mad_q8 = grouped_median_q8(&dev, n);
-    // k·1.4826·MAD rounded up: k in tenths, 1.4826 as 14826/10⁴, MAD in Q8.
-    let spread = (u64::from(mad_q8) * u64::from(p.k_sigma_tenths) * 14826).div_ceil(100_000 << 8);
+    let spread_q8 = upper_quartile_q8(&hist, n)
+        .saturating_sub(u32::from(background) << 8)
+        .min(u32::from(u16::MAX)) as u16;
+    // k·1.4826·spread rounded up: k in tenths, 1.4826 as 14826/10⁴, spread in Q8.
+    let spread = (u64::from(spread_q8) * u64::from(p.k_sigma_tenths) * 14826).div_ceil(100_000 << 8);
     let delta = spread.max(u64::from(p.min_delta)).min(256) as u16;
     let threshold = u16::from(background) + delta;
     let signal_samples = hist
@@ -367,7 +362,7 @@ fn band_stats(f: FrameRef<'_, u8>, p: &SceneParams) -> BandStats {
     }
     BandStats {
         background,
-        mad_q8,
+        spread_q8,
         threshold,
         samples: n,
         signal_samples,
@@ -425,7 +420,7 @@ pub fn analyze(
         (a, b) => a.or(b),
     };
     let dark = |b: &BandStats| b.background <= params.max_background;
-    let quiet = |b: &BandStats| b.mad_q8 <= u16::from(params.max_noise_mad) << 8;
+    let quiet = |b: &BandStats| b.spread_q8 <= u16::from(params.max_noise_spread) << 8;
     let decline = if !dark(&v) || !dark(&t) {
         Some(Decline::BackgroundNotDark)
     } else if !quiet(&v) || !quiet(&t) {
@@ -465,7 +460,8 @@ mod tests {
 
     #[test]
     fn background_noise_and_threshold() -> Result<(), Error> {
-        // Background 3 with ±1 noise on half the pixels: grouped MAD ½ → 6·1.4826·½ = 4.4 → delta 5.
+        // Background 3 with ±1 noise on half the pixels: ¾ of the samples ≤ 3, ¼ at 4, grouped upper
+        // quartile 3.5 → spread ½ → 6·1.4826·½ = 4.4 → delta 5.
         let mut px = [0u8; 40 * 40];
         for (i, p) in px.iter_mut().enumerate() {
             *p = match i % 4 {
@@ -475,7 +471,7 @@ mod tests {
             };
         }
         let s = band_stats(FrameRef::new(&px, 40, 40)?, &SceneParams::default());
-        assert_eq!((s.background, s.mad_q8, s.threshold), (3, 128, 8));
+        assert_eq!((s.background, s.spread_q8, s.threshold), (3, 128, 8));
         assert_eq!(s.signal, None);
         assert_eq!(s.varying, Some(Rect { x0: 0, y0: 0, x1: 38, y1: 40 })); // x = 38, 39 are 3 in every row
         // A single spike does not make a target; a 2-pixel run does.

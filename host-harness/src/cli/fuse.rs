@@ -119,12 +119,62 @@ pub struct FuseArgs {
     /// Also write the real-valued result before the 8-bit cast as a float32 `.npy` (0..255 units).
     #[arg(long, value_name = "OUT.npy")]
     pub raw: Option<PathBuf>,
+    /// Scene skipping (core engine, ADF/TSIFSD/IFEVIP): none fuses every pixel; roi fuses a
+    /// window around the target and writes the background elsewhere (pixels of the reported
+    /// ROI are bit-identical to none); all adds the eclipse plan. The report is printed.
+    #[arg(long, value_enum, default_value_t = SkipArg::None)]
+    pub skip: SkipArg,
     /// Visible image (grey PNG; colour is converted with BT.601 weights).
     pub vis: PathBuf,
     /// Thermal-infrared image (grey PNG; colour is converted with BT.601 weights).
     pub tir: PathBuf,
     /// Fused output (8-bit grey PNG).
     pub output: PathBuf,
+}
+
+/// `--skip` values.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum SkipArg {
+    /// Fuse every pixel.
+    None,
+    /// Fuse only the target window.
+    Roi,
+    /// The window plus the eclipse plan.
+    All,
+}
+
+impl From<SkipArg> for fusion_nostd::pipeline::SkipPolicy {
+    fn from(s: SkipArg) -> Self {
+        match s {
+            SkipArg::None => Self::None,
+            SkipArg::Roi => Self::Roi,
+            SkipArg::All => Self::All,
+        }
+    }
+}
+
+/// One line per field of a skip report, as `fusion fuse --skip` prints it.
+pub fn skip_report_text(r: &fusion_nostd::pipeline::FuseReport) -> String {
+    let s = &r.skip;
+    let rect = |q: &fusion_nostd::scene::Rect| {
+        format!("x {}..{}, y {}..{} ({} px)", q.x0, q.x1, q.y0, q.y1, q.area())
+    };
+    let grid = r.grid.0 * r.grid.1;
+    format!(
+        "skip: policy {:?}, illumination {}, taken {:#x}{}\n\
+         skip: roi (bit-identical to --skip none) {}\n\
+         skip: computed window {} = {:.2} % of the frame; background value outside {}\n\
+         skip: output outside the roi proven identical too: {}\n",
+        s.policy,
+        s.illumination.map_or("not analysed".to_string(), |i| format!("{i:?}")),
+        s.taken.0,
+        s.declined.map_or(String::new(), |d| format!(", declined: {d:?} (whole frame fused)")),
+        rect(&s.roi),
+        rect(&s.computed),
+        100.0 * s.computed.area() as f64 / grid.max(1) as f64,
+        s.background.map_or("-".to_string(), |b| b.to_string()),
+        s.exact_outside,
+    )
 }
 
 /// The core method configuration for a method name and variant.
@@ -261,9 +311,25 @@ pub fn run(args: &FuseArgs) -> Result<()> {
             let pipeline = Pipeline {
                 rescale: rescale.into(),
                 method: method_for(method, args.variant),
+                skip: args.skip.into(),
                 ..Default::default()
             };
-            match args.engine.unwrap_or(EngineArg::Core) {
+            let engine = args.engine.unwrap_or(EngineArg::Core);
+            if args.skip != SkipArg::None {
+                if engine != EngineArg::Core || args.raw.is_some() {
+                    bail!(
+                        "--skip works with the core engine's 8-bit output only (no --engine reference, no --raw)"
+                    );
+                }
+                let (image, report, _) = crate::skip::fuse_once(&vis, &tir, &pipeline)?;
+                print!("{}", skip_report_text(&report));
+                save_gray_u8(&args.output, &image)?;
+                if report.guards != Guards::NONE {
+                    eprintln!("fusion: guards fired: {:#x}", report.guards.0);
+                }
+                return Ok(());
+            }
+            match engine {
                 EngineArg::Core => fuse_core(&vis, &tir, &pipeline, args.raw.is_some())?,
                 EngineArg::Reference => fuse_reference(&vis, &tir, &pipeline)?,
             }

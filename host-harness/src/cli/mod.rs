@@ -9,6 +9,7 @@ pub mod eval;
 pub mod fuse;
 pub mod report;
 pub mod rescale;
+pub mod skip_study;
 pub mod stress;
 
 /// VIS/TIR image fusion for spacecraft proximity navigation: host tools.
@@ -44,6 +45,9 @@ pub enum Command {
     /// Every method and engine over adversarial frames (zeros, saturation, checkerboards, hot
     /// pixels, noise, …): NaN in the reference, error against it, guards, determinism.
     Stress(stress::StressArgs),
+    /// Scene skipping over a rendered dataset: host time, window fraction and the error each
+    /// skip level adds against the unskipped result (table, CSV, chart).
+    SkipStudy(skip_study::SkipStudyArgs),
 }
 
 /// Runs one parsed command line.
@@ -57,6 +61,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Budget(args) => budget::run(&args),
         Command::Stress(args) => stress::run(&args),
         Command::Fuse(args) => fuse::run(&args),
+        Command::SkipStudy(args) => skip_study::run(&args),
         Command::Render(args) => render_host::cli::run(&args),
     }
 }

@@ -9,6 +9,40 @@
 //! The rescaled band goes into the scratch's `u8` band plane; the method borrows the `i32`
 //! work planes. When both frames already share a grid the rescale is skipped whatever the
 //! policy says (and [`FuseReport::rescaled`] says so).
+//!
+//! # Scene skipping
+//!
+//! With [`SkipPolicy::Roi`] or [`SkipPolicy::All`], [`fuse`] first runs
+//! [`crate::scene::analyze`] and then picks a plan per method ([`FuseReport::skip`] says which):
+//!
+//! * **TSIFSD** (both variants; local): window = target box grown by the halo
+//!   `mean_size/2 + 1` (the 35×35 mean's radius; the 3×3 median/Scharr is inside it), corners
+//!   made even for a 2× rescale; classic (circular mean): an axis the window touches at a frame
+//!   edge is taken whole, so the wrap is the frame's. The method runs on the window; the ROI =
+//!   window shrunk by the halo on every side not on the frame edge is bit-identical to
+//!   `None`; the halo ring keeps the window's values; outside the window the output is the
+//!   background rule `round(½(level_VIS + level_TIR))` (the method's exact value on a flat
+//!   pair). The error outside is measured, not bounded a priori.
+//! * **ADF** (global KL covariance): only when the frame outside the *varying box* (pixels
+//!   differing from their band's level at all) is exactly constant — noiseless frames — and,
+//!   classic (zero padding), that level is 0. Then the detail layers vanish outside the box
+//!   grown by N (iterations), the covariance is the sum over that region with the frame's
+//!   pixel count ([`crate::fuse::adf::fuse_adf_window`]), and the **whole** output is
+//!   bit-identical (outside: the background rule, exact there). Otherwise declined:
+//!   [`Decline::GlobalStatistic`].
+//! * **IFEVIP** (global histograms, quadtree background of the whole IR, top-k peak): always
+//!   declined ([`Decline::GlobalStatistic`]).
+//! * The analysis declines a non-dark or noisy background ([`Decline::BackgroundNotDark`],
+//!   [`Decline::TooNoisy`]), and a window above `max_roi_percent` is not worth it
+//!   ([`Decline::RoiTooLarge`]); a declined frame is fused whole, bit-identical to `None`.
+//! * **Rescale**: for an exact 2× ratio only the source pixels the window's taps read are
+//!   rescaled (the same bits: same phase, no tap crosses the cut); other ratios rescale the whole
+//!   frame. Same-size frames are never rescaled.
+//! * **Eclipse** (`All`, VIS classified [`Illumination::Eclipse`]): ADF takes VIS as its constant
+//!   background level and skips its diffusion ([`Skips::ECLIPSE_VIS`]: the output is ADF of
+//!   (level, TIR), exact against `None` only when VIS really is that constant); TSIFSD's window
+//!   follows the TIR target alone ([`Skips::ECLIPSE_TIR_TARGET`]; its VIS-side work, the box
+//!   sum, is ≈ 5 % and kept).
 
 use crate::fuse::Guards;
 use crate::fuse::adf::{AdfParams, fuse_adf, fuse_adf_raw};
@@ -324,7 +358,7 @@ impl Method {
 /// `round(½(level_VIS + level_TIR))` — exact for ADF and TSIFSD on a constant pair (ADF: the
 /// detail layers vanish, the base is the mean; TSIFSD: both saliencies vanish, the ½, ½ guard).
 pub fn background_value(scene: &Scene) -> u8 {
-    ((u16::from(scene.vis.background) + u16::from(scene.tir.background) + 1) / 2) as u8
+    (u16::from(scene.vis.background) + u16::from(scene.tir.background)).div_ceil(2) as u8
 }
 
 /// What the skip plan decided for one frame.
@@ -429,7 +463,10 @@ fn band_window<'b>(
     if (sw, sh) == grid {
         return Ok((src.sub_rect(win.x0, win.y0, win.width(), win.height())?, false));
     }
-    let up2 = grid == (2 * sw, 2 * sh) && filter == Filter::Cubic && win.x0 % 2 == 0 && win.y0 % 2 == 0;
+    let up2 = grid == (2 * sw, 2 * sh)
+        && filter == Filter::Cubic
+        && win.x0.is_multiple_of(2)
+        && win.y0.is_multiple_of(2);
     let down2 = (sw, sh) == (2 * grid.0, 2 * grid.1) && filter == Filter::Area;
     if up2 {
         let sx0 = (win.x0 / 2).saturating_sub(2);

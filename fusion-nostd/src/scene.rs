@@ -354,10 +354,10 @@ fn band_stats(f: FrameRef<'_, u8>, p: &SceneParams) -> BandStats {
                 add_span(&mut signal, y, (s.0, s.1.saturating_add(1)));
             }
         }
-        if lo != background || hi != background {
-            if let Some(s) = span(row, |r, x| r.get(x).is_some_and(|&v| v != background)) {
-                add_span(&mut varying, y, s);
-            }
+        if (lo != background || hi != background)
+            && let Some(s) = span(row, |r, x| r.get(x).is_some_and(|&v| v != background))
+        {
+            add_span(&mut varying, y, s);
         }
     }
     BandStats {

@@ -34,6 +34,9 @@ pub struct SkipStudyArgs {
     pub repeats: usize,
 }
 
+/// (set, version, method, skip level).
+type Key<'a> = (String, &'a str, &'a str, &'a str);
+
 #[derive(Default)]
 struct Acc {
     times: Vec<f64>,
@@ -76,7 +79,7 @@ pub fn run(args: &SkipStudyArgs) -> Result<()> {
         "set,version,frame,method,skip,seconds,window_fraction,roi_fraction,max_abs,psnr_db,taken,declined,illumination,vis_bg,vis_spread_q8,tir_bg,tir_spread_q8\n",
     );
     // (set, version, method, level) → accumulator
-    let mut acc: Vec<((String, &str, &str, &str), Acc)> = Vec::new();
+    let mut acc: Vec<(Key<'_>, Acc)> = Vec::new();
     for set in ["vis_light", "vis_eclipse"] {
         for &noisy in &versions {
             for frame in 0..frames {

@@ -23,7 +23,11 @@
 //! 64-bit division (a library call on the 32-bit targets): three 32-bit divisions for the
 //! flight saliency. The 35×35 mean costs O(1) per pixel (running sums,
 //! [`crate::filters::box_sum`]); the 3×3 median and the Scharr gradient sort or smooth each
-//! column once for its three windows (row chunks of 256 pixels on the stack).
+//! column once for its three windows (row chunks of 256 pixels on the stack). The flight
+//! 8-bit output has its own kernel (`flight_u8`): both bands' Scharr columns in the two 16-bit
+//! lanes of a `u32`, then the weights packed `w_VIS + w_IR·2¹⁶`, the weight-free part of each
+//! pixel packed `r + q_VIS·2¹³ + q_IR·2²²` (see there), and the outputs, each a short pass
+//! over the chunk; it gives the same bytes and guards as the general path (tested).
 //!
 //! # Variants and guards
 //!
@@ -55,8 +59,9 @@ use super::{Guards, Variant};
 use crate::filters::border::Border;
 use crate::filters::box_sum::box_sum_u8;
 use crate::filters::median3::{CHUNK, median3_chunk};
-use crate::filters::scharr::scharr_l1_chunk;
+use crate::filters::scharr::{scharr_columns_pair, scharr_l1_chunk, scharr_l1_pair};
 use crate::{Error, FrameMut, FrameRef, ScratchMut};
+use core::num::NonZeroU32;
 
 /// Fractional bits of the raw fused value written by [`fuse_tsifsd_raw`] (Q16).
 pub const RAW_FRAC_BITS: u32 = 16;
@@ -355,7 +360,7 @@ fn run(
     tir: FrameRef<'_, u8>,
     params: &TsifsdParams,
     scratch: &mut ScratchMut<'_>,
-    mut out: Out<'_>,
+    out: Out<'_>,
 ) -> Result<Guards, Error> {
     params.validate()?;
     let (w, h) = vis.size();
@@ -364,8 +369,35 @@ fn run(
     let taps = i64::from(params.mean_size) * i64::from(params.mean_size);
     box_sum_u8(vis, radius, params.mean_border(), tmp, sum_v)?;
     box_sum_u8(tir, radius, params.mean_border(), tmp, sum_i)?;
-    let (mut zero, mut saturated) = (false, false);
     let classic = params.variant == Variant::Classic;
+    let (zero, saturated) = match out {
+        Out::U8(f) if !classic => flight_u8(vis, tir, sum_v, sum_i, taps as u32, f),
+        out => saliency_reconstruct(vis, tir, sum_v, sum_i, taps, classic, out),
+    };
+    let mut guards = Guards::NONE;
+    if zero {
+        guards |= Guards::TSIFSD_ZERO_SALIENCY;
+    }
+    if saturated {
+        guards |= Guards::OUTPUT_SATURATED;
+    }
+    Ok(guards)
+}
+
+/// The general saliency and reconstruction (both variants, both outputs) after the box sums:
+/// row by row and chunk by chunk the two saliencies, then the fused pixels into `out`.
+/// Returns (some pixel had both saliencies 0, some 8-bit output saturated).
+fn saliency_reconstruct(
+    vis: FrameRef<'_, u8>,
+    tir: FrameRef<'_, u8>,
+    sum_v: &[i32],
+    sum_i: &[i32],
+    taps: i64,
+    classic: bool,
+    mut out: Out<'_>,
+) -> (bool, bool) {
+    let w = vis.width();
+    let (mut zero, mut saturated) = (false, false);
     // Classic: zero-padded median, saliency (Σ − N·Med)²; flight: replicate-padded Scharr L1.
     let border = if classic { Border::Zero } else { Border::Replicate };
     for (y, (sv, si)) in sum_v.chunks_exact(w.max(1)).zip(sum_i.chunks_exact(w.max(1))).enumerate() {
@@ -415,14 +447,98 @@ fn run(
             x0 += n;
         }
     }
-    let mut guards = Guards::NONE;
-    if zero {
-        guards |= Guards::TSIFSD_ZERO_SALIENCY;
+    (zero, saturated)
+}
+
+/// The flight variant's saliency and 8-bit reconstruction, chunk by chunk of a row, in four
+/// short passes (few live values each, so nothing spills on the 32-bit targets): the Scharr
+/// columns of both bands in two lanes ([`scharr_columns_pair`]); the weights
+/// ([`scharr_l1_pair`], `(1, 1)` where both are 0) packed `w_VIS + w_IR·2¹⁶`; the
+/// weight-free part of each pixel packed as below; the outputs of [`fused_u8`] in the form
+/// below. Returns (some pixel had both gradients 0, some output saturated).
+///
+/// With `c = 2·taps`, `d = Σ_IR − Σ_VIS = c·(a − 128) + r` (`a = ⌊(d + 128c)/c⌋ ∈ [0, 255]`,
+/// `0 ≤ r < c ≤ 7938`), `q_VIS = I_VIS + a ∈ [0, 510]`, `q_IR = I_IR − a + 255 ∈ [0, 510]`
+/// (packed `r + q_VIS·2¹³ + q_IR·2²²`), the numerator of [`fused_u8`] is
+/// `U = c·(w_VIS·(q_VIS − 128) + w_IR·(q_IR − 128)) + w_VIS·r + w_IR·(c − r) + e`,
+/// `e = den + ⌊den/2¹⁶⌋`, `den = taps·σ`, so `x = ⌊U/c⌋ = w_VIS·q_VIS + w_IR·q_IR − 128σ +
+/// ⌊(w_VIS·r + w_IR·(c − r) + e)/c⌋` (that numerator is non-negative and below 2²⁸: one
+/// unsigned 32-bit division) and the output is `k = ⌊x/σ⌋` clamped to `0..=255`, saturated
+/// exactly when `k ∉ 0..256` (σ ≤ 16320 < 2¹⁶ and `taps` is odd, so `2¹⁶ ∤ den` and the
+/// `U = 0` edge of [`fused_u8`] never arises). `x/σ` truncates towards zero, which differs
+/// from the floor only for `x < 0`, where both clamp to 0.
+fn flight_u8(
+    vis: FrameRef<'_, u8>,
+    tir: FrameRef<'_, u8>,
+    sum_v: &[i32],
+    sum_i: &[i32],
+    taps: u32,
+    mut out: FrameMut<'_, u8>,
+) -> (bool, bool) {
+    const TWO: NonZeroU32 = NonZeroU32::MIN.saturating_add(1);
+    let w = vis.width();
+    let c = NonZeroU32::new(2 * taps).unwrap_or(TWO);
+    let bias = 128 * c.get() as i32; // d + 128c > 0: |d| ≤ 255·taps
+    // q = dd + I_VIS·2¹³ + I_IR·2²² + a·(2¹³ − 2²² − c) + 255·2²² (wrapping; exact in the end).
+    let a_factor = (1u32 << 13).wrapping_sub(1 << 22).wrapping_sub(c.get());
+    let (mut zero, mut sat) = (false, 0i32);
+    let (mut sm, mut df) = ([0u32; CHUNK + 2], [0u32; CHUNK + 2]);
+    let (mut wts, mut qs) = ([0u32; CHUNK], [0u32; CHUNK]);
+    for (y, (sv, si)) in sum_v.chunks_exact(w.max(1)).zip(sum_i.chunks_exact(w.max(1))).enumerate() {
+        let rows_v = [vis.row_clamped(y as isize - 1), vis.row(y), vis.row_clamped(y as isize + 1)];
+        let rows_t = [tir.row_clamped(y as isize - 1), tir.row(y), tir.row_clamped(y as isize + 1)];
+        let (iv, ii) = (vis.row(y), tir.row(y));
+        let dst = out.row_mut(y);
+        let mut x0 = 0;
+        while x0 < w {
+            let n = CHUNK.min(w - x0);
+            let (Some(sm), Some(df), Some(wts), Some(qs)) =
+                (sm.get_mut(..n + 2), df.get_mut(..n + 2), wts.get_mut(..n), qs.get_mut(..n))
+            else {
+                break;
+            };
+            scharr_columns_pair(rows_v, rows_t, Border::Replicate, x0, sm, df);
+            for ((o, s), d) in wts.iter_mut().zip(sm.windows(3)).zip(df.windows(3)) {
+                let (&[s0, s1, s2], &[d0, d1, d2]) = (s, d) else { continue };
+                let (gv, gi) = scharr_l1_pair([s0, s1, s2], [d0, d1, d2]);
+                *o = gv | gi << 16; // both ≤ 8160
+            }
+            let sums = cut(sv, x0, n).iter().zip(cut(si, x0, n));
+            let pixels = cut(iv, x0, n).iter().zip(cut(ii, x0, n));
+            for ((q, (&sv, &si)), (&iv, &ii)) in qs.iter_mut().zip(sums).zip(pixels) {
+                let dd = (si - sv + bias) as u32;
+                let a = dd / c;
+                let high = u32::from(iv) << 13 | u32::from(ii) << 22;
+                *q = a.wrapping_mul(a_factor).wrapping_add(dd).wrapping_add(high).wrapping_add(255 << 22);
+            }
+            let o = dst.get_mut(x0..x0 + n).unwrap_or(&mut []);
+            for ((o, &wt), &q) in o.iter_mut().zip(wts.iter()).zip(qs.iter()) {
+                let (gv, gi) = (wt & 0xFFFF, wt >> 16);
+                let (r, qv, qi) = (q & 0x1FFF, q >> 13 & 0x1FF, q >> 22);
+                let (gv, gi, sigma) = match NonZeroU32::new(gv + gi) {
+                    Some(sigma) => (gv, gi, sigma),
+                    None => flat(&mut zero),
+                };
+                let den = taps * sigma.get();
+                let f = (gv * r + gi * (c.get() - r) + den + (den >> 16)) / c;
+                let x = (gv * qv + gi * qi + f) as i32 - (sigma.get() << 7) as i32;
+                let k = x / (sigma.get() as i32);
+                *o = k.clamp(0, 255) as u8;
+                sat |= (x >> 31) | (k >> 8);
+            }
+            x0 += n;
+        }
     }
-    if saturated {
-        guards |= Guards::OUTPUT_SATURATED;
-    }
-    Ok(guards)
+    (zero, sat != 0)
+}
+
+/// The weights `(1, 1, σ = 2)` of a pixel whose two saliencies are 0, noting it in `zero`
+/// (rare: kept out of the hot loop).
+#[cold]
+#[inline(never)]
+fn flat(zero: &mut bool) -> (u32, u32, NonZeroU32) {
+    *zero = true;
+    (1, 1, NonZeroU32::MIN.saturating_add(1))
 }
 
 /// Fuses a VIS/TIR pair with TSIFSD into the 8-bit `out` (MATLAB `uint8` cast of the raw value).
@@ -640,6 +756,80 @@ mod tests {
                     assert_eq!(out, want);
                     let sat = raw.iter().any(|v| !(-(1 << 15)..(255 << 16) + (1 << 15)).contains(v));
                     assert_eq!(g, if sat { g_raw | Guards::OUTPUT_SATURATED } else { g_raw });
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// The flight 8-bit kernel against the general path (the cast of the exact value) on
+    /// random, checkerboard, flat and two-level frames of many shapes and every window size
+    /// class: the same pixels and the same guards.
+    #[test]
+    fn flight_kernel_equals_general_path() -> Result<(), Error> {
+        let mut s = 99u32;
+        let mut next = move || {
+            s = s.wrapping_mul(1664525).wrapping_add(1013904223);
+            s >> 8
+        };
+        for (k, (w, h)) in
+            [(1usize, 1usize), (1, 7), (7, 1), (2, 2), (3, 5), (37, 29), (300, 4), (257, 3), (600, 9)]
+                .into_iter()
+                .enumerate()
+        {
+            for pattern in 0..5u32 {
+                let mut frame = |salt: u32| -> std::vec::Vec<u8> {
+                    (0..w * h)
+                        .map(|i| {
+                            let r = next();
+                            match pattern {
+                                0 => r as u8,
+                                1 => {
+                                    if (i % w + i / w + salt as usize) % 2 == 0 {
+                                        255
+                                    } else {
+                                        0
+                                    }
+                                }
+                                2 => 77,
+                                3 => {
+                                    if r % 3 == 0 {
+                                        255
+                                    } else {
+                                        0
+                                    }
+                                }
+                                _ => ((i % w) * 3 + salt as usize * 40) as u8 ^ (r % 4) as u8,
+                            }
+                        })
+                        .collect()
+                };
+                let (vis, tir) = (frame(0), frame(1));
+                let (vis, tir) = (FrameRef::new(&vis, w, h)?, FrameRef::new(&tir, w, h)?);
+                for mean_size in [1u16, 3, 35, 63] {
+                    let params = TsifsdParams { variant: Variant::Flight, mean_size };
+                    let radius = usize::from(mean_size / 2);
+                    let taps = i64::from(mean_size) * i64::from(mean_size);
+                    let (mut tmp, mut sv, mut si) =
+                        (std::vec![0i32; w * h], std::vec![0i32; w * h], std::vec![0i32; w * h]);
+                    box_sum_u8(vis, radius, params.mean_border(), &mut tmp, &mut sv)?;
+                    box_sum_u8(tir, radius, params.mean_border(), &mut tmp, &mut si)?;
+                    let (mut want, mut got) = (std::vec![0u8; w * h], std::vec![0u8; w * h]);
+                    let g_want = saliency_reconstruct(
+                        vis,
+                        tir,
+                        &sv,
+                        &si,
+                        taps,
+                        false,
+                        Out::U8(FrameMut::new(&mut want, w, h)?),
+                    );
+                    let g_got = flight_u8(vis, tir, &sv, &si, taps as u32, FrameMut::new(&mut got, w, h)?);
+                    assert_eq!(
+                        (got, g_got),
+                        (want, g_want),
+                        "case {k} {w}x{h} pattern {pattern} n {mean_size}"
+                    );
                 }
             }
         }

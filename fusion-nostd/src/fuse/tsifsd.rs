@@ -57,7 +57,7 @@
 
 use super::{Guards, Variant};
 use crate::filters::border::Border;
-use crate::filters::box_sum::box_sum_u8;
+use crate::filters::box_sum::{box_sum_diff_u8, box_sum_u8};
 use crate::filters::median3::{CHUNK, median3_chunk};
 use crate::filters::scharr::{scharr_columns_pair, scharr_l1_chunk, scharr_l1_pair};
 use crate::{Error, FrameMut, FrameRef, ScratchMut};
@@ -367,12 +367,18 @@ fn run(
     let [tmp, sum_v, sum_i] = scratch.planes(w * h)?;
     let radius = usize::from(params.mean_size / 2);
     let taps = i64::from(params.mean_size) * i64::from(params.mean_size);
-    box_sum_u8(vis, radius, params.mean_border(), tmp, sum_v)?;
-    box_sum_u8(tir, radius, params.mean_border(), tmp, sum_i)?;
     let classic = params.variant == Variant::Classic;
     let (zero, saturated) = match out {
-        Out::U8(f) if !classic => flight_u8(vis, tir, sum_v, sum_i, taps as u32, f),
-        out => saliency_reconstruct(vis, tir, sum_v, sum_i, taps, classic, out),
+        Out::U8(f) if !classic => {
+            // Only Σ_IR − Σ_VIS enters the flight kernel: one box sum of the difference.
+            box_sum_diff_u8(vis, tir, radius, params.mean_border(), tmp, sum_v)?;
+            flight_u8(vis, tir, sum_v, taps as u32, f)
+        }
+        out => {
+            box_sum_u8(vis, radius, params.mean_border(), tmp, sum_v)?;
+            box_sum_u8(tir, radius, params.mean_border(), tmp, sum_i)?;
+            saliency_reconstruct(vis, tir, sum_v, sum_i, taps, classic, out)
+        }
     };
     let mut guards = Guards::NONE;
     if zero {
@@ -470,8 +476,7 @@ fn saliency_reconstruct(
 fn flight_u8(
     vis: FrameRef<'_, u8>,
     tir: FrameRef<'_, u8>,
-    sum_v: &[i32],
-    sum_i: &[i32],
+    diff: &[i32],
     taps: u32,
     mut out: FrameMut<'_, u8>,
 ) -> (bool, bool) {
@@ -484,7 +489,7 @@ fn flight_u8(
     let (mut zero, mut sat) = (false, 0i32);
     let (mut sm, mut df) = ([0u32; CHUNK + 2], [0u32; CHUNK + 2]);
     let (mut wts, mut qs) = ([0u32; CHUNK], [0u32; CHUNK]);
-    for (y, (sv, si)) in sum_v.chunks_exact(w.max(1)).zip(sum_i.chunks_exact(w.max(1))).enumerate() {
+    for (y, diff) in diff.chunks_exact(w.max(1)).enumerate() {
         let rows_v = [vis.row_clamped(y as isize - 1), vis.row(y), vis.row_clamped(y as isize + 1)];
         let rows_t = [tir.row_clamped(y as isize - 1), tir.row(y), tir.row_clamped(y as isize + 1)];
         let (iv, ii) = (vis.row(y), tir.row(y));
@@ -503,10 +508,9 @@ fn flight_u8(
                 let (gv, gi) = scharr_l1_pair([s0, s1, s2], [d0, d1, d2]);
                 *o = gv | gi << 16; // both ≤ 8160
             }
-            let sums = cut(sv, x0, n).iter().zip(cut(si, x0, n));
             let pixels = cut(iv, x0, n).iter().zip(cut(ii, x0, n));
-            for ((q, (&sv, &si)), (&iv, &ii)) in qs.iter_mut().zip(sums).zip(pixels) {
-                let dd = (si - sv + bias) as u32;
+            for ((q, &d), (&iv, &ii)) in qs.iter_mut().zip(cut(diff, x0, n)).zip(pixels) {
+                let dd = (d + bias) as u32;
                 let a = dd / c;
                 let high = u32::from(iv) << 13 | u32::from(ii) << 22;
                 *q = a.wrapping_mul(a_factor).wrapping_add(dd).wrapping_add(high).wrapping_add(255 << 22);
@@ -824,7 +828,9 @@ mod tests {
                         false,
                         Out::U8(FrameMut::new(&mut want, w, h)?),
                     );
-                    let g_got = flight_u8(vis, tir, &sv, &si, taps as u32, FrameMut::new(&mut got, w, h)?);
+                    let mut d = std::vec![0i32; w * h];
+                    box_sum_diff_u8(vis, tir, radius, params.mean_border(), &mut tmp, &mut d)?;
+                    let g_got = flight_u8(vis, tir, &d, taps as u32, FrameMut::new(&mut got, w, h)?);
                     assert_eq!(
                         (got, g_got),
                         (want, g_want),

@@ -126,17 +126,17 @@ pub fn scharr_columns_pair(
 
 /// `(|Gx| + |Gy|)` of both bands from the lane columns ([`scharr_columns_pair`]) left, centre
 /// and right of a pixel: `Gx` is the lane difference of the smoothings, `Gy` the lane sum
-/// `3(l + r) + 10c` of the differences; each low lane is the sign-extended low half (|·| ≤
-/// 4080 < 2¹⁵), each high lane what remains, shifted right by 16.
+/// `3(l + r) + 10c` of the differences (wrapping `u32` arithmetic). In each, the low lane is
+/// the sign-extended low half (|·| ≤ 4080 < 2¹⁵), taken shifted up by 16; the high lane is
+/// what remains, an exact multiple of 2¹⁶. The absolute values of each band are added in
+/// that scale (sums < 2³⁰) and shifted down once.
 #[inline(always)]
 pub fn scharr_l1_pair(sm: [u32; 3], df: [u32; 3]) -> (u32, u32) {
-    let split = |v: u32| {
-        let lo = i32::from(v as i16);
-        (lo, (v.wrapping_sub(lo as u32) as i32) >> 16)
-    };
-    let (gxa, gxb) = split(sm[2].wrapping_sub(sm[0]));
-    let (gya, gyb) = split(df[0].wrapping_add(df[2]).wrapping_mul(3).wrapping_add(df[1].wrapping_mul(10)));
-    (gxa.unsigned_abs() + gya.unsigned_abs(), gxb.unsigned_abs() + gyb.unsigned_abs())
+    let gx = sm[2].wrapping_sub(sm[0]);
+    let gy = df[0].wrapping_add(df[2]).wrapping_mul(3).wrapping_add(df[1].wrapping_mul(10));
+    let low = |v: u32| ((v << 16) as i32).unsigned_abs();
+    let high = |v: u32| (v.wrapping_sub(i32::from(v as i16) as u32) as i32).unsigned_abs();
+    ((low(gx) + low(gy)) >> 16, (high(gx) + high(gy)) >> 16)
 }
 
 #[cfg(test)]

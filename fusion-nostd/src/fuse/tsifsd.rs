@@ -57,7 +57,7 @@
 
 use super::{Guards, Variant};
 use crate::filters::border::Border;
-use crate::filters::box_sum::{box_sum_diff_u8, box_sum_u8};
+use crate::filters::box_sum::box_sum_u8;
 use crate::filters::median3::{CHUNK, median3_chunk};
 use crate::filters::scharr::{scharr_columns_pair, scharr_l1_chunk, scharr_l1_pair};
 use crate::{Error, FrameMut, FrameRef, ScratchMut};
@@ -369,11 +369,12 @@ fn run(
     let taps = i64::from(params.mean_size) * i64::from(params.mean_size);
     let classic = params.variant == Variant::Classic;
     let (zero, saturated) = match out {
-        Out::U8(f) if !classic => {
-            // Only Σ_IR − Σ_VIS enters the flight kernel: one box sum of the difference.
-            box_sum_diff_u8(vis, tir, radius, params.mean_border(), tmp, sum_v)?;
-            flight_u8(vis, tir, sum_v, taps as u32, f)
+        // Only Σ_IR − Σ_VIS enters the flight kernel; it keeps the window's column sums in one
+        // padded row of `tmp` (a fallback for frames smaller than that row).
+        Out::U8(f) if !classic && tmp.len() > w + 2 * radius => {
+            flight_u8(vis, tir, taps as u32, radius, tmp, f)
         }
+
         out => {
             box_sum_u8(vis, radius, params.mean_border(), tmp, sum_v)?;
             box_sum_u8(tir, radius, params.mean_border(), tmp, sum_i)?;
@@ -456,79 +457,111 @@ fn saliency_reconstruct(
     (zero, saturated)
 }
 
-/// The flight variant's saliency and 8-bit reconstruction, chunk by chunk of a row, in four
-/// short passes (few live values each, so nothing spills on the 32-bit targets): the Scharr
-/// columns of both bands in two lanes ([`scharr_columns_pair`]); the weights
-/// ([`scharr_l1_pair`], `(1, 1)` where both are 0) packed `w_VIS + w_IR·2¹⁶`; the
-/// weight-free part of each pixel packed as below; the outputs of [`fused_u8`] in the form
-/// below. Returns (some pixel had both gradients 0, some output saturated).
+/// The flight variant's whole 8-bit fusion, row by row (replicate borders throughout).
 ///
-/// With `c = 2·taps`, `d = Σ_IR − Σ_VIS = c·(a − 128) + r` (`a = ⌊(d + 128c)/c⌋ ∈ [0, 255]`,
+/// Only `d = Σ_IR − Σ_VIS` of the box sums enters ([`fused_u8`] in the form below), so the
+/// window sums are of the difference `I_IR − I_VIS`: `cols` (at least `W + 2r + 1` entries)
+/// keeps each column's vertical window sum at `r + x`, updated by one entering and one leaving
+/// row per output row and padded with `r + 1` copies of the edge columns on each side, so the
+/// horizontal running sum over it needs no border test. Then, chunk by chunk of the row, in
+/// short passes (few live values each, so nothing spills on the 32-bit targets): the
+/// weight-free part of each pixel, packed as below; the Scharr columns of both bands in two
+/// lanes ([`scharr_columns_pair`]); the weights ([`scharr_l1_pair`]) packed
+/// `w_VIS + w_IR·2¹⁶`; the outputs. Returns (some pixel had both gradients 0, some output
+/// saturated).
+///
+/// With `c = 2·taps`, `d = c·(a − 128) + r` (`a = ⌊(d + 128c)/c⌋ ∈ [0, 255]`,
 /// `0 ≤ r < c ≤ 7938`), `q_VIS = I_VIS + a ∈ [0, 510]`, `q_IR = I_IR − a + 255 ∈ [0, 510]`
-/// (packed `r + q_VIS·2¹³ + q_IR·2²²`), the numerator of [`fused_u8`] is
-/// `U = c·(w_VIS·(q_VIS − 128) + w_IR·(q_IR − 128)) + w_VIS·r + w_IR·(c − r) + e`,
-/// `e = den + ⌊den/2¹⁶⌋`, `den = taps·σ`, so `x = ⌊U/c⌋ = w_VIS·q_VIS + w_IR·q_IR − 128σ +
-/// ⌊(w_VIS·r + w_IR·(c − r) + e)/c⌋` (that numerator is non-negative and below 2²⁸: one
-/// unsigned 32-bit division) and the output is `k = ⌊x/σ⌋` clamped to `0..=255`, saturated
-/// exactly when `k ∉ 0..256` (σ ≤ 16320 < 2¹⁶ and `taps` is odd, so `2¹⁶ ∤ den` and the
-/// `U = 0` edge of [`fused_u8`] never arises). `x/σ` truncates towards zero, which differs
-/// from the floor only for `x < 0`, where both clamp to 0.
+/// (packed `q_VIS + q_IR·2⁹ + (r + taps)·2¹⁸`, `r + taps < 3·taps < 2¹⁴`), the numerator
+/// of [`fused_u8`] is `U = c·(w_VIS·(q_VIS − 128) + w_IR·(q_IR − 128)) + w_VIS·r +
+/// w_IR·(c − r) + e`, `e = den + ⌊den/2¹⁶⌋`, `den = taps·σ`, so `x = ⌊U/c⌋ = w_VIS·q_VIS +
+/// w_IR·q_IR − 128σ + ⌊(w_VIS·(r + taps) + w_IR·(2c − r − taps) + ⌊den/2¹⁶⌋)/c⌋` (that
+/// numerator is non-negative and below 2²⁸: one unsigned 32-bit division) and the output is
+/// `k = ⌊x/σ⌋ = ⌊(x + 128σ)/σ⌋ − 128` (`x + 128σ ≥ 0`: another unsigned division) clamped
+/// to `0..=255`, saturated exactly when `k ∉ 0..256` (σ ≤ 16320 < 2¹⁶ and `taps` is odd, so
+/// `2¹⁶ ∤ den` and the `U = 0` edge of [`fused_u8`] never arises).
 fn flight_u8(
     vis: FrameRef<'_, u8>,
     tir: FrameRef<'_, u8>,
-    diff: &[i32],
     taps: u32,
+    radius: usize,
+    cols: &mut [i32],
     mut out: FrameMut<'_, u8>,
 ) -> (bool, bool) {
     const TWO: NonZeroU32 = NonZeroU32::MIN.saturating_add(1);
-    let w = vis.width();
+    let (w, h) = vis.size();
     let c = NonZeroU32::new(2 * taps).unwrap_or(TWO);
     let bias = 128 * c.get() as i32; // d + 128c > 0: |d| ≤ 255·taps
-    // q = dd + I_VIS·2¹³ + I_IR·2²² + a·(2¹³ − 2²² − c) + 255·2²² (wrapping; exact in the end).
-    let a_factor = (1u32 << 13).wrapping_sub(1 << 22).wrapping_sub(c.get());
+    // q = I_VIS + I_IR·2⁹ + dd·2¹⁸ + a·(1 − 2⁹ − c·2¹⁸) + 255·2⁹ + taps·2¹⁸ (wrapping; exact
+    // in the end).
+    let a_factor = 1u32.wrapping_sub(1 << 9).wrapping_sub(c.get() << 18);
+    let q_const = (255 << 9) + (taps << 18);
     let (mut zero, mut sat) = (false, 0i32);
     let (mut sm, mut df) = ([0u32; CHUNK + 2], [0u32; CHUNK + 2]);
-    let (mut wts, mut qs) = ([0u32; CHUNK], [0u32; CHUNK]);
-    for (y, diff) in diff.chunks_exact(w.max(1)).enumerate() {
-        let rows_v = [vis.row_clamped(y as isize - 1), vis.row(y), vis.row_clamped(y as isize + 1)];
-        let rows_t = [tir.row_clamped(y as isize - 1), tir.row(y), tir.row_clamped(y as isize + 1)];
+    let mut qs = [0u32; CHUNK];
+    let span = 2 * radius + 1;
+    let Some(cols) = cols.get_mut(..w + span) else { return (zero, false) };
+    for y in 0..h {
+        let yi = y as isize;
+        let (left, rest) = cols.split_at_mut(radius.min(cols.len()));
+        let (mid, right) = rest.split_at_mut(w.min(rest.len()));
+        if y == 0 {
+            mid.fill(0);
+            for k in -(radius as isize)..=radius as isize {
+                for ((m, &t), &v) in mid.iter_mut().zip(tir.row_clamped(k)).zip(vis.row_clamped(k)) {
+                    *m += i32::from(t) - i32::from(v);
+                }
+            }
+        } else {
+            let (enter, leave) = (yi + radius as isize, yi - radius as isize - 1);
+            let entering = tir.row_clamped(enter).iter().zip(vis.row_clamped(enter));
+            let leaving = tir.row_clamped(leave).iter().zip(vis.row_clamped(leave));
+            for ((m, (&te, &ve)), (&tl, &vl)) in mid.iter_mut().zip(entering).zip(leaving) {
+                *m += (i32::from(te) - i32::from(ve)) - (i32::from(tl) - i32::from(vl));
+            }
+        }
+        let (first, last) = (mid.first().copied().unwrap_or(0), mid.last().copied().unwrap_or(0));
+        left.fill(first);
+        right.fill(last);
+        let cols = &*cols;
+        // The running window sum of the pixel x = the sum of cols[x ..= x + 2r], plus the bias.
+        let mut sum = cols.iter().take(span).sum::<i32>() + bias;
+        let rows_v = [vis.row_clamped(yi - 1), vis.row(y), vis.row_clamped(yi + 1)];
+        let rows_t = [tir.row_clamped(yi - 1), tir.row(y), tir.row_clamped(yi + 1)];
         let (iv, ii) = (vis.row(y), tir.row(y));
         let dst = out.row_mut(y);
         let mut x0 = 0;
         while x0 < w {
             let n = CHUNK.min(w - x0);
-            let (Some(sm), Some(df), Some(wts), Some(qs)) =
-                (sm.get_mut(..n + 2), df.get_mut(..n + 2), wts.get_mut(..n), qs.get_mut(..n))
+            let (Some(sm), Some(df), Some(qs)) = (sm.get_mut(..n + 2), df.get_mut(..n + 2), qs.get_mut(..n))
             else {
                 break;
             };
+            let pixels = cut(iv, x0, n).iter().zip(cut(ii, x0, n));
+            let window = cols.get(x0 + span..).unwrap_or(&[]).iter().zip(cols.get(x0..).unwrap_or(&[]));
+            for ((q, (&enter, &leave)), (&iv, &ii)) in qs.iter_mut().zip(window).zip(pixels) {
+                let dd = sum as u32;
+                sum += enter - leave;
+                let a = dd / c;
+                let low = u32::from(iv) + (u32::from(ii) << 9) + q_const;
+                *q = a.wrapping_mul(a_factor).wrapping_add(dd << 18).wrapping_add(low);
+            }
             scharr_columns_pair(rows_v, rows_t, Border::Replicate, x0, sm, df);
-            for ((o, s), d) in wts.iter_mut().zip(sm.windows(3)).zip(df.windows(3)) {
+            let o = dst.get_mut(x0..x0 + n).unwrap_or(&mut []);
+            for (((o, s), d), &q) in o.iter_mut().zip(sm.windows(3)).zip(df.windows(3)).zip(qs.iter()) {
                 let (&[s0, s1, s2], &[d0, d1, d2]) = (s, d) else { continue };
                 let (gv, gi) = scharr_l1_pair([s0, s1, s2], [d0, d1, d2]);
-                *o = gv | gi << 16; // both ≤ 8160
-            }
-            let pixels = cut(iv, x0, n).iter().zip(cut(ii, x0, n));
-            for ((q, &d), (&iv, &ii)) in qs.iter_mut().zip(cut(diff, x0, n)).zip(pixels) {
-                let dd = (d + bias) as u32;
-                let a = dd / c;
-                let high = u32::from(iv) << 13 | u32::from(ii) << 22;
-                *q = a.wrapping_mul(a_factor).wrapping_add(dd).wrapping_add(high).wrapping_add(255 << 22);
-            }
-            let o = dst.get_mut(x0..x0 + n).unwrap_or(&mut []);
-            for ((o, &wt), &q) in o.iter_mut().zip(wts.iter()).zip(qs.iter()) {
-                let (gv, gi) = (wt & 0xFFFF, wt >> 16);
-                let (r, qv, qi) = (q & 0x1FFF, q >> 13 & 0x1FF, q >> 22);
                 let (gv, gi, sigma) = match NonZeroU32::new(gv + gi) {
                     Some(sigma) => (gv, gi, sigma),
                     None => flat(&mut zero),
                 };
-                let den = taps * sigma.get();
-                let f = (gv * r + gi * (c.get() - r) + den + (den >> 16)) / c;
-                let x = (gv * qv + gi * qi + f) as i32 - (sigma.get() << 7) as i32;
-                let k = x / (sigma.get() as i32);
+                let (qv, qi, rt) = (q & 0x1FF, q >> 9 & 0x1FF, q >> 18);
+                // w_VIS·r + w_IR·(c − r) + den = w_VIS·(r + taps) + w_IR·(2c − (r + taps)).
+                let f = (gv * rt + gi * (2 * c.get() - rt) + (taps * sigma.get() >> 16)) / c;
+                // ⌊x/σ⌋ = ⌊(x + 128σ)/σ⌋ − 128, and x + 128σ ≥ 0.
+                let k = ((gv * qv + gi * qi + f) / sigma) as i32 - 128;
                 *o = k.clamp(0, 255) as u8;
-                sat |= (x >> 31) | (k >> 8);
+                sat |= k >> 8;
             }
             x0 += n;
         }
@@ -776,10 +809,20 @@ mod tests {
             s = s.wrapping_mul(1664525).wrapping_add(1013904223);
             s >> 8
         };
-        for (k, (w, h)) in
-            [(1usize, 1usize), (1, 7), (7, 1), (2, 2), (3, 5), (37, 29), (300, 4), (257, 3), (600, 9)]
-                .into_iter()
-                .enumerate()
+        for (k, (w, h)) in [
+            (1usize, 1usize),
+            (1, 7),
+            (7, 1),
+            (2, 2),
+            (3, 5),
+            (2, 40),
+            (37, 29),
+            (300, 4),
+            (257, 3),
+            (600, 9),
+        ]
+        .into_iter()
+        .enumerate()
         {
             for pattern in 0..5u32 {
                 let mut frame = |salt: u32| -> std::vec::Vec<u8> {
@@ -828,9 +871,9 @@ mod tests {
                         false,
                         Out::U8(FrameMut::new(&mut want, w, h)?),
                     );
-                    let mut d = std::vec![0i32; w * h];
-                    box_sum_diff_u8(vis, tir, radius, params.mean_border(), &mut tmp, &mut d)?;
-                    let g_got = flight_u8(vis, tir, &d, taps as u32, FrameMut::new(&mut got, w, h)?);
+                    let mut cols = std::vec![0i32; w + 2 * radius + 1];
+                    let g_got =
+                        flight_u8(vis, tir, taps as u32, radius, &mut cols, FrameMut::new(&mut got, w, h)?);
                     assert_eq!(
                         (got, g_got),
                         (want, g_want),

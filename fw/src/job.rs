@@ -8,12 +8,13 @@
 //! 20      number of runs n (1..=MAX_RUNS)
 //! 24      n × 4 bytes: method (0 ADF, 1 TSIFSD, 2 IFEVIP), variant (0 classic, 1 flight),
 //!         rescale policy (0 TIR up, 1 VIS down, 2 none), flags (bit 0: measure the stages;
-//!         bit 1: raise a fault instead, to test that a fault ends the emulation with status 1)
+//!         bit 1: raise a fault instead, to test that a fault ends the emulation with status 1;
+//!         bits 2–3: scene skip level, 0 none, 1 ROI, 2 all; bits 4–7 must be 0)
 //! ```
-//! Method parameters are the core's defaults for the variant (the host builds the same
-//! [`Method`] for its comparison run).
+//! Method parameters are the core's defaults for the variant, the scene analysis thresholds
+//! `SceneParams::default()` (the host builds the same [`Pipeline`] for its comparison run).
 
-use fusion_nostd::pipeline::{Method, Pipeline, RescalePolicy};
+use fusion_nostd::pipeline::{Method, Pipeline, RescalePolicy, SkipPolicy};
 use fusion_nostd::{AdfParams, IfevipParams, TsifsdParams, Variant};
 
 /// Most runs in one job.
@@ -27,6 +28,7 @@ pub struct Run {
     method: u8,
     variant: Variant,
     policy: RescalePolicy,
+    skip: SkipPolicy,
     /// Measure the stages before the whole pipeline.
     pub stages: bool,
     /// Raise a fault (an undefined instruction) instead of running.
@@ -81,7 +83,20 @@ impl Job {
             if method > 2 {
                 return Err("job.bin: bad method");
             }
-            *slot = Some(Run { method, variant, policy, stages: flags & 1 != 0, fault: flags & 2 != 0 });
+            let skip = match (flags >> 2) & 3 {
+                0 => SkipPolicy::None,
+                1 => SkipPolicy::Roi,
+                2 => SkipPolicy::All,
+                _ => return Err("job.bin: bad skip level"),
+            };
+            if flags >> 4 != 0 {
+                return Err("job.bin: unknown flags");
+            }
+            if flags & 1 != 0 && skip != SkipPolicy::None {
+                return Err("job.bin: a staged run cannot skip");
+            }
+            *slot =
+                Some(Run { method, variant, policy, skip, stages: flags & 1 != 0, fault: flags & 2 != 0 });
         }
         Ok(Job { vis, tir, runs, n })
     }
@@ -93,8 +108,14 @@ impl Job {
 }
 
 impl Run {
-    const EMPTY: Run =
-        Run { method: 1, variant: Variant::Flight, policy: RescalePolicy::None, stages: false, fault: false };
+    const EMPTY: Run = Run {
+        method: 1,
+        variant: Variant::Flight,
+        policy: RescalePolicy::None,
+        skip: SkipPolicy::None,
+        stages: false,
+        fault: false,
+    };
 
     /// The core configuration of this run.
     pub fn pipeline(&self) -> Pipeline {
@@ -104,7 +125,16 @@ impl Run {
             2 => Method::Ifevip(IfevipParams { variant: v, ..IfevipParams::default() }),
             _ => Method::Tsifsd(TsifsdParams { variant: v, ..TsifsdParams::default() }),
         };
-        Pipeline { rescale: self.policy, method, ..Default::default() }
+        Pipeline { rescale: self.policy, method, skip: self.skip, ..Default::default() }
+    }
+
+    /// Skip level as printed.
+    pub fn skip_name(&self) -> &'static str {
+        match self.skip {
+            SkipPolicy::None => "none",
+            SkipPolicy::Roi => "roi",
+            SkipPolicy::All => "all",
+        }
     }
 
     /// Method name as printed.

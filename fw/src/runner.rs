@@ -8,6 +8,7 @@ use fusion_nostd::filters::box_sum::box_sum_u8;
 use fusion_nostd::fuse::adf::diffuse;
 use fusion_nostd::fuse::ifevip::background;
 use fusion_nostd::pipeline::{FuseReport, Method, Pipeline, RescalePolicy, fuse, fuse_method, fusion_grid};
+use fusion_nostd::scene::Decline;
 use fusion_nostd::{Filter, FrameMut, FrameRef, Guards, ScratchMut, rescale};
 
 /// What can stop a job.
@@ -166,8 +167,33 @@ pub fn run_job(m: &mut Meter) -> Result<(), FwError> {
             sum,
             file
         );
+        let skip = &report.skip;
+        let c = skip.computed;
+        say!(
+            m.con,
+            "@fw skip {} level {} taken 0x{:02x} declined {} computed {} {} {} {}",
+            i,
+            run.skip_name(),
+            skip.taken.0,
+            decline_name(skip.declined),
+            c.x0,
+            c.y0,
+            c.x1,
+            c.y1
+        );
     }
     Ok(())
+}
+
+/// How a declined skip is printed (`-`: not declined).
+fn decline_name(d: Option<Decline>) -> &'static str {
+    match d {
+        None => "-",
+        Some(Decline::BackgroundNotDark) => "BackgroundNotDark",
+        Some(Decline::TooNoisy) => "TooNoisy",
+        Some(Decline::RoiTooLarge) => "RoiTooLarge",
+        Some(Decline::GlobalStatistic) => "GlobalStatistic",
+    }
 }
 
 /// No `job.bin`: fuse a small synthetic pair (256² VIS, 128² TIR upscaled) with every method

@@ -2,7 +2,7 @@
 //! reading back what the image reported (protocol: `fw/src/main.rs`, `fw/src/job.rs`).
 
 use super::elf::Elf;
-use crate::cli::fuse::{MethodArg, RescaleArg, VariantArg};
+use crate::cli::fuse::{MethodArg, RescaleArg, SkipArg, VariantArg};
 use crate::io::Gray;
 use anyhow::{Context, Result, bail, ensure};
 use std::fmt;
@@ -159,6 +159,8 @@ pub struct RunSpec {
     pub variant: VariantArg,
     /// Rescale policy.
     pub policy: RescaleArg,
+    /// Scene skip level (the scene thresholds are `SceneParams::default()` on both sides).
+    pub skip: SkipArg,
     /// Measure the stages too (the staged run repeats the work).
     pub stages: bool,
     /// Make the image raise a fault instead (tests that a fault ends the run with status 1).
@@ -166,7 +168,24 @@ pub struct RunSpec {
 }
 
 impl RunSpec {
-    fn encode(&self) -> [u8; 4] {
+    /// A whole-pipeline run (no stages, no fault, no skipping).
+    pub fn plain(method: MethodArg, variant: VariantArg, policy: RescaleArg) -> Self {
+        RunSpec { method, variant, policy, skip: SkipArg::None, stages: false, fault: false }
+    }
+
+    /// The core configuration the image builds for this run (`fw/src/job.rs`), for the host's
+    /// comparison run.
+    pub fn pipeline(&self) -> fusion_nostd::pipeline::Pipeline {
+        fusion_nostd::pipeline::Pipeline {
+            rescale: self.policy.into(),
+            method: crate::cli::fuse::method_for(self.method, self.variant),
+            skip: self.skip.into(),
+            scene: fusion_nostd::scene::SceneParams::default(),
+        }
+    }
+
+    /// The four bytes of this run in `job.bin`.
+    pub fn encode(&self) -> [u8; 4] {
         let method = match self.method {
             MethodArg::Adf => 0,
             MethodArg::Tsifsd => 1,
@@ -181,8 +200,57 @@ impl RunSpec {
             RescaleArg::VisDown => 1,
             RescaleArg::None => 2,
         };
-        [method, variant, policy, u8::from(self.stages) | (u8::from(self.fault) << 1)]
+        let skip = match self.skip {
+            SkipArg::None => 0u8,
+            SkipArg::Roi => 1,
+            SkipArg::All => 2,
+        };
+        [method, variant, policy, u8::from(self.stages) | (u8::from(self.fault) << 1) | (skip << 2)]
     }
+
+    /// The inverse of [`RunSpec::encode`], with the image's checks (`fw/src/job.rs`).
+    pub fn decode([method, variant, policy, flags]: [u8; 4]) -> Result<Self> {
+        let method = match method {
+            0 => MethodArg::Adf,
+            1 => MethodArg::Tsifsd,
+            2 => MethodArg::Ifevip,
+            _ => bail!("bad method {method}"),
+        };
+        let variant = match variant {
+            0 => VariantArg::Classic,
+            1 => VariantArg::Flight,
+            _ => bail!("bad variant {variant}"),
+        };
+        let policy = match policy {
+            0 => RescaleArg::TirUp,
+            1 => RescaleArg::VisDown,
+            2 => RescaleArg::None,
+            _ => bail!("bad rescale policy {policy}"),
+        };
+        let skip = match (flags >> 2) & 3 {
+            0 => SkipArg::None,
+            1 => SkipArg::Roi,
+            2 => SkipArg::All,
+            s => bail!("bad skip level {s}"),
+        };
+        ensure!(flags >> 4 == 0, "unknown flags {flags:#x}");
+        let (stages, fault) = (flags & 1 != 0, flags & 2 != 0);
+        ensure!(!(stages && skip != SkipArg::None), "a staged run cannot skip");
+        Ok(RunSpec { method, variant, policy, skip, stages, fault })
+    }
+}
+
+/// What the image reported about a run's scene skipping (`@fw skip` line).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct SkipOut {
+    /// Skip level as printed (`none`, `roi`, `all`).
+    pub level: String,
+    /// `Skips` bits taken.
+    pub taken: u32,
+    /// Why the skip was declined (`-`: it was not).
+    pub declined: String,
+    /// The window the method ran on: x0, y0, x1, y1.
+    pub computed: [usize; 4],
 }
 
 /// A job: one VIS/TIR pair and the runs on it.
@@ -226,6 +294,8 @@ pub struct RunOut {
     pub size: (usize, usize),
     /// The fused frame, read back from the file the image wrote.
     pub image: Option<Gray<u8>>,
+    /// The scene-skip report (images before the skip level print none).
+    pub skip: Option<SkipOut>,
 }
 
 impl RunOut {
@@ -305,6 +375,7 @@ pub fn parse_report(console: &str, plugin_log: Option<&str>) -> Result<FwReport>
                     fnv1a: 0,
                     size: (w.parse()?, h.parse()?),
                     image: None,
+                    skip: None,
                 });
             }
             ["result", i, "guards", g, "rescaled", r, "fnv1a", sum, "file", _] => {
@@ -312,6 +383,15 @@ pub fn parse_report(console: &str, plugin_log: Option<&str>) -> Result<FwReport>
                 run.guards = parse_hex(g)?;
                 run.rescaled = *r == "1";
                 run.fnv1a = parse_hex(sum)?;
+            }
+            ["skip", i, "level", level, "taken", taken, "declined", declined, "computed", x0, y0, x1, y1] => {
+                let run = runs.get_mut(i.parse::<usize>()?).context("skip report for an unknown run")?;
+                run.skip = Some(SkipOut {
+                    level: level.to_string(),
+                    taken: parse_hex(taken)?,
+                    declined: declined.to_string(),
+                    computed: [x0.parse()?, y0.parse()?, x1.parse()?, y1.parse()?],
+                });
             }
             ["stack", n] => stack_bytes = Some(n.parse()?),
             ["done", "ok"] => done = true,
@@ -440,13 +520,8 @@ pub fn check_fault_exit(
     dir: &Path,
     timeout: Duration,
 ) -> Result<()> {
-    let spec = RunSpec {
-        method: MethodArg::Tsifsd,
-        variant: VariantArg::Flight,
-        policy: RescaleArg::None,
-        stages: false,
-        fault: true,
-    };
+    let spec =
+        RunSpec { fault: true, ..RunSpec::plain(MethodArg::Tsifsd, VariantArg::Flight, RescaleArg::None) };
     let job = Job { vis: Gray::new(8, 8), tir: Gray::new(8, 8), runs: vec![spec] };
     let done = emulate(target, image, plugin, &job, dir, timeout)?;
     ensure!(
@@ -527,6 +602,7 @@ mod tests {
                 method: MethodArg::Ifevip,
                 variant: VariantArg::Classic,
                 policy: RescaleArg::VisDown,
+                skip: SkipArg::None,
                 stages: true,
                 fault: true,
             }],

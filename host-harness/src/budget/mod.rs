@@ -10,6 +10,7 @@
 
 pub mod elf;
 pub mod fw;
+pub mod skip_study;
 pub mod table;
 
 use crate::cli::fuse::{MethodArg, RescaleArg, VariantArg, fuse_core, method_for};
@@ -325,12 +326,7 @@ pub struct Outcome {
 fn compare_with_host(job: &Job, report: &FwReport, diffs: &mut Vec<String>, what: &str) -> Result<usize> {
     let mut same = 0;
     for (spec, run) in job.runs.iter().zip(&report.runs) {
-        let pipeline = Pipeline {
-            rescale: spec.policy.into(),
-            method: method_for(spec.method, spec.variant),
-            ..Default::default()
-        };
-        let host = fuse_core(&job.vis, &job.tir, &pipeline, false)?;
+        let host = fuse_core(&job.vis, &job.tir, &spec.pipeline(), false)?;
         let fw = run.image.as_ref().context("no image")?;
         let differ = host.image.data.iter().zip(&fw.data).filter(|(a, b)| a != b).count();
         if (host.image.width, host.image.height) == (fw.width, fw.height)
@@ -369,7 +365,7 @@ fn exactness_jobs(opts: &Options, pair: &(Gray<u8>, Gray<u8>)) -> Result<Vec<(St
         for &method in &[MethodArg::Adf, MethodArg::Tsifsd, MethodArg::Ifevip] {
             for &variant in &[VariantArg::Flight, VariantArg::Classic] {
                 for &policy in policies {
-                    runs.push(RunSpec { method, variant, policy, stages: false, fault: false });
+                    runs.push(RunSpec::plain(method, variant, policy));
                 }
             }
         }
@@ -448,11 +444,8 @@ pub fn run(opts: &Options) -> Result<Outcome> {
                     .methods
                     .iter()
                     .map(|&method| RunSpec {
-                        method,
-                        variant: VariantArg::Flight,
-                        policy: grid.policy(),
                         stages: true,
-                        fault: false,
+                        ..RunSpec::plain(method, VariantArg::Flight, grid.policy())
                     })
                     .collect(),
             };
@@ -757,6 +750,7 @@ mod tests {
             fnv1a: 0,
             size: (4, 4),
             image: None,
+            skip: None,
         }
     }
 

@@ -68,13 +68,68 @@ pub struct BudgetArgs {
     /// Timeout of each emulator run, seconds.
     #[arg(long, default_value_t = 900)]
     pub timeout: u64,
+    /// Instead of the budgets: scene skipping over this rendered dataset (`fusion render`) —
+    /// whole-pipeline instructions per frame pair and skip level (TSIFSD and ADF at none, roi,
+    /// all; IFEVIP at all), each fused frame checked against the host. One target (`--target
+    /// arm` or `riscv`); writes `emulator_<target>.{md,csv}` into `--study-out`.
+    #[arg(long, value_name = "DATASET")]
+    pub skip_study: Option<PathBuf>,
+    /// Skip study: frames per set and version (from the first).
+    #[arg(long, default_value_t = 20)]
+    pub frames: usize,
+    /// Skip study: emulate ADF/IFEVIP runs that fuse the whole frame (~20 s each at 1024² on
+    /// QEMU) on this many frames only [default: all].
+    #[arg(long)]
+    pub whole_frames: Option<usize>,
+    /// Skip study: noise versions, clean, noisy or both.
+    #[arg(long, default_value = "both")]
+    pub versions: String,
+    /// Skip study: TIR set of the dataset (upscaled onto the VIS grid).
+    #[arg(long, default_value = "tir512")]
+    pub tir: String,
+    /// Skip study: folder for `emulator_<target>.{md,csv}`.
+    #[arg(long, default_value = "docs/skip-study")]
+    pub study_out: PathBuf,
     /// Work folder: images, jobs, console and plugin logs, `report.md`.
     #[arg(long, default_value_os_t = budget::fw::fw_dir().join("target/budget"))]
     pub out: PathBuf,
 }
 
+/// `fusion budget --skip-study DATASET`.
+fn run_skip_study(args: &BudgetArgs, dataset: &std::path::Path) -> Result<()> {
+    let target = match args.target {
+        TargetArg::Arm => Target::Arm,
+        TargetArg::Riscv => Target::Riscv,
+        TargetArg::All => bail!("--skip-study measures one target: pass --target arm or --target riscv"),
+    };
+    let versions = match args.versions.as_str() {
+        "clean" => vec![false],
+        "noisy" => vec![true],
+        "both" => vec![false, true],
+        v => bail!("--versions must be clean, noisy or both, not {v}"),
+    };
+    let opts = budget::skip_study::StudyOptions {
+        dataset: dataset.to_path_buf(),
+        tir: args.tir.clone(),
+        frames: args.frames,
+        whole_frames: args.whole_frames.unwrap_or(usize::MAX),
+        versions,
+        target,
+        timeout: Duration::from_secs(args.timeout),
+        work: args.out.clone(),
+        report_dir: args.study_out.clone(),
+    };
+    let rows = budget::skip_study::run(&opts)?;
+    let frames = args.frames.min(rows.iter().map(|r| r.frame + 1).max().unwrap_or(0));
+    println!("{}", budget::skip_study::markdown(&opts, frames, &rows));
+    Ok(())
+}
+
 /// Runs `fusion budget`.
 pub fn run(args: &BudgetArgs) -> Result<()> {
+    if let Some(dataset) = &args.skip_study {
+        return run_skip_study(args, dataset);
+    }
     let targets = match args.target {
         TargetArg::Arm => vec![Target::Arm],
         TargetArg::Riscv => vec![Target::Riscv],

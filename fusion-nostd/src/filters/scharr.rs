@@ -6,9 +6,9 @@
 //!
 //! Row kernels either keep each column's smoothing `3u + 10m + 3d` and difference `d − u` in
 //! two arrays ([`scharr_l1_chunk`]) or, for two bands at once, each in the two 16-bit lanes of
-//! a `u32` ([`scharr_columns_pair`]: band `a` + band `b`·2¹⁶), from which
-//! [`scharr_l1_pair`] takes both bands' `Gx` with one subtraction and both `Gy` with one
-//! weighted sum.
+//! a `u32` ([`scharr_columns_pair`]: band `a` + band `b`·2¹⁶, differences biased by 256),
+//! from which [`scharr_l1_pair`] takes both bands' `Gx` with one subtraction and both `Gy`
+//! with one weighted sum (on Arm with the DSP lane instructions).
 
 use super::border::{Border, Neighbourhood, column, for_columns, map_neighbourhoods};
 pub use super::median3::CHUNK;
@@ -65,28 +65,29 @@ pub fn scharr_l1_chunk(rows: [Option<&[u8]>; 3], border: Border, x0: usize, out:
     }
 }
 
-/// The columns `x0 − 1 ..= x0 + n` (`n + 2 = sm.len() = df.len()` entries, `n ≤` [`CHUNK`]) of
-/// two bands at once, rows `rows_a` and `rows_b` (all inside the frame), columns beyond the
-/// edges by `border`, each in two lanes of a `u32`: `sm` holds the smoothings
-/// `3(u + d) + 10m` (band `a` + band `b`·2¹⁶) and `df` the differences `d − u`
-/// (band `a` + band `b`·2¹⁶, wrapping: the lanes are signed). [`scharr_l1_pair`] takes both
-/// gradients from three of them.
+/// The columns `x0 − 1 ..= x0 + n` (`n + 2 = out.len()` entries, `n ≤` [`CHUNK`]) of two
+/// bands at once, rows `rows_a` and `rows_b` (all inside the frame), columns beyond the edges
+/// by `border`, handed to `store(&mut out[i], sm, df)` as two `u32` of two 16-bit lanes each:
+/// `sm` the smoothing `3(u + d) + 10m` (band `a` + band `b`·2¹⁶) and `df` the difference
+/// plus 256, `d − u + 256 ∈ [1, 511]` (band `a` + band `b`·2¹⁶). Every lane is non-negative,
+/// so sums and multiples of these words stay lane by lane while each lane stays below 2¹⁶.
+/// [`scharr_l1_pair`] takes both gradients from three of them.
 #[inline(always)]
-pub fn scharr_columns_pair(
+pub fn scharr_columns_pair<C>(
     rows_a: [&[u8]; 3],
     rows_b: [&[u8]; 3],
     border: Border,
     x0: usize,
-    sm: &mut [u32],
-    df: &mut [u32],
+    out: &mut [C],
+    store: impl Fn(&mut C, u32, u32),
 ) {
-    let n = sm.len().min(df.len()).saturating_sub(2).min(CHUNK);
+    let n = out.len().saturating_sub(2).min(CHUNK);
     let len = rows_a[1].len().min(rows_b[1].len());
     #[inline(always)]
     fn pair(a: [u8; 3], b: [u8; 3]) -> (u32, u32) {
         let lanes = |x: u8, y: u8| u32::from(x) | u32::from(y) << 16;
         let (u, m, d) = (lanes(a[0], b[0]), lanes(a[1], b[1]), lanes(a[2], b[2]));
-        (3 * (u + d) + 10 * m, d.wrapping_sub(u))
+        (3 * (u + d) + 10 * m, d + DF_BIAS - u)
     }
     let edge = |x: isize| {
         let a = column([Some(rows_a[0]), Some(rows_a[1]), Some(rows_a[2])], x, border);
@@ -98,9 +99,9 @@ pub fn scharr_columns_pair(
     let hi = (x0 + n + 1).min(len);
     let first = usize::from(x0 == 0); // output of column lo (column −1 is an edge column)
     if x0 == 0
-        && let (Some((s, d)), Some(so), Some(dn)) = (edge(-1), sm.first_mut(), df.first_mut())
+        && let (Some((s, d)), Some(o)) = (edge(-1), out.first_mut())
     {
-        (*so, *dn) = (s, d);
+        store(o, s, d);
     }
     if lo < hi {
         fn cut(r: &[u8], lo: usize, hi: usize) -> &[u8] {
@@ -109,38 +110,79 @@ pub fn scharr_columns_pair(
         let cut = |r| cut(r, lo, hi);
         let a = cut(rows_a[0]).iter().zip(cut(rows_a[1])).zip(cut(rows_a[2]));
         let b = cut(rows_b[0]).iter().zip(cut(rows_b[1])).zip(cut(rows_b[2]));
-        let outs =
-            sm.get_mut(first..).unwrap_or(&mut []).iter_mut().zip(df.get_mut(first..).unwrap_or(&mut []));
-        for ((((&au, &am), &ad), ((&bu, &bm), &bd)), (so, dn)) in a.zip(b).zip(outs) {
-            (*so, *dn) = pair([au, am, ad], [bu, bm, bd]);
+        let outs = out.get_mut(first..).unwrap_or(&mut []);
+        for ((((&au, &am), &ad), ((&bu, &bm), &bd)), o) in a.zip(b).zip(outs) {
+            let (s, d) = pair([au, am, ad], [bu, bm, bd]);
+            store(o, s, d);
         }
     }
     let last = x0 + n; // column of output n + 1
     if last >= len
-        && let (Some((s, d)), Some(so), Some(dn)) =
-            (edge(last as isize), sm.get_mut(n + 1), df.get_mut(n + 1))
+        && let (Some((s, d)), Some(o)) = (edge(last as isize), out.get_mut(n + 1))
     {
-        (*so, *dn) = (s, d);
+        store(o, s, d);
     }
 }
 
-/// `(|Gx| + |Gy|)` of both bands from the lane columns ([`scharr_columns_pair`]) left, centre
-/// and right of a pixel: `Gx` is the lane difference of the smoothings, `Gy` the lane sum
-/// `3(l + r) + 10c` of the differences (wrapping `u32` arithmetic). In each, the low lane is
-/// the sign-extended low half (|·| ≤ 4080 < 2¹⁵), taken shifted up by 16; the high lane is
-/// what remains, an exact multiple of 2¹⁶. The absolute values of each band are added in
-/// that scale (sums < 2³⁰) and shifted down once.
+/// The bias of each lane of the differences written by [`scharr_columns_pair`].
+const DF_BIAS: u32 = 256 | 256 << 16;
+/// The bias of each lane of `3(l + r) + 10c` of three biased differences: 16·256.
+const GY_BIAS: u32 = 4096 | 4096 << 16;
+
+/// `|Gx| + |Gy|` of both bands, packed `band a + band b·2¹⁶` (each ≤ 8160), from the lane
+/// columns ([`scharr_columns_pair`]) left, centre and right of a pixel (the smoothings of the
+/// left and right ones, the differences of all three): `Gx` is the lane
+/// difference of the smoothings (`|·| ≤ 4080`), `Gy` the lane sum `3(l + r) + 10c` of the
+/// biased differences, `Gy + 4096 ∈ [16, 8176]` in each lane (no carry between lanes).
+///
+/// On Arm, seven DSP lane instructions (`ssub16`, `sel`, `uadd16`: each lane difference and
+/// its negation, the absolute value by selecting the negation where it is non-negative, the
+/// lane sums); else
+/// the same values lane by lane: the low lane of `Gx` is the sign-extended low half (taken
+/// shifted up by 16), the high lane what remains (an exact multiple of 2¹⁶).
 #[inline(always)]
-pub fn scharr_l1_pair(sm: [u32; 3], df: [u32; 3]) -> (u32, u32) {
-    let gx = sm[2].wrapping_sub(sm[0]);
+pub fn scharr_l1_pair([sm_l, sm_r]: [u32; 2], df: [u32; 3]) -> u32 {
     let gy = df[0].wrapping_add(df[2]).wrapping_mul(3).wrapping_add(df[1].wrapping_mul(10));
-    let low = |v: u32| ((v << 16) as i32).unsigned_abs();
-    let high = |v: u32| (v.wrapping_sub(i32::from(v as i16) as u32) as i32).unsigned_abs();
-    ((low(gx) + low(gy)) >> 16, (high(gx) + high(gy)) >> 16)
+    #[cfg(target_arch = "arm")]
+    {
+        let packed: u32;
+        // SAFETY: register-only Armv7E-M DSP instructions (no memory, no stack); they set and
+        // read the APSR.GE flags, which no other code relies on.
+        unsafe {
+            core::arch::asm!(
+                "ssub16 {x}, {s2}, {s0}",
+                "ssub16 {t}, {s0}, {s2}",
+                "sel {x}, {t}, {x}",
+                "ssub16 {y}, {gy}, {bias}",
+                "ssub16 {t}, {bias}, {gy}",
+                "sel {y}, {t}, {y}",
+                "uadd16 {x}, {x}, {y}",
+                x = out(reg) packed,
+                y = out(reg) _,
+                t = out(reg) _,
+                s0 = in(reg) sm_l,
+                s2 = in(reg) sm_r,
+                gy = in(reg) gy,
+                bias = in(reg) GY_BIAS,
+                options(pure, nomem, nostack),
+            );
+        }
+        packed
+    }
+    #[cfg(not(target_arch = "arm"))]
+    {
+        let gx = sm_r.wrapping_sub(sm_l);
+        let low = ((gx << 16) as i32).unsigned_abs() >> 16;
+        let high = (gx.wrapping_sub(i32::from(gx as i16) as u32) as i32).unsigned_abs() >> 16;
+        let lane = |v: u32| (v as i32 - 4096).unsigned_abs();
+        let _ = GY_BIAS;
+        (low + lane(gy & 0xFFFF)) | (high + lane(gy >> 16)) << 16
+    }
 }
 
 #[cfg(test)]
 mod tests {
+    extern crate std;
     use super::*;
 
     #[test]
@@ -171,6 +213,33 @@ mod tests {
         }
     }
 
+    /// The Arm path of [`scharr_l1_pair`] instruction by instruction (`ssub16`: lane
+    /// differences, GE per lane where the difference is ≥ 0; `sel`: lanes of the first operand
+    /// where GE, else of the second; `uadd16`: lane sums), for the tests on any host.
+    fn dsp_model(sm: [u32; 2], df: [u32; 3]) -> u32 {
+        let lanes = |v: u32| [v as u16 as i16, (v >> 16) as u16 as i16];
+        let pack = |l: [i32; 2]| (l[0] as u16 as u32) | (l[1] as u16 as u32) << 16;
+        let ssub16 = |a: u32, b: u32| {
+            let (a, b) = (lanes(a), lanes(b));
+            let d = [i32::from(a[0]) - i32::from(b[0]), i32::from(a[1]) - i32::from(b[1])];
+            (pack(d), [d[0] >= 0, d[1] >= 0])
+        };
+        let sel = |a: u32, b: u32, ge: [bool; 2]| {
+            let lane = |v: u32, i: usize| (v >> (16 * i)) & 0xFFFF;
+            (if ge[0] { lane(a, 0) } else { lane(b, 0) })
+                | (if ge[1] { lane(a, 1) } else { lane(b, 1) }) << 16
+        };
+        let uadd16 = |a: u32, b: u32| ((a & 0xFFFF) + (b & 0xFFFF)) & 0xFFFF | ((a >> 16) + (b >> 16)) << 16;
+        let gy = df[0].wrapping_add(df[2]).wrapping_mul(3).wrapping_add(df[1].wrapping_mul(10));
+        let (x, _) = ssub16(sm[1], sm[0]);
+        let (t, ge) = ssub16(sm[0], sm[1]);
+        let x = sel(t, x, ge);
+        let (y, _) = ssub16(gy, GY_BIAS);
+        let (t, ge) = ssub16(GY_BIAS, gy);
+        let y = sel(t, y, ge);
+        uadd16(x, y)
+    }
+
     /// The two-band lane columns give both bands' gradients, every border and chunk offset.
     #[test]
     fn pair_columns_equal_rows() {
@@ -194,20 +263,23 @@ mod tests {
                 scharr_l1_row(Some(b0), b1, Some(b2), border, want_b.iter_mut(), |g, o| *o = g);
                 for x0 in 0..w {
                     for n in 1..=w - x0 {
-                        let (mut sm, mut df) = ([0u32; 42], [0u32; 42]);
+                        let mut cols = [(0u32, 0u32); 42];
+                        let store = |c: &mut (u32, u32), s, d| *c = (s, d);
                         scharr_columns_pair(
                             [a0, a1, a2],
                             [b0, b1, b2],
                             border,
                             x0,
-                            &mut sm[..n + 2],
-                            &mut df[..n + 2],
+                            &mut cols[..n + 2],
+                            store,
                         );
+                        let (sm, df): (std::vec::Vec<u32>, std::vec::Vec<u32>) = cols.iter().copied().unzip();
                         for k in 0..n {
-                            let got =
-                                scharr_l1_pair([sm[k], sm[k + 1], sm[k + 2]], [df[k], df[k + 1], df[k + 2]]);
-                            let want = (want_a[x0 + k] as u32, want_b[x0 + k] as u32);
+                            let got = scharr_l1_pair([sm[k], sm[k + 2]], [df[k], df[k + 1], df[k + 2]]);
+                            let want = want_a[x0 + k] as u32 | (want_b[x0 + k] as u32) << 16;
                             assert_eq!(got, want, "w {w} x0 {x0} n {n} k {k} {border:?}");
+                            let model = dsp_model([sm[k], sm[k + 2]], [df[k], df[k + 1], df[k + 2]]);
+                            assert_eq!(model, want, "DSP model: w {w} x0 {x0} n {n} k {k} {border:?}");
                         }
                     }
                 }

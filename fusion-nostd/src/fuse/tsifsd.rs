@@ -497,8 +497,9 @@ fn flight_u8(
     let a_factor = 1u32.wrapping_sub(1 << 9).wrapping_sub(c.get() << 18);
     let q_const = (255 << 9) + (taps << 18);
     let (mut zero, mut sat) = (false, 0i32);
-    let (mut sm, mut df) = ([0u32; CHUNK + 2], [0u32; CHUNK + 2]);
-    let mut qs = [0u32; CHUNK];
+    // Per column of a chunk: the two lane words of the Scharr columns and, one column to the
+    // right of its pixel (the centre of its window), the packed weight-free part.
+    let mut buf = [[0u32; 3]; CHUNK + 2];
     let span = 2 * radius + 1;
     let Some(cols) = cols.get_mut(..w + span) else { return (zero, false) };
     for y in 0..h {
@@ -533,24 +534,23 @@ fn flight_u8(
         let mut x0 = 0;
         while x0 < w {
             let n = CHUNK.min(w - x0);
-            let (Some(sm), Some(df), Some(qs)) = (sm.get_mut(..n + 2), df.get_mut(..n + 2), qs.get_mut(..n))
-            else {
-                break;
-            };
+            let Some(buf) = buf.get_mut(..n + 2) else { break };
             let pixels = cut(iv, x0, n).iter().zip(cut(ii, x0, n));
             let window = cols.get(x0 + span..).unwrap_or(&[]).iter().zip(cols.get(x0..).unwrap_or(&[]));
-            for ((q, (&enter, &leave)), (&iv, &ii)) in qs.iter_mut().zip(window).zip(pixels) {
+            for ((b, (&enter, &leave)), (&iv, &ii)) in buf.iter_mut().skip(1).zip(window).zip(pixels) {
                 let dd = sum as u32;
                 sum += enter - leave;
                 let a = dd / c;
                 let low = u32::from(iv) + (u32::from(ii) << 9) + q_const;
-                *q = a.wrapping_mul(a_factor).wrapping_add(dd << 18).wrapping_add(low);
+                b[2] = a.wrapping_mul(a_factor).wrapping_add(dd << 18).wrapping_add(low);
             }
-            scharr_columns_pair(rows_v, rows_t, Border::Replicate, x0, sm, df);
+            let store = |[s, d, _]: &mut [u32; 3], sm, df| (*s, *d) = (sm, df);
+            scharr_columns_pair(rows_v, rows_t, Border::Replicate, x0, buf, store);
             let o = dst.get_mut(x0..x0 + n).unwrap_or(&mut []);
-            for (((o, s), d), &q) in o.iter_mut().zip(sm.windows(3)).zip(df.windows(3)).zip(qs.iter()) {
-                let (&[s0, s1, s2], &[d0, d1, d2]) = (s, d) else { continue };
-                let (gv, gi) = scharr_l1_pair([s0, s1, s2], [d0, d1, d2]);
+            for (o, w) in o.iter_mut().zip(buf.windows(3)) {
+                let &[[s0, d0, _], [_, d1, q], [s2, d2, _]] = w else { continue };
+                let wts = scharr_l1_pair([s0, s2], [d0, d1, d2]);
+                let (gv, gi) = (wts & 0xFFFF, wts >> 16);
                 let (gv, gi, sigma) = match NonZeroU32::new(gv + gi) {
                     Some(sigma) => (gv, gi, sigma),
                     None => flat(&mut zero),

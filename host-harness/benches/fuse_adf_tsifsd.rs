@@ -12,22 +12,9 @@ use fusion_nostd::{FrameMut, FrameRef};
 use host_harness::CoreScratch;
 use host_harness::io::Gray;
 use host_harness::reference;
+use host_harness::study::bench_frame as frame;
 use std::hint::black_box;
 use std::time::Duration;
-
-/// A smooth scene with texture and a bright blob (not constant: constant frames would flatter
-/// the kernels), different for the two bands.
-fn frame(n: usize, seed: usize) -> Vec<u8> {
-    (0..n * n)
-        .map(|i| {
-            let (x, y) = (i % n, i / n);
-            let (dx, dy) = (x as f64 - n as f64 * 0.4, y as f64 - n as f64 * 0.55);
-            let blob = 180.0 * (-(dx * dx + dy * dy) / (0.02 * (n * n) as f64)).exp();
-            let texture = ((x * 7 + y * 13 + seed) ^ (i.wrapping_mul(2654435761) >> 7)) % 23;
-            (blob + 20.0 + texture as f64 + (x * seed % 31) as f64).min(255.0) as u8
-        })
-        .collect()
-}
 
 fn bench(c: &mut Criterion) {
     let mut g = c.benchmark_group("fuse_adf_tsifsd");

@@ -21,21 +21,9 @@ use fusion_nostd::pipeline::{Method, fuse_method};
 use fusion_nostd::{FrameMut, FrameRef, Guards};
 use host_harness::CoreScratch;
 use host_harness::io::{Gray, save_gray_u8};
+use host_harness::study::bench_frame as frame;
 use std::hint::black_box;
 use std::path::PathBuf;
-
-/// The benches' synthetic scene: a smooth blob with texture, different for the two bands.
-fn frame(n: usize, seed: usize) -> Vec<u8> {
-    (0..n * n)
-        .map(|i| {
-            let (x, y) = (i % n, i / n);
-            let (dx, dy) = (x as f64 - n as f64 * 0.4, y as f64 - n as f64 * 0.55);
-            let blob = 180.0 * (-(dx * dx + dy * dy) / (0.02 * (n * n) as f64)).exp();
-            let texture = ((x * 7 + y * 13 + seed) ^ (i.wrapping_mul(2654435761) >> 7)) % 23;
-            (blob + 20.0 + texture as f64 + (x * seed % 31) as f64).min(255.0) as u8
-        })
-        .collect()
-}
 
 /// The measured region: one fusion.
 #[inline(never)]

@@ -203,6 +203,21 @@ pub fn contact_sheet(rows: &[Vec<Gray<u8>>], gap: usize) -> Gray<u8> {
     sheet
 }
 
+/// The synthetic `n × n` scene of the criterion benches and the callgrind example: a smooth
+/// bright blob over texture, different per `seed` (so the two bands differ and the quadtree,
+/// the saliencies and the KL weights have work to do; a constant frame would flatter a method).
+pub fn bench_frame(n: usize, seed: usize) -> Vec<u8> {
+    (0..n * n)
+        .map(|i| {
+            let (x, y) = (i % n, i / n);
+            let (dx, dy) = (x as f64 - n as f64 * 0.4, y as f64 - n as f64 * 0.55);
+            let blob = 180.0 * (-(dx * dx + dy * dy) / (0.02 * (n * n) as f64)).exp();
+            let texture = ((x * 7 + y * 13 + seed) ^ (i.wrapping_mul(2654435761) >> 7)) % 23;
+            (blob + 20.0 + texture as f64 + (x * seed % 31) as f64).min(255.0) as u8
+        })
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -2,30 +2,16 @@
 //! against the unskipped result (shared by `fusion skip-study`, `fusion fuse --skip` and the
 //! tests).
 
-use crate::CoreScratch;
 use crate::io::Gray;
 use anyhow::Result;
-use fusion_nostd::pipeline::{FuseReport, Pipeline, fusion_grid};
+use fusion_nostd::pipeline::{FuseReport, Pipeline};
 use fusion_nostd::scene::Rect;
-use std::time::Instant;
 
 /// One core fusion: the fused frame, the report and the wall time (seconds, scratch allocated
 /// outside the timed part).
 pub fn fuse_once(vis: &Gray<u8>, tir: &Gray<u8>, pipeline: &Pipeline) -> Result<(Gray<u8>, FuseReport, f64)> {
-    let (vs, ts) = ((vis.width, vis.height), (tir.width, tir.height));
-    let (w, h) = fusion_grid(vs, ts, pipeline.rescale)?;
-    let mut scratch = CoreScratch::new(pipeline.scratch_pixels(vs, ts)?);
-    let mut fused = Gray::new(w, h);
-    let t = Instant::now();
-    let report = fusion_nostd::pipeline::fuse(
-        vis.view()?,
-        tir.view()?,
-        fused.view_mut()?,
-        &mut scratch.view_mut(),
-        pipeline,
-    )?;
-    let seconds = t.elapsed().as_secs_f64();
-    Ok((fused, report, seconds))
+    let run = crate::study::fuse_timed(vis, tir, pipeline, 1)?;
+    Ok((run.fused, run.report, run.seconds))
 }
 
 /// The error of a skipped result against the unskipped one, over the whole frame.

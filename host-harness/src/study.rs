@@ -5,7 +5,7 @@
 use crate::CoreScratch;
 use crate::io::{ColorPolicy, Gray, load_gray_u8};
 use anyhow::{Context, Result, anyhow};
-use fusion_nostd::pipeline::{Method, Pipeline, RescalePolicy, fusion_grid};
+use fusion_nostd::pipeline::{FuseReport, Method, Pipeline, RescalePolicy, fusion_grid};
 use fusion_nostd::{AdfParams, Filter, Guards, IfevipParams, TsifsdParams, Variant, rescale};
 use render_host::Manifest;
 use std::path::{Path, PathBuf};
@@ -84,6 +84,8 @@ pub struct TimedFusion {
     pub seconds: f64,
     /// Guards the core fired.
     pub guards: Guards,
+    /// The core's whole report (grid, rescale, guards, skips) of the last repeat.
+    pub report: FuseReport,
 }
 
 /// Fuses `vis` and `tir` with the core pipeline `repeats` times (at least once) and keeps the
@@ -99,7 +101,7 @@ pub fn fuse_timed(
     let mut scratch = CoreScratch::new(pipeline.scratch_pixels(vs, ts)?);
     let mut fused = Gray::new(w, h);
     let mut times = Vec::new();
-    let mut guards = Guards::NONE;
+    let mut last = None;
     for _ in 0..repeats.max(1) {
         let t = Instant::now();
         let report = fusion_nostd::pipeline::fuse(
@@ -110,9 +112,10 @@ pub fn fuse_timed(
             pipeline,
         )?;
         times.push(t.elapsed().as_secs_f64());
-        guards = report.guards;
+        last = Some(report);
     }
-    Ok(TimedFusion { fused, seconds: median(&mut times), guards })
+    let report = last.context("no fusion ran")?;
+    Ok(TimedFusion { fused, seconds: median(&mut times), guards: report.guards, report })
 }
 
 /// The median of `v` (0 for an empty slice); sorts `v`.

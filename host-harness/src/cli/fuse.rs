@@ -205,22 +205,15 @@ pub struct Fused {
 /// entry ([`fusion_nostd::pipeline::fuse_raw`]) so the Q16 value comes back too (IFEVIP saturates
 /// to 8 bits at every step, so its raw value is its output).
 pub fn fuse_core(vis: &Gray<u8>, tir: &Gray<u8>, pipeline: &Pipeline, with_raw: bool) -> Result<Fused> {
-    let (w, h) = fusion_grid((vis.width, vis.height), (tir.width, tir.height), pipeline.rescale)?;
-    let mut scratch =
-        CoreScratch::new(pipeline.scratch_pixels((vis.width, vis.height), (tir.width, tir.height))?);
-    let mut out = Gray::new(w, h);
-    let report = fusion_nostd::pipeline::fuse(
-        vis.view()?,
-        tir.view()?,
-        out.view_mut()?,
-        &mut scratch.view_mut(),
-        pipeline,
-    )?;
+    let run = crate::study::fuse_timed(vis, tir, pipeline, 1)?;
+    let (out, (w, h)) = (run.fused, run.report.grid);
     let raw = match (with_raw, &pipeline.method) {
         (false, _) => None,
         (true, Method::Ifevip(_)) => Some(to_f64(&out)),
         (true, _) => {
             let mut raw = Gray::<i32>::new(w, h);
+            let mut scratch =
+                CoreScratch::new(pipeline.scratch_pixels((vis.width, vis.height), (tir.width, tir.height))?);
             fusion_nostd::pipeline::fuse_raw(
                 vis.view()?,
                 tir.view()?,
@@ -232,7 +225,7 @@ pub fn fuse_core(vis: &Gray<u8>, tir: &Gray<u8>, pipeline: &Pipeline, with_raw: 
             Some(Gray { width: w, height: h, data: raw.data.iter().map(|&v| f64::from(v) / scale).collect() })
         }
     };
-    Ok(Fused { image: out, raw, guards: report.guards })
+    Ok(Fused { image: out, raw, guards: run.guards })
 }
 
 /// Fuses `vis` and `tir` with the f64 references (rescale and method).

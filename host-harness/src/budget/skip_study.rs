@@ -13,10 +13,11 @@
 use super::fw::{self, Grid, Job, RunOut, RunSpec, Target};
 use crate::cli::fuse::{MethodArg, RescaleArg, SkipArg, VariantArg};
 use crate::io::Gray;
+use crate::plot::{Labels, Series, Style, chart};
 use crate::skip::fuse_once;
 use crate::study::{Dataset, version};
 use anyhow::{Context, Result, bail, ensure};
-use fusion_nostd::pipeline::FuseReport;
+use fusion_nostd::pipeline::{FuseReport, Skips};
 use fusion_nostd::scene::Rect;
 use std::fmt::Write as _;
 use std::path::PathBuf;
@@ -188,8 +189,8 @@ pub fn summary(rows: &[Row]) -> String {
         }
     }
     let mut s = String::from(
-        "| set | version | method | skip | frames emulated | mean instr | worst instr | worst/mean | mean window | ROI taken | declined | target mean | mean ok | worst ≤ 2× mean | identical to host |\n\
-         |---|---|---|---|---:|---:|---:|---:|---:|---:|---|---:|---|---|---|\n",
+        "| set | version | method | skip | frames emulated | mean instr | worst instr | worst/mean | mean window | ROI taken | eclipse plan | declined | target mean | mean ok | worst ≤ 2× mean | identical to host |\n\
+         |---|---|---|---|---:|---:|---:|---:|---:|---:|---:|---|---:|---|---|---|\n",
     );
     for (set, ver, method, skip) in keys {
         let group: Vec<&Row> = rows
@@ -198,7 +199,8 @@ pub fn summary(rows: &[Row]) -> String {
             .collect();
         let counts: Vec<f64> = group.iter().filter_map(|r| r.instructions).map(|n| n as f64).collect();
         let windows: Vec<f64> = group.iter().map(|r| r.window).collect();
-        let roi_taken = group.iter().filter(|r| r.taken & 1 != 0).count();
+        let roi_taken = group.iter().filter(|r| r.taken & Skips::ROI.0 != 0).count();
+        let eclipse = group.iter().filter(|r| r.taken & Skips::ECLIPSE_VIS.0 != 0).count();
         let mut declined: Vec<&str> =
             group.iter().map(|r| r.declined.as_str()).filter(|d| *d != "-").collect();
         declined.sort_unstable();
@@ -223,7 +225,7 @@ pub fn summary(rows: &[Row]) -> String {
         };
         let _ = writeln!(
             s,
-            "| {set} | {ver} | {} | {} | {}/{} | {} | {} | {} | {:.1} % | {roi_taken}/{} | {} | {} | {mean_ok} | {worst_ok} | {identical}/{} |",
+            "| {set} | {ver} | {} | {} | {}/{} | {} | {} | {} | {:.1} % | {roi_taken}/{} | {eclipse} | {} | {} | {mean_ok} | {worst_ok} | {identical}/{} |",
             method_name(method),
             skip_key(skip),
             counts.len(),
@@ -339,11 +341,49 @@ pub fn run(opts: &StudyOptions) -> Result<Vec<Row>> {
             }
         }
     }
+    let chart = chart_per_frame(opts, &rows)?;
     if !diffs.is_empty() {
         bail!("target output differs from the host:\n  {}", diffs.join("\n  "));
     }
-    progress(&format!("wrote {} and {}", md_path.display(), csv_path.display()));
+    progress(&format!("wrote {}, {} and {}", md_path.display(), csv_path.display(), chart.display()));
     Ok(rows)
+}
+
+/// Chart `emulator_<target>_frames`: instructions per frame (millions) of TSIFSD and ADF with
+/// skipping (`roi` and `all`) on the clean frames, one series per set, method and level, with
+/// the two targets as flat lines.
+fn chart_per_frame(opts: &StudyOptions, rows: &[Row]) -> Result<PathBuf> {
+    let mut series: Vec<Series> = Vec::new();
+    for r in rows
+        .iter()
+        .filter(|r| r.version == "clean" && r.method != MethodArg::Ifevip && r.skip != SkipArg::None)
+    {
+        let Some(n) = r.instructions else { continue };
+        let name =
+            format!("{} {} {}", r.set.trim_start_matches("vis_"), method_name(r.method), skip_key(r.skip));
+        let point = (r.frame as f64, n as f64 / 1e6);
+        match series.iter_mut().find(|s| s.name == name) {
+            Some(s) => s.points.push(point),
+            None => series.push(Series { name, points: vec![point] }),
+        }
+    }
+    let last = rows.iter().map(|r| r.frame).max().unwrap_or(0) as f64;
+    for m in [MethodArg::Tsifsd, MethodArg::Adf] {
+        if let Some(t) = target_mean(m) {
+            let y = t as f64 / 1e6;
+            series.push(Series {
+                name: format!("target mean {}", method_name(m)),
+                points: vec![(0.0, y), (last, y)],
+            });
+        }
+    }
+    let title = format!("{} instructions per 1024² frame, clean renders, with skipping", opts.target.core());
+    chart(
+        &opts.report_dir.join(format!("emulator_{}_frames", opts.target)),
+        Labels { title: &title, x: "frame", y: "million instructions (whole pipeline)" },
+        &series,
+        Style::Lines,
+    )
 }
 
 /// The Markdown report: what was run and the summary table.
@@ -356,14 +396,22 @@ pub fn markdown(opts: &StudyOptions, frames: usize, rows: &[Row]) -> String {
          analysis + rescale + method + background fill; includes the marker overhead of a few \
          instructions). Every emulated fused frame was compared byte for byte with the host's \
          `fuse` of the same pipeline, and the skip report (skips taken, decline, window) field \
-         by field. ADF and IFEVIP runs that fuse the whole frame (skip `none`, or a declined \
-         skip) are emulated on the first {} frame(s) only (\"frames emulated\"); window, ROI and \
-         decline columns are from the host over all frames.\n\n",
+         by field. Window = pixels the method ran on / frame; eclipse plan = frames where ADF took \
+         VIS as its constant level (`Skips::ECLIPSE_VIS`). {}\n\n",
         opts.target.core(),
         opts.target,
         opts.dataset.display(),
         opts.tir,
-        opts.whole_frames
+        if opts.whole_frames >= frames {
+            "Every run was emulated on every frame.".to_string()
+        } else {
+            format!(
+                "ADF and IFEVIP runs that fuse the whole frame (skip `none`, or a declined skip) \
+                 were emulated on the first {} frame(s) only (\"frames emulated\"); the window, ROI \
+                 and decline columns are from the host over all frames.",
+                opts.whole_frames
+            )
+        }
     );
     s.push_str(&summary(rows));
     s
@@ -451,6 +499,7 @@ mod tests {
         };
         let ok = summary(&[row(0, 30_000_000), row(1, 40_000_000)]);
         assert!(ok.contains("| 35.0 M | 40.0 M | 1.14 |") && ok.contains("| yes | yes | 2/2 |"), "{ok}");
+        assert!(ok.contains("| 2/2 | 0 | — |"), "ROI and eclipse-plan counts: {ok}");
         let bad = summary(&[row(0, 10_000_000), row(1, 10_000_000), row(2, 130_000_000)]);
         assert!(bad.contains("**no** (1.2×)") && bad.contains("| **no** | 3/3 |"), "{bad}");
     }

@@ -65,35 +65,36 @@ pub fn scharr_l1_chunk(rows: [Option<&[u8]>; 3], border: Border, x0: usize, out:
     }
 }
 
+/// Two `u8` samples in the two 16-bit lanes of a lane word: `a + b·2¹⁶` (kept as an `i32`
+/// bit pattern, the scratch planes' type), the input of [`scharr_columns_pair`].
+#[inline(always)]
+pub fn lane_pair(a: u8, b: u8) -> i32 {
+    (u32::from(a) | u32::from(b) << 16) as i32
+}
+
 /// The columns `x0 − 1 ..= x0 + n` (`n + 2 = out.len()` entries, `n ≤` [`CHUNK`]) of two
-/// bands at once, rows `rows_a` and `rows_b` (all inside the frame), columns beyond the edges
-/// by `border`, handed to `store(&mut out[i], sm, df)` as two `u32` of two 16-bit lanes each:
-/// `sm` the smoothing `3(u + d) + 10m` (band `a` + band `b`·2¹⁶) and `df` the difference
-/// plus 256, `d − u + 256 ∈ [1, 511]` (band `a` + band `b`·2¹⁶). Every lane is non-negative,
-/// so sums and multiples of these words stay lane by lane while each lane stays below 2¹⁶.
-/// [`scharr_l1_pair`] takes both gradients from three of them.
+/// bands at once, from rows of lane words ([`lane_pair`]: band `a` + band `b`·2¹⁶; all three
+/// rows inside the frame), columns beyond the edges by `border`, handed to
+/// `store(&mut out[i], sm, df)` as two words of two 16-bit lanes each: `sm` the smoothing
+/// `3(u + d) + 10m` and `df` the difference plus 256, `d − u + 256 ∈ [1, 511]`. Every lane
+/// is non-negative, so sums and multiples of these words stay lane by lane while each lane
+/// stays below 2¹⁶. [`scharr_l1_pair`] takes both gradients from three of them.
 #[inline(always)]
 pub fn scharr_columns_pair<C>(
-    rows_a: [&[u8]; 3],
-    rows_b: [&[u8]; 3],
+    rows: [&[i32]; 3],
     border: Border,
     x0: usize,
     out: &mut [C],
     store: impl Fn(&mut C, u32, u32),
 ) {
     let n = out.len().saturating_sub(2).min(CHUNK);
-    let len = rows_a[1].len().min(rows_b[1].len());
+    let len = rows[1].len();
     #[inline(always)]
-    fn pair(a: [u8; 3], b: [u8; 3]) -> (u32, u32) {
-        let lanes = |x: u8, y: u8| u32::from(x) | u32::from(y) << 16;
-        let (u, m, d) = (lanes(a[0], b[0]), lanes(a[1], b[1]), lanes(a[2], b[2]));
+    fn pair([u, m, d]: [i32; 3]) -> (u32, u32) {
+        let (u, m, d) = (u as u32, m as u32, d as u32);
         (3 * (u + d) + 10 * m, d + DF_BIAS - u)
     }
-    let edge = |x: isize| {
-        let a = column([Some(rows_a[0]), Some(rows_a[1]), Some(rows_a[2])], x, border);
-        let b = column([Some(rows_b[0]), Some(rows_b[1]), Some(rows_b[2])], x, border);
-        a.zip(b).map(|(a, b)| pair(a, b))
-    };
+    let edge = |x: isize| column([Some(rows[0]), Some(rows[1]), Some(rows[2])], x, border).map(pair);
     // Output i is column x0 − 1 + i; the columns inside the rows are lo..hi.
     let lo = x0.saturating_sub(1);
     let hi = (x0 + n + 1).min(len);
@@ -104,15 +105,12 @@ pub fn scharr_columns_pair<C>(
         store(o, s, d);
     }
     if lo < hi {
-        fn cut(r: &[u8], lo: usize, hi: usize) -> &[u8] {
+        fn cut(r: &[i32], lo: usize, hi: usize) -> &[i32] {
             r.get(lo..hi).unwrap_or(&[])
         }
-        let cut = |r| cut(r, lo, hi);
-        let a = cut(rows_a[0]).iter().zip(cut(rows_a[1])).zip(cut(rows_a[2]));
-        let b = cut(rows_b[0]).iter().zip(cut(rows_b[1])).zip(cut(rows_b[2]));
-        let outs = out.get_mut(first..).unwrap_or(&mut []);
-        for ((((&au, &am), &ad), ((&bu, &bm), &bd)), o) in a.zip(b).zip(outs) {
-            let (s, d) = pair([au, am, ad], [bu, bm, bd]);
+        let cols = cut(rows[0], lo, hi).iter().zip(cut(rows[1], lo, hi)).zip(cut(rows[2], lo, hi));
+        for (((&u, &m), &d), o) in cols.zip(out.get_mut(first..).unwrap_or(&mut [])) {
+            let (s, d) = pair([u, m, d]);
             store(o, s, d);
         }
     }
@@ -257,6 +255,10 @@ mod tests {
         for w in [1usize, 2, 3, 9, 40] {
             let rows: [[u8; 40]; 6] = core::array::from_fn(|_| row());
             let [a0, a1, a2, b0, b1, b2] = rows.each_ref().map(|r| &r[..w]);
+            let lanes = |a: &[u8], b: &[u8]| -> std::vec::Vec<i32> {
+                a.iter().zip(b).map(|(&a, &b)| lane_pair(a, b)).collect()
+            };
+            let (l0, l1, l2) = (lanes(a0, b0), lanes(a1, b1), lanes(a2, b2));
             for border in [Border::Zero, Border::Replicate, Border::Circular] {
                 let (mut want_a, mut want_b) = ([0i32; 40], [0i32; 40]);
                 scharr_l1_row(Some(a0), a1, Some(a2), border, want_a.iter_mut(), |g, o| *o = g);
@@ -265,14 +267,7 @@ mod tests {
                     for n in 1..=w - x0 {
                         let mut cols = [(0u32, 0u32); 42];
                         let store = |c: &mut (u32, u32), s, d| *c = (s, d);
-                        scharr_columns_pair(
-                            [a0, a1, a2],
-                            [b0, b1, b2],
-                            border,
-                            x0,
-                            &mut cols[..n + 2],
-                            store,
-                        );
+                        scharr_columns_pair([&l0, &l1, &l2], border, x0, &mut cols[..n + 2], store);
                         let (sm, df): (std::vec::Vec<u32>, std::vec::Vec<u32>) = cols.iter().copied().unzip();
                         for k in 0..n {
                             let got = scharr_l1_pair([sm[k], sm[k + 2]], [df[k], df[k + 1], df[k + 2]]);

@@ -24,10 +24,13 @@
 //! flight saliency. The 35×35 mean costs O(1) per pixel (running sums,
 //! [`crate::filters::box_sum`]); the 3×3 median and the Scharr gradient sort or smooth each
 //! column once for its three windows (row chunks of 256 pixels on the stack). The flight
-//! 8-bit output has its own kernel (`flight_u8`): both bands' Scharr columns in the two 16-bit
-//! lanes of a `u32`, then the weights packed `w_VIS + w_IR·2¹⁶`, the weight-free part of each
-//! pixel packed `r + q_VIS·2¹³ + q_IR·2²²` (see there), and the outputs, each a short pass
-//! over the chunk; it gives the same bytes and guards as the general path (tested).
+//! 8-bit output has its own kernel (`flight_u8`): only `Σ_IR − Σ_VIS` enters it, so it keeps
+//! the 35×35 window's column sums of `I_IR − I_VIS` in one padded row instead of two box-sum
+//! planes; both bands' pixels sit in the two 16-bit lanes of one word, so one pass of `u32`
+//! arithmetic (Arm: DSP lane instructions) smooths, differences and takes the Scharr gradients
+//! of both; per pixel one weight-free word `q_VIS + q_IR·2⁹ + (r + taps)·2¹⁸` (see there) and
+//! two unsigned 32-bit divisions give the output. It gives the same bytes and guards as the
+//! general path (tested).
 //!
 //! # Variants and guards
 //!
@@ -53,13 +56,14 @@
 //! # Scratch
 //!
 //! Three `i32` planes of W·H: the two box sums and the horizontal-pass plane; about 5 KiB of
-//! stack for the row chunks.
+//! stack for the row chunks. The flight 8-bit kernel uses two of them: one row of column sums
+//! (`W + 2r + 1` entries; smaller frames take the general path) and the lane words.
 
 use super::{Guards, Variant};
 use crate::filters::border::Border;
 use crate::filters::box_sum::box_sum_u8;
 use crate::filters::median3::{CHUNK, median3_chunk};
-use crate::filters::scharr::{scharr_columns_pair, scharr_l1_chunk, scharr_l1_pair};
+use crate::filters::scharr::{lane_pair, scharr_columns_pair, scharr_l1_chunk, scharr_l1_pair};
 use crate::{Error, FrameMut, FrameRef, ScratchMut};
 use core::num::NonZeroU32;
 
@@ -372,9 +376,8 @@ fn run(
         // Only Σ_IR − Σ_VIS enters the flight kernel; it keeps the window's column sums in one
         // padded row of `tmp` (a fallback for frames smaller than that row).
         Out::U8(f) if !classic && tmp.len() > w + 2 * radius => {
-            flight_u8(vis, tir, taps as u32, radius, tmp, f)
+            flight_u8(vis, tir, taps as u32, radius, tmp, sum_v, f)
         }
-
         out => {
             box_sum_u8(vis, radius, params.mean_border(), tmp, sum_v)?;
             box_sum_u8(tir, radius, params.mean_border(), tmp, sum_i)?;
@@ -459,16 +462,16 @@ fn saliency_reconstruct(
 
 /// The flight variant's whole 8-bit fusion, row by row (replicate borders throughout).
 ///
+/// First both bands' pixels into the lane words `lanes` (W·H, [`lane_pair`]: VIS + IR·2¹⁶).
 /// Only `d = Σ_IR − Σ_VIS` of the box sums enters ([`fused_u8`] in the form below), so the
 /// window sums are of the difference `I_IR − I_VIS`: `cols` (at least `W + 2r + 1` entries)
 /// keeps each column's vertical window sum at `r + x`, updated by one entering and one leaving
-/// row per output row and padded with `r + 1` copies of the edge columns on each side, so the
-/// horizontal running sum over it needs no border test. Then, chunk by chunk of the row, in
-/// short passes (few live values each, so nothing spills on the 32-bit targets): the
-/// weight-free part of each pixel, packed as below; the Scharr columns of both bands in two
-/// lanes ([`scharr_columns_pair`]); the weights ([`scharr_l1_pair`]) packed
-/// `w_VIS + w_IR·2¹⁶`; the outputs. Returns (some pixel had both gradients 0, some output
-/// saturated).
+/// row per output row ([`column_step`]) and padded with `r + 1` copies of the edge columns on
+/// each side, so the horizontal running sum over it needs no border test. Then, chunk by chunk
+/// of the row, in short passes (few live values each): the weight-free part of each pixel,
+/// packed as below; the Scharr columns of both bands ([`scharr_columns_pair`]); per pixel the
+/// weights ([`scharr_l1_pair`], `w_VIS + w_IR·2¹⁶`) and the output. Returns (some pixel had
+/// both gradients 0, some output saturated).
 ///
 /// With `c = 2·taps`, `d = c·(a − 128) + r` (`a = ⌊(d + 128c)/c⌋ ∈ [0, 255]`,
 /// `0 ≤ r < c ≤ 7938`), `q_VIS = I_VIS + a ∈ [0, 510]`, `q_IR = I_IR − a + 255 ∈ [0, 510]`
@@ -486,6 +489,7 @@ fn flight_u8(
     taps: u32,
     radius: usize,
     cols: &mut [i32],
+    lanes: &mut [i32],
     mut out: FrameMut<'_, u8>,
 ) -> (bool, bool) {
     const TWO: NonZeroU32 = NonZeroU32::MIN.saturating_add(1);
@@ -502,6 +506,15 @@ fn flight_u8(
     let mut buf = [[0u32; 3]; CHUNK + 2];
     let span = 2 * radius + 1;
     let Some(cols) = cols.get_mut(..w + span) else { return (zero, false) };
+    // Both bands' pixels in the lanes of one word, read three times by the Scharr columns.
+    for (y, row) in lanes.chunks_exact_mut(w.max(1)).take(h).enumerate() {
+        for ((o, &v), &t) in row.iter_mut().zip(vis.row(y)).zip(tir.row(y)) {
+            *o = lane_pair(v, t);
+        }
+    }
+    let lanes = FrameRef::new(lanes.get(..w * h).unwrap_or(&[]), w, h);
+    // The lane weights of `column_step` (opaque: kept in registers, not rebuilt per pixel).
+    let lane_weights = core::hint::black_box(LANE_WEIGHTS);
     for y in 0..h {
         let yi = y as isize;
         let (left, rest) = cols.split_at_mut(radius.min(cols.len()));
@@ -513,12 +526,11 @@ fn flight_u8(
                     *m += i32::from(t) - i32::from(v);
                 }
             }
-        } else {
-            let (enter, leave) = (yi + radius as isize, yi - radius as isize - 1);
-            let entering = tir.row_clamped(enter).iter().zip(vis.row_clamped(enter));
-            let leaving = tir.row_clamped(leave).iter().zip(vis.row_clamped(leave));
-            for ((m, (&te, &ve)), (&tl, &vl)) in mid.iter_mut().zip(entering).zip(leaving) {
-                *m += (i32::from(te) - i32::from(ve)) - (i32::from(tl) - i32::from(vl));
+        } else if let Ok(l) = lanes {
+            let (enter, leave) =
+                (l.row_clamped(yi + radius as isize), l.row_clamped(yi - radius as isize - 1));
+            for ((m, &e), &l) in mid.iter_mut().zip(enter).zip(leave) {
+                *m = column_step(*m, e, l, lane_weights);
             }
         }
         let (first, last) = (mid.first().copied().unwrap_or(0), mid.last().copied().unwrap_or(0));
@@ -527,8 +539,8 @@ fn flight_u8(
         let cols = &*cols;
         // The running window sum of the pixel x = the sum of cols[x ..= x + 2r], plus the bias.
         let mut sum = cols.iter().take(span).sum::<i32>() + bias;
-        let rows_v = [vis.row_clamped(yi - 1), vis.row(y), vis.row_clamped(yi + 1)];
-        let rows_t = [tir.row_clamped(yi - 1), tir.row(y), tir.row_clamped(yi + 1)];
+        let rows =
+            lanes.as_ref().map_or([&[][..]; 3], |l| [l.row_clamped(yi - 1), l.row(y), l.row_clamped(yi + 1)]);
         let (iv, ii) = (vis.row(y), tir.row(y));
         let dst = out.row_mut(y);
         let mut x0 = 0;
@@ -545,7 +557,7 @@ fn flight_u8(
                 b[2] = a.wrapping_mul(a_factor).wrapping_add(dd << 18).wrapping_add(low);
             }
             let store = |[s, d, _]: &mut [u32; 3], sm, df| (*s, *d) = (sm, df);
-            scharr_columns_pair(rows_v, rows_t, Border::Replicate, x0, buf, store);
+            scharr_columns_pair(rows, Border::Replicate, x0, buf, store);
             let o = dst.get_mut(x0..x0 + n).unwrap_or(&mut []);
             for (o, w) in o.iter_mut().zip(buf.windows(3)) {
                 let &[[s0, d0, _], [_, d1, q], [s2, d2, _]] = w else { continue };
@@ -567,6 +579,42 @@ fn flight_u8(
         }
     }
     (zero, sat != 0)
+}
+
+/// The lane weights (−1, 1) and (1, −1) of [`column_step`] (low lane first).
+const LANE_WEIGHTS: [i32; 2] = [0x0001_FFFF, 0xFFFF_0001u32 as i32];
+
+/// `col + (I_IR − I_VIS)(entering) − (I_IR − I_VIS)(leaving)` from two lane words
+/// ([`lane_pair`]: VIS + IR·2¹⁶): on Arm two dual multiply-accumulates (`smlad` with the lane
+/// weights `[up, down]` = [`LANE_WEIGHTS`]), else lane by lane.
+#[inline(always)]
+#[cfg_attr(not(target_arch = "arm"), allow(unused_variables))]
+fn column_step(col: i32, enter: i32, leave: i32, [up, down]: [i32; 2]) -> i32 {
+    #[cfg(target_arch = "arm")]
+    {
+        let out: i32;
+        // SAFETY: register-only Armv7E-M DSP instructions (no memory, no stack, no flags but
+        // the sticky Q, which cannot be set here: |products| ≤ 255 and |col| < 2³⁰).
+        unsafe {
+            core::arch::asm!(
+                "smlad {o}, {e}, {up}, {c}",
+                "smlad {o}, {l}, {down}, {o}",
+                o = out(reg) out,
+                e = in(reg) enter,
+                l = in(reg) leave,
+                c = in(reg) col,
+                up = in(reg) up,
+                down = in(reg) down,
+                options(pure, nomem, nostack, preserves_flags),
+            );
+        }
+        out
+    }
+    #[cfg(not(target_arch = "arm"))]
+    {
+        let diff = |v: i32| (v >> 16) - (v & 0xFFFF);
+        col + diff(enter) - diff(leave)
+    }
 }
 
 /// The weights `(1, 1, σ = 2)` of a pixel whose two saliencies are 0, noting it in `zero`
@@ -871,9 +919,9 @@ mod tests {
                         false,
                         Out::U8(FrameMut::new(&mut want, w, h)?),
                     );
-                    let mut cols = std::vec![0i32; w + 2 * radius + 1];
-                    let g_got =
-                        flight_u8(vis, tir, taps as u32, radius, &mut cols, FrameMut::new(&mut got, w, h)?);
+                    let (mut cols, mut lanes) = (std::vec![0i32; w + 2 * radius + 1], std::vec![0i32; w * h]);
+                    let out = FrameMut::new(&mut got, w, h)?;
+                    let g_got = flight_u8(vis, tir, taps as u32, radius, &mut cols, &mut lanes, out);
                     assert_eq!(
                         (got, g_got),
                         (want, g_want),
@@ -883,6 +931,27 @@ mod tests {
             }
         }
         Ok(())
+    }
+
+    /// The portable `column_step` against a model of the Arm `smlad` pair.
+    #[test]
+    fn column_step_matches_the_smlad_model() {
+        let smlad = |a: i32, b: i32, acc: i32| {
+            let lo = |v: i32| i32::from(v as i16);
+            let hi = |v: i32| i32::from((v >> 16) as i16);
+            acc + lo(a) * lo(b) + hi(a) * hi(b)
+        };
+        let mut s = 3u32;
+        let mut next = move || {
+            s = s.wrapping_mul(1664525).wrapping_add(1013904223);
+            (s >> 24) as u8
+        };
+        for k in 0..100_000i32 {
+            let (e, l) = (lane_pair(next(), next()), lane_pair(next(), next()));
+            let col = (k - 50_000) * 9;
+            let [up, down] = LANE_WEIGHTS;
+            assert_eq!(column_step(col, e, l, LANE_WEIGHTS), smlad(l, down, smlad(e, up, col)));
+        }
     }
 
     /// 3×3 frames, 3×3 circular mean (every window is the whole frame): VIS has one 90 in the

@@ -569,7 +569,7 @@ fn flight_u8(
                 };
                 let (qv, qi, rt) = (q & 0x1FF, q >> 9 & 0x1FF, q >> 18);
                 // w_VIS·r + w_IR·(c − r) + den = w_VIS·(r + taps) + w_IR·(2c − (r + taps)).
-                let f = (gv * rt + gi * (2 * c.get() - rt) + (taps * sigma.get() >> 16)) / c;
+                let f = (gv * rt + gi * (2 * c.get() - rt) + ((taps * sigma.get()) >> 16)) / c;
                 // ⌊x/σ⌋ = ⌊(x + 128σ)/σ⌋ − 128, and x + 128σ ≥ 0.
                 let k = ((gv * qv + gi * qi + f) / sigma) as i32 - 128;
                 *o = k.clamp(0, 255) as u8;
@@ -880,7 +880,7 @@ mod tests {
                             match pattern {
                                 0 => r as u8,
                                 1 => {
-                                    if (i % w + i / w + salt as usize) % 2 == 0 {
+                                    if (i % w + i / w + salt as usize).is_multiple_of(2) {
                                         255
                                     } else {
                                         0

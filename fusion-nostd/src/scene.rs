@@ -26,18 +26,19 @@
 //! * Whether a rescale is needed at all ([`Scene::rescale_needed`]: the sizes differ).
 //!
 //! Cost: the subsampled histograms (1/8 of the pixels of a large frame, ≈ 4 instructions per
-//! sample on Cortex-M7), then two box searches per band, four bytes per 32-bit word
-//! (`Probe::any`: "some byte ≠ background" by XOR, "some byte > threshold" by a carry test)
-//! and pixel by pixel only in the rare groups that pass. Each box is found by scanning rows from
-//! the top and from the bottom to the first hit, then searching the rows between only left and
-//! right of the box found so far; the signal runs (signal pixels are varying pixels) are searched
-//! inside the varying box only. On the emulated Cortex-M7 (1024² VIS + 512² TIR, frame 0 of a
-//! rendered dataset) the analysis costs ≈ 2.8 M instructions on a noisy frame that it declines
-//! (≈ 2.2 per VIS pixel; was 15.4 M when every row was folded to its minimum and maximum byte by
-//! byte) and ≈ 1.6 M on a clean frame, against ≈ 120 (TSIFSD) to ≈ 4700 (ADF) instructions per
-//! pixel for the fusion itself (`fw/budgets.toml`). Measured as skip `roi` − skip `none` of
-//! TSIFSD on declined frames: `fusion budget --skip-study DATASET --target arm --frames 1
-//! --whole-frames 0` (`fw/README.md`).
+//! sample on Cortex-M7), then two box searches per band, 32 pixels at a time as eight 32-bit
+//! words (`Probe::any`: "some byte ≠ background" by XOR, "some byte > threshold" by a carry
+//! test), pixel by pixel only in the rare groups that pass. Each box is found by scanning rows
+//! from the top and from the bottom to the first hit, then searching the rows between only left
+//! and right of the box found so far; the signal runs (signal pixels are varying pixels) are
+//! searched inside the varying box only. On the emulated Cortex-M7 (1024² VIS + 512² TIR, frame
+//! 0 of a rendered dataset) the analysis costs ≈ 2.7 M instructions on a noisy frame that it
+//! declines (≈ 2.1 per VIS pixel; 15.4 M when every row was folded to its minimum and maximum
+//! byte by byte) and less on a clean one (TSIFSD skip `roi`: 21.0 → 7.0 M per frame), against
+//! ≈ 120 (TSIFSD) to ≈ 4700 (ADF) instructions per pixel for the fusion itself
+//! (`fw/budgets.toml`). Measured as skip `roi` − skip `none` of TSIFSD on the declined frames
+//! with `fusion budget --skip-study DATASET --target arm --frames 1 --whole-frames 0`
+//! (`fw/README.md`).
 //!
 //! ```
 //! use fusion_nostd::scene::{analyze, Illumination, SceneParams};
@@ -350,23 +351,17 @@ fn upper_quartile_q8(hist: &[u32; 256], n: u32) -> u32 {
     255 << 8
 }
 
-/// Pixels per group of the word-wise scans: four 32-bit words.
-const GROUP: usize = 16;
+/// Pixels per group of the word-wise scans: eight 32-bit words.
+const GROUP: usize = 32;
 /// The top bit of every byte of a word.
 const HIGH: u32 = 0x8080_8080;
 /// The low seven bits of every byte of a word.
 const LOW7: u32 = 0x7f7f_7f7f;
 
-/// The four little-endian words of a group.
+/// `f` of every little-endian word of a group, OR-ed.
 #[inline(always)]
-fn words(g: &[u8; GROUP]) -> [u32; 4] {
-    let [a0, a1, a2, a3, b0, b1, b2, b3, c0, c1, c2, c3, d0, d1, d2, d3] = *g;
-    [
-        u32::from_le_bytes([a0, a1, a2, a3]),
-        u32::from_le_bytes([b0, b1, b2, b3]),
-        u32::from_le_bytes([c0, c1, c2, c3]),
-        u32::from_le_bytes([d0, d1, d2, d3]),
-    ]
+fn fold_words(g: &[u8; GROUP], f: impl Fn(u32) -> u32) -> u32 {
+    g.as_chunks::<4>().0.iter().fold(0, |acc, w| acc | f(u32::from_le_bytes(*w)))
 }
 
 /// What a box search looks for, pixel by pixel ([`Probe::hit`]) and, as a pre-filter that
@@ -394,9 +389,7 @@ impl Differs {
 impl Probe for Differs {
     #[inline(always)]
     fn any(self, g: &[u8; GROUP]) -> bool {
-        let [a, b, c, d] = words(g);
-        let s = self.splat;
-        ((a ^ s) | (b ^ s) | (c ^ s) | (d ^ s)) != 0
+        fold_words(g, |w| w ^ self.splat) != 0
     }
 
     #[inline(always)]
@@ -424,24 +417,17 @@ impl<const LOW: bool> RunAbove<LOW> {
 impl<const LOW: bool> Probe for RunAbove<LOW> {
     #[inline(always)]
     fn any(self, g: &[u8; GROUP]) -> bool {
-        let [a, b, c, d] = words(g);
         let k = self.add;
         if LOW {
             // t < 128: a byte ≥ 128 is above t (its top bit); when all four bytes are below
             // 128, `byte + 127 − t` stays below 256 (no carry into the next byte) and reaches
             // 128 exactly when byte > t. A carry out of a byte ≥ 128 may set its neighbour's
             // flag, but the word then holds a byte above t anyway: exact for "any".
-            (((a.wrapping_add(k) | a)
-                | (b.wrapping_add(k) | b)
-                | (c.wrapping_add(k) | c)
-                | (d.wrapping_add(k) | d))
-                & HIGH)
-                != 0
+            (fold_words(g, |w| w.wrapping_add(k) | w) & HIGH) != 0
         } else {
             // t ≥ 128: byte > t ⇔ top bit set and (byte & 127) + 255 − t ≥ 128, the sum of
             // two 7-bit values (no carry between bytes).
-            let f = |w: u32| ((w & LOW7) + k) & w;
-            ((f(a) | f(b) | f(c) | f(d)) & HIGH) != 0
+            (fold_words(g, |w| ((w & LOW7) + k) & w) & HIGH) != 0
         }
     }
 

@@ -4,7 +4,6 @@
 use crate::semihosting;
 use crate::{Meter, OUT, SCRATCH, TIR, VIS, fnv1a, job, say, sizes};
 use core::fmt::Write;
-use fusion_nostd::filters::box_sum::box_sum_u8;
 use fusion_nostd::fuse::adf::diffuse;
 use fusion_nostd::fuse::ifevip::background;
 use fusion_nostd::pipeline::{FuseReport, Method, Pipeline, RescalePolicy, fuse, fuse_method, fusion_grid};
@@ -77,12 +76,9 @@ fn staged(
             m.region("adf.diffuse_vis", || diffuse(vg, p, a, tmp))?;
             m.region("adf.diffuse_tir", || diffuse(tg, p, b, tmp))?;
         }
-        Method::Tsifsd(p) => {
-            let [tmp, sv, si] = planes.planes(n)?;
-            let radius = usize::from(p.mean_size / 2);
-            m.region("tsifsd.box_vis", || box_sum_u8(vg, radius, p.mean_border(), tmp, sv))?;
-            m.region("tsifsd.box_tir", || box_sum_u8(tg, radius, p.mean_border(), tmp, si))?;
-        }
+        // TSIFSD's flight kernel is one pass (window sums of IR − VIS, Scharr saliency, weights
+        // and reconstruction together): no public stage to measure apart.
+        Method::Tsifsd(_) => {}
         Method::Ifevip(p) => {
             m.region("ifevip.background", || background(tg, p, &mut planes))?;
         }

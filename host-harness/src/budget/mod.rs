@@ -43,10 +43,8 @@ fn method_stages(m: MethodArg) -> &'static [(&'static str, &'static str, &'stati
             ("diffuse_vis", "adf.diffuse_vis", "anisotropic diffusion of VIS (10 iterations)"),
             ("diffuse_tir", "adf.diffuse_tir", "anisotropic diffusion of TIR"),
         ],
-        MethodArg::Tsifsd => &[
-            ("box_vis", "tsifsd.box_vis", "35×35 box sum of VIS (base layer)"),
-            ("box_tir", "tsifsd.box_tir", "35×35 box sum of TIR"),
-        ],
+        // The flight kernel is one pass; its stages cannot be measured apart.
+        MethodArg::Tsifsd => &[],
         MethodArg::Ifevip => &[(
             "background",
             "ifevip.background",
@@ -59,7 +57,10 @@ fn method_stages(m: MethodArg) -> &'static [(&'static str, &'static str, &'stati
 fn remainder_stage(m: MethodArg) -> (&'static str, &'static str) {
     match m {
         MethodArg::Adf => ("kl_reconstruct", "KL covariance, weights and reconstruction"),
-        MethodArg::Tsifsd => ("saliency_reconstruct", "Scharr saliency, weights and reconstruction"),
+        MethodArg::Tsifsd => (
+            "saliency_reconstruct",
+            "one pass: 35×35 window sums of IR − VIS, Scharr saliency, weights, reconstruction",
+        ),
         MethodArg::Ifevip => ("features_reconstruct", "entropy, IR features, peak, reconstruction"),
     }
 }

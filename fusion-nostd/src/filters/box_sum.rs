@@ -7,7 +7,6 @@
 //! (circular windows then wrap more than once, as MATLAB's `padarray(…, 'circular')`).
 //!
 //! Range: a sum is at most `255 · (2r+1)²`; [`MAX_RADIUS`] keeps it below 2³¹.
-//! [`box_sum_diff_u8`] sums the difference of two frames the same way (`|Σ| ≤ 255 · (2r+1)²`).
 
 use super::border::Border;
 use crate::{Error, FrameRef};
@@ -50,78 +49,14 @@ impl Tap {
     }
 }
 
-/// One row of samples for the horizontal pass: a `u8` row, or the difference of two.
-trait Samples: Copy {
-    /// The row length.
-    fn len(self) -> usize;
-    /// Sample `i`, 0 outside the row.
-    fn at(self, i: usize) -> i32;
-    /// The interior of the running sum: `out[k] = sum`, then
-    /// `sum += sample(enter + k) − sample(leave + k)`, all those samples inside the row.
-    fn slide(self, enter: usize, leave: usize, sum: &mut i32, out: &mut [i32]);
-}
-
-impl Samples for &[u8] {
-    #[inline(always)]
-    fn len(self) -> usize {
-        <[u8]>::len(self)
-    }
-
-    #[inline(always)]
-    fn at(self, i: usize) -> i32 {
-        self.get(i).map_or(0, |&v| i32::from(v))
-    }
-
-    #[inline(always)]
-    fn slide(self, enter: usize, leave: usize, sum: &mut i32, out: &mut [i32]) {
-        let entering = self.get(enter..).unwrap_or(&[]);
-        let leaving = self.get(leave..).unwrap_or(&[]);
-        for ((o, &e), &l) in out.iter_mut().zip(entering).zip(leaving) {
-            *o = *sum;
-            *sum += i32::from(e) - i32::from(l);
-        }
-    }
-}
-
-/// The difference `b − a` of two rows of the same length.
-#[derive(Debug, Clone, Copy)]
-struct Diff<'a> {
-    a: &'a [u8],
-    b: &'a [u8],
-}
-
-impl Samples for Diff<'_> {
-    #[inline(always)]
-    fn len(self) -> usize {
-        self.a.len().min(self.b.len())
-    }
-
-    #[inline(always)]
-    fn at(self, i: usize) -> i32 {
-        self.b.at(i) - self.a.at(i)
-    }
-
-    #[inline(always)]
-    fn slide(self, enter: usize, leave: usize, sum: &mut i32, out: &mut [i32]) {
-        let (ea, eb) = (self.a.get(enter..).unwrap_or(&[]), self.b.get(enter..).unwrap_or(&[]));
-        let (la, lb) = (self.a.get(leave..).unwrap_or(&[]), self.b.get(leave..).unwrap_or(&[]));
-        let entering = ea.iter().zip(eb);
-        let leaving = la.iter().zip(lb);
-        for ((o, (&ea, &eb)), (&la, &lb)) in out.iter_mut().zip(entering).zip(leaving) {
-            *o = *sum;
-            *sum += (i32::from(eb) - i32::from(ea)) - (i32::from(lb) - i32::from(la));
-        }
-    }
-}
-
 #[inline]
-fn sample(row: impl Samples, tap: &Tap, border: Border) -> i32 {
-    tap.index(border).map_or(0, |i| row.at(i))
+fn sample<T: Copy + Into<i32>>(row: &[T], tap: &Tap, border: Border) -> i32 {
+    tap.index(border).and_then(|i| row.get(i)).map_or(0, |&v| v.into())
 }
 
 /// Window sums of the positions `x0..x1` of `out` by the generic taps (border-aware).
-fn horizontal_taps(
-    row: impl Samples,
+fn horizontal_taps<T: Copy + Into<i32>>(
+    row: &[T],
     radius: usize,
     border: Border,
     sum: &mut i32,
@@ -142,7 +77,7 @@ fn horizontal_taps(
 }
 
 /// One row's horizontal window sums into `out` (same length as `row`).
-fn horizontal(row: impl Samples, radius: usize, border: Border, out: &mut [i32]) {
+fn horizontal<T: Copy + Into<i32>>(row: &[T], radius: usize, border: Border, out: &mut [i32]) {
     let len = row.len();
     let mut tap = Tap::new(-(radius as isize), len);
     let mut sum = 0i32;
@@ -158,7 +93,13 @@ fn horizontal(row: impl Samples, radius: usize, border: Border, out: &mut [i32])
     };
     horizontal_taps(row, radius, border, &mut sum, 0, head);
     let Some((middle, tail)) = rest.split_at_mut_checked(end - start) else { return };
-    row.slide(start + radius + 1, start.saturating_sub(radius), &mut sum, middle);
+    let entering = row.get(start + radius + 1..).unwrap_or(&[]);
+    let leaving = start.checked_sub(radius).and_then(|i| row.get(i..)).unwrap_or(&[]);
+    for ((o, &e), &l) in middle.iter_mut().zip(entering).zip(leaving) {
+        *o = sum;
+        let delta = e.into() - l.into();
+        sum += delta;
+    }
     horizontal_taps(row, radius, border, &mut sum, end, tail);
 }
 
@@ -184,37 +125,6 @@ pub fn box_sum_u8(
     };
     for (row, t) in src.rows().zip(tmp.chunks_exact_mut(w.max(1))) {
         horizontal(row, radius, border, t);
-    }
-    vertical(tmp, w, h, radius, border, out);
-    Ok(())
-}
-
-/// `out[y][x] = Σ (b − a)` over the `(2·radius+1)²` window around `(x, y)`, outside samples
-/// by `border`: the same as the difference of the two [`box_sum_u8`] planes (sums are
-/// linear), in one pass of each direction. `|Σ| ≤ 255·(2r+1)²`. Errors: as [`box_sum_u8`],
-/// and [`Error::SizeMismatch`] when `a` and `b` differ in size.
-pub fn box_sum_diff_u8(
-    a: FrameRef<'_, u8>,
-    b: FrameRef<'_, u8>,
-    radius: usize,
-    border: Border,
-    tmp: &mut [i32],
-    out: &mut [i32],
-) -> Result<(), Error> {
-    if a.size() != b.size() {
-        return Err(Error::SizeMismatch { expected: a.size(), got: b.size() });
-    }
-    if radius > MAX_RADIUS {
-        return Err(Error::InvalidParameter { name: "radius" });
-    }
-    let (w, h) = a.size();
-    let pixels = w * h;
-    let capacity = tmp.len().min(out.len());
-    let (Some(tmp), Some(out)) = (tmp.get_mut(..pixels), out.get_mut(..pixels)) else {
-        return Err(Error::ScratchTooSmall { needed: pixels, capacity });
-    };
-    for ((ra, rb), t) in a.rows().zip(b.rows()).zip(tmp.chunks_exact_mut(w.max(1))) {
-        horizontal(Diff { a: ra, b: rb }, radius, border, t);
     }
     vertical(tmp, w, h, radius, border, out);
     Ok(())
@@ -270,7 +180,6 @@ fn vertical(tmp: &[i32], w: usize, h: usize, radius: usize, border: Border, out:
 
 #[cfg(test)]
 mod tests {
-    extern crate std;
     use super::*;
 
     /// Direct O(r²) sum for comparison.
@@ -317,25 +226,6 @@ mod tests {
                             );
                         }
                     }
-                }
-            }
-        }
-        // The difference of two frames equals the difference of their box sums.
-        let mut other = [0u8; 7 * 5];
-        for v in other.iter_mut() {
-            seed = seed.wrapping_mul(1664525).wrapping_add(1013904223);
-            *v = (seed >> 24) as u8;
-        }
-        for (w, h) in [(7usize, 5usize), (1, 5), (7, 1), (1, 1), (3, 2)] {
-            let (a, b) = (FrameRef::new(&buf, w, h)?, FrameRef::new(&other, w, h)?);
-            for r in [0usize, 1, 2, 4, 9] {
-                for border in [Border::Zero, Border::Replicate, Border::Circular] {
-                    let (mut tmp, mut sa, mut sb, mut d) = ([0i32; 35], [0i32; 35], [0i32; 35], [0i32; 35]);
-                    box_sum_u8(a, r, border, &mut tmp, &mut sa)?;
-                    box_sum_u8(b, r, border, &mut tmp, &mut sb)?;
-                    box_sum_diff_u8(a, b, r, border, &mut tmp, &mut d)?;
-                    let want: std::vec::Vec<i32> = sb.iter().zip(&sa).map(|(b, a)| b - a).collect();
-                    assert_eq!(d[..], want[..], "{w}x{h} r{r} {border:?}");
                 }
             }
         }

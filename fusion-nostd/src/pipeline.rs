@@ -388,9 +388,9 @@ fn plan(scene: &Scene, pipeline: &Pipeline, grid: (usize, usize), eclipse: bool)
         return Plan::Full(Some(Decline::GlobalStatistic));
     };
     let full = Rect::full(grid);
-    let too_large = |r: &Rect| {
-        r.area().saturating_mul(100) > full.area().saturating_mul(pipeline.scene.max_roi_percent.into())
-    };
+    // In u64: a usize product could saturate on the 32-bit targets and change the plan.
+    let too_large =
+        |r: &Rect| r.area() as u64 * 100 > full.area() as u64 * u64::from(pipeline.scene.max_roi_percent);
     let rescale2 = scene.rescale_needed;
     match &pipeline.method {
         Method::Adf(p) => {
@@ -426,6 +426,11 @@ fn plan(scene: &Scene, pipeline: &Pipeline, grid: (usize, usize), eclipse: bool)
             let target = if eclipse { scene.target_tir } else { scene.target };
             let Some(target) = target else { return Plan::Empty };
             let mut computed = target.grow(halo, grid);
+            // Aligned first: the alignment can move an edge onto the frame's edge, and the
+            // classic rule below must see where the window really ends.
+            if rescale2 {
+                computed = align_even(computed, grid);
+            }
             if p.variant == crate::Variant::Classic {
                 // Circular mean: a window touching a frame edge wraps to the opposite edge.
                 if computed.x0 == 0 || computed.x1 == grid.0 {
@@ -434,9 +439,6 @@ fn plan(scene: &Scene, pipeline: &Pipeline, grid: (usize, usize), eclipse: bool)
                 if computed.y0 == 0 || computed.y1 == grid.1 {
                     (computed.y0, computed.y1) = (0, grid.1);
                 }
-            }
-            if rescale2 {
-                computed = align_even(computed, grid);
             }
             if too_large(&computed) {
                 return Plan::Full(Some(Decline::RoiTooLarge));

@@ -9,8 +9,8 @@
 //! Inputs: frame 0 of a rendered dataset (`--data`, rendered at the study's sizes when empty).
 
 use crate::cli::fuse::fuse_reference;
-use crate::io::Gray;
 use crate::plot::{Labels, Series, Style, chart};
+use crate::skip::{SkipError, skip_error};
 use crate::study::{Dataset, fuse_timed, median};
 use anyhow::{Context, Result};
 use clap::Args;
@@ -96,18 +96,6 @@ fn knobs() -> Vec<(&'static str, Vec<(String, Method)>)> {
     ]
 }
 
-fn psnr_and_max(a: &Gray<u8>, b: &Gray<u8>) -> (f64, u8) {
-    let mut se = 0.0;
-    let mut max = 0u8;
-    for (&x, &y) in a.data.iter().zip(&b.data) {
-        let d = x.abs_diff(y);
-        max = max.max(d);
-        se += f64::from(d) * f64::from(d);
-    }
-    let mse = se / a.data.len().max(1) as f64;
-    (if mse == 0.0 { f64::INFINITY } else { 10.0 * (255.0 * 255.0 / mse).log10() }, max)
-}
-
 /// Whether no other point of the same family is at least as fast and at least as accurate
 /// (and strictly better in one).
 fn on_front(p: &Point, all: &[Point]) -> bool {
@@ -162,7 +150,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
             for (label, method) in &configs {
                 let p = Pipeline { rescale: policy, method: *method, ..Default::default() };
                 let r = fuse_timed(&vis, &tir, &p, args.repeats)?;
-                let (psnr, max_abs) = psnr_and_max(&r.fused, &reference.image);
+                let SkipError { psnr, max_abs, .. } = skip_error(&r.fused, &reference.image);
                 println!(
                     "{family:7} {label:14} {grid:5}²  {:9.2} ms  PSNR {psnr:6.2} dB  max {max_abs}",
                     r.seconds * 1e3
@@ -184,7 +172,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
                 let t = Instant::now();
                 let r = fuse_reference(&vis, &tir, &p)?;
                 let secs = t.elapsed().as_secs_f64();
-                let (psnr, max_abs) = psnr_and_max(&r.image, &reference.image);
+                let SkipError { psnr, max_abs, .. } = skip_error(&r.image, &reference.image);
                 points.push(Point {
                     family,
                     label: label.clone(),
@@ -308,11 +296,13 @@ mod tests {
 
     #[test]
     fn psnr_of_identical_is_infinite() {
+        use crate::io::Gray;
         let a = Gray { width: 2, height: 1, data: vec![1u8, 2] };
-        assert_eq!(psnr_and_max(&a, &a), (f64::INFINITY, 0));
+        let same = skip_error(&a, &a);
+        assert_eq!((same.psnr, same.max_abs), (f64::INFINITY, 0));
         let b = Gray { width: 2, height: 1, data: vec![1u8, 4] };
-        let (p, m) = psnr_and_max(&a, &b);
-        assert_eq!(m, 2);
-        assert!((p - 10.0 * (255.0f64 * 255.0 / 2.0).log10()).abs() < 1e-12);
+        let e = skip_error(&a, &b);
+        assert_eq!((e.max_abs, e.differing), (2, 1));
+        assert!((e.psnr - 10.0 * (255.0f64 * 255.0 / 2.0).log10()).abs() < 1e-12);
     }
 }

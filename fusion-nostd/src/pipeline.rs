@@ -520,6 +520,12 @@ fn fuse_skipping(
         return Err(Error::SizeMismatch { expected: grid, got: out.size() });
     }
     pipeline.method.validate()?;
+    // The scratch of a full run, checked whatever the plan: a too-small scratch is an error on
+    // every frame, not only on those the analysis declines to skip.
+    scratch.planes(pipeline.scratch_pixels(vis.size(), tir.size())?)?;
+    if vis.size() != tir.size() {
+        scratch.split_band(grid.0 * grid.1)?;
+    }
     let scene = analyze(vis, tir, grid, &pipeline.scene)?;
     let eclipse = pipeline.skip == SkipPolicy::All && scene.illumination == Illumination::Eclipse;
     let plan = plan(&scene, pipeline, grid, eclipse);
@@ -536,9 +542,6 @@ fn fuse_skipping(
             return Ok(r);
         }
         Plan::Empty => {
-            // Scratch checked as for a full run, so a too-small scratch is an error either way.
-            let pixels = pipeline.scratch_pixels(vis.size(), tir.size())?;
-            scratch.planes(pixels)?;
             out.fill(background);
             report.roi = Rect::default();
             report.computed = Rect::default();

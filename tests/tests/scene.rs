@@ -296,6 +296,36 @@ fn bad_input_is_still_an_error() -> Result<()> {
         let r =
             fusion_nostd::pipeline::fuse(vis.view()?, tir.view()?, out.view_mut()?, &mut tiny.view_mut(), &p);
         assert!(matches!(r, Err(Error::ScratchTooSmall { .. })), "{r:?}");
+        // One pixel short of a full run is an error whatever the plan: here same-size frames
+        // whose small target window would fit the scratch.
+        let target = Rect { x0: 70, y0: 70, x1: 90, y1: 90 };
+        let (vis160, tir160) =
+            (synthetic(160, 160, target, 80, 0, 9), synthetic(160, 160, target, 90, 0, 10));
+        let same = Pipeline { rescale: RescalePolicy::None, ..p };
+        let mut out160 = Gray::<u8>::new(160, 160);
+        let n = 160 * 160;
+        let mut short = host_harness::CoreScratch::new(n - 1);
+        let r = fusion_nostd::pipeline::fuse(
+            vis160.view()?,
+            tir160.view()?,
+            out160.view_mut()?,
+            &mut short.view_mut(),
+            &same,
+        );
+        assert_eq!(r.err(), Some(Error::ScratchTooSmall { needed: n, capacity: n - 1 }));
+        let mut enough = host_harness::CoreScratch::new(n);
+        let r = fusion_nostd::pipeline::fuse(
+            vis160.view()?,
+            tir160.view()?,
+            out160.view_mut()?,
+            &mut enough.view_mut(),
+            &same,
+        )?;
+        assert!(
+            r.skip.declined.is_none() && r.skip.computed.area() < n / 4,
+            "the window plan ran: {:?}",
+            r.skip
+        );
         let bad = pipeline(
             Method::Tsifsd(TsifsdParams { mean_size: 4, ..TsifsdParams::default() }),
             RescalePolicy::TirUp,

@@ -11,6 +11,8 @@
 //! * [`fuse`] — the fusion methods.
 //! * [`filters`] — integer filters shared by the methods.
 //! * [`pipeline`] — the per-frame entry point: rescale one band onto the other's grid, fuse.
+//! * [`strips`] — the same pipeline strip by strip in a fixed 512 KiB working set
+//!   ([`strips::fuse_strips`]), bit-identical to the whole-frame run.
 //! * [`scene`] — scene analysis (background, noise, target box, illumination) that lets the
 //!   pipeline skip what the scene does not need ([`pipeline::SkipPolicy`]).
 //! * [`Error`] — the one small `Copy` error type; bad input is an `Err`, never a panic.
@@ -85,6 +87,7 @@ pub mod pipeline;
 pub mod rescale;
 pub mod scene;
 pub mod scratch;
+pub mod strips;
 
 pub use error::Error;
 pub use frame::{Frame, Frame512, Frame1024, FrameMut, FrameRef, MAX_DIMENSION};

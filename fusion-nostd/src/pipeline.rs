@@ -454,7 +454,7 @@ fn plan(scene: &Scene, pipeline: &Pipeline, grid: (usize, usize), eclipse: bool)
 /// taps read (plus the two-pixel bicubic margin) — the same bits as the whole-frame rescale,
 /// since the phase is the same and no tap crosses the cut; other ratios rescale the whole frame.
 /// Returns the view and whether only the window was rescaled.
-fn band_window<'b>(
+pub(crate) fn band_window<'b>(
     src: FrameRef<'b, u8>,
     grid: (usize, usize),
     win: Rect,

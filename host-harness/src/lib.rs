@@ -10,6 +10,7 @@ pub mod metrics;
 pub mod plot;
 pub mod reference;
 pub mod skip;
+pub mod strips;
 pub mod study;
 pub mod study_methods;
 

@@ -614,6 +614,33 @@ enum Input<'a> {
     State,
 }
 
+/// Where the last stage of a pipeline group writes its rows.
+enum Output<'s> {
+    /// The state plane (`w·h`, row `y` at `y·w`).
+    Plane(&'s mut [i32]),
+    /// One row (`w`): each output row replaces the previous one (the streaming form; the
+    /// input must then be [`Input::Frame`]).
+    Row(&'s mut [i32]),
+}
+
+impl Output<'_> {
+    /// Where output row `y` goes.
+    fn row(&mut self, y: usize, w: usize) -> &mut [i32] {
+        match self {
+            Output::Plane(p) => p.get_mut(y * w..y * w + w).unwrap_or(&mut []),
+            Output::Row(r) => r.get_mut(..w).unwrap_or(&mut []),
+        }
+    }
+
+    /// Input row `t` of a later group (the plane, before it is overwritten).
+    fn state_row(&self, t: usize, w: usize) -> &[i32] {
+        match self {
+            Output::Plane(p) => p.get(t * w..t * w + w).unwrap_or(&[]),
+            Output::Row(_) => &[],
+        }
+    }
+}
+
 /// Writes the one-column pads of a padded row (`row[0]`, `row[w+1]`) by the border rule.
 #[inline]
 fn set_pads(row: &mut [i32], border: Border) {
@@ -652,82 +679,96 @@ impl Diffusion {
         (w, h): (usize, usize),
         stages: usize,
     ) {
+        let Some(mem) = mem.get_mut(..stages * STAGE_ROWS * (w + 2)) else { return };
+        mem.fill(0);
+        let mut out = Output::Plane(state);
+        for t in 0..h + stages {
+            self.pipeline_step::<WIDE>(t, input, &mut out, mem, (w, h), stages);
+        }
+    }
+
+    /// Step `t` (`0 .. h + stages`) of a pipeline group: input row `t` enters stage 0 and
+    /// every stage passes on the row it can now finish; the last stage writes row
+    /// `t − stages` (when `t ≥ stages`) to `out`. `mem` holds the group's zeroed work rows
+    /// (`stages · STAGE_ROWS · (w + 2)` values) and is carried from step to step.
+    fn pipeline_step<const WIDE: bool>(
+        &self,
+        t: usize,
+        input: Input<'_>,
+        state: &mut Output<'_>,
+        mem: &mut [i32],
+        (w, h): (usize, usize),
+        stages: usize,
+    ) {
         let stride = w + 2;
         let per_stage = STAGE_ROWS * stride;
-        let Some(mem) = mem.get_mut(..stages * per_stage) else { return };
-        mem.fill(0);
-        for t in 0..h + stages {
-            let mut chunks = mem.chunks_exact_mut(per_stage.max(1));
-            let mut cur = chunks.next();
-            // The input row t enters stage 0.
-            if t < h
-                && let Some([s0, s1, _]) = cur.as_deref_mut().and_then(|m| stage_rows(m, stride))
+        let mut chunks = mem.chunks_exact_mut(per_stage.max(1));
+        let mut cur = chunks.next();
+        // The input row t enters stage 0.
+        if t < h
+            && let Some([s0, s1, _]) = cur.as_deref_mut().and_then(|m| stage_rows(m, stride))
+        {
+            let slot = if t.is_multiple_of(2) { s0 } else { s1 };
+            let dst = slot.get_mut(1..=w).unwrap_or(&mut []);
+            match input {
+                Input::Frame(src) => {
+                    for (d, &v) in dst.iter_mut().zip(src.row(t)) {
+                        *d = i32::from(v) << STATE_BITS;
+                    }
+                }
+                Input::State => {
+                    for (d, &v) in dst.iter_mut().zip(state.state_row(t, w)) {
+                        *d = v;
+                    }
+                }
+            }
+            set_pads(slot, self.border);
+        }
+        for s in 0..stages {
+            let mut next = chunks.next();
+            // Row j of iterate s has just arrived at stage s (j = h: the bottom pad).
+            let Some(j) = t.checked_sub(s) else { break };
+            if j <= h
+                && let Some([s0, s1, north]) = cur.as_deref_mut().and_then(|m| stage_rows(m, stride))
             {
-                let slot = if t % 2 == 0 { s0 } else { s1 };
-                let dst = slot.get_mut(1..=w).unwrap_or(&mut []);
-                match input {
-                    Input::Frame(src) => {
-                        for (d, &v) in dst.iter_mut().zip(src.row(t)) {
-                            *d = i32::from(v) << STATE_BITS;
+                let (older, newer) = if j % 2 == 0 { (s1, s0) } else { (s0, s1) };
+                if j == 0 {
+                    // The pairs between the top pad row and row 0.
+                    let top: &[i32] = match self.border {
+                        Border::Replicate => newer,
+                        _ => {
+                            older.fill(0);
+                            older
                         }
-                    }
-                    Input::State => {
-                        for (d, &v) in dst.iter_mut().zip(state.get(t * w..t * w + w).unwrap_or(&[])) {
-                            *d = v;
-                        }
-                    }
-                }
-                set_pads(slot, self.border);
-            }
-            for s in 0..stages {
-                let mut next = chunks.next();
-                // Row j of iterate s has just arrived at stage s (j = h: the bottom pad).
-                let Some(j) = t.checked_sub(s) else { break };
-                if j <= h
-                    && let Some([s0, s1, north]) = cur.as_deref_mut().and_then(|m| stage_rows(m, stride))
-                {
-                    let (older, newer) = if j % 2 == 0 { (s1, s0) } else { (s0, s1) };
-                    if j == 0 {
-                        // The pairs between the top pad row and row 0.
-                        let top: &[i32] = match self.border {
-                            Border::Replicate => newer,
-                            _ => {
-                                older.fill(0);
-                                older
-                            }
-                        };
-                        self.top_north(top, newer, north);
+                    };
+                    self.top_north(top, newer, north);
+                } else {
+                    // Output row j − 1 of iterate s + 1, from rows j − 1 (`older`) and j
+                    // (`newer`), or the bottom pad row when j = h.
+                    let (p, q): (&[i32], &[i32]) = if j < h {
+                        (older, newer)
                     } else {
-                        // Output row j − 1 of iterate s + 1, from rows j − 1 (`older`) and j
-                        // (`newer`), or the bottom pad row when j = h.
-                        let (p, q): (&[i32], &[i32]) = if j < h {
-                            (older, newer)
-                        } else {
-                            // Row h − 1 is `older`; the free slot becomes the zero pad row.
-                            match self.border {
-                                Border::Replicate => (older, older),
-                                _ => {
-                                    newer.fill(0);
-                                    (older, newer)
-                                }
-                            }
-                        };
-                        let y = j - 1;
-                        match next.as_deref_mut().and_then(|m| stage_rows(m, stride)) {
-                            Some([n0, n1, _]) => {
-                                let slot = if y % 2 == 0 { n0 } else { n1 };
-                                self.row::<WIDE>(p, q, north, slot.get_mut(1..=w).unwrap_or(&mut []));
-                                set_pads(slot, self.border);
-                            }
-                            None => {
-                                let out = state.get_mut(y * w..y * w + w).unwrap_or(&mut []);
-                                self.row::<WIDE>(p, q, north, out);
+                        // Row h − 1 is `older`; the free slot becomes the zero pad row.
+                        match self.border {
+                            Border::Replicate => (older, older),
+                            _ => {
+                                newer.fill(0);
+                                (older, newer)
                             }
                         }
+                    };
+                    let y = j - 1;
+                    match next.as_deref_mut().and_then(|m| stage_rows(m, stride)) {
+                        Some([n0, n1, _]) => {
+                            let slot = if y % 2 == 0 { n0 } else { n1 };
+                            self.row::<WIDE>(p, q, north, slot.get_mut(1..=w).unwrap_or(&mut []));
+                            set_pads(slot, self.border);
+                        }
+                        None => self.row::<WIDE>(p, q, north, state.row(y, w)),
                     }
                 }
-                cur = next.take();
             }
+            cur = next.take();
         }
     }
 }
@@ -957,6 +998,108 @@ fn moments_exact(iv: &[u8], it: &[u8], av: &[i32], at: &[i32]) -> Moments {
     m
 }
 
+/// The exact covariance sums of the detail layers `D = 2¹⁶·I − A` (Q16): `i64` chunk sums
+/// while every `|D|` of a chunk is below [`SMALL_DETAIL`], `i128` otherwise. Integer sums, so
+/// the order rows are added in (whole frame, strips) does not change them.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Covariance {
+    sums: Moments,
+    /// Every chunk so far was small (the output may then use [`fused_small`]).
+    small: bool,
+}
+
+impl Covariance {
+    pub(crate) const fn new() -> Self {
+        Self { sums: [0; 5], small: true }
+    }
+
+    /// Adds one row (or part of one): pixels and base layers of both bands.
+    pub(crate) fn add_row(&mut self, iv: &[u8], it: &[u8], av: &[i32], at: &[i32]) {
+        let chunks = iv
+            .chunks(COV_CHUNK)
+            .zip(it.chunks(COV_CHUNK))
+            .zip(av.chunks(COV_CHUNK))
+            .zip(at.chunks(COV_CHUNK));
+        for (((iv, it), av), at) in chunks {
+            let m = moments_small(iv, it, av, at).unwrap_or_else(|| {
+                self.small = false;
+                moments_exact(iv, it, av, at)
+            });
+            for (s, v) in self.sums.iter_mut().zip(m) {
+                *s += v;
+            }
+        }
+    }
+
+    /// The KL weights of a frame of `pixels` pixels whose rows (all with non-zero detail)
+    /// were added.
+    pub(crate) fn weights(&self, pixels: usize, variant: Variant) -> Fusion {
+        let [s1, s2, s11, s12, s22] = self.sums;
+        let n = pixels as i128;
+        let kl = kl_weight(n * s11 - s1 * s1, n * s12 - s1 * s2, n * s22 - s2 * s2, variant);
+        let p_ir = kl.p_ir_q30;
+        Fusion { p_ir, p32: i32::try_from(p_ir).ok().filter(|_| self.small), guards: kl.guards }
+    }
+}
+
+/// The frame's fusion rule once its covariance is known.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Fusion {
+    p_ir: i64,
+    /// `p_IR` for [`fused_small`] when every detail was small.
+    p32: Option<i32>,
+    /// The guards the KL weights fired.
+    pub(crate) guards: Guards,
+}
+
+impl Fusion {
+    /// One fused raw value (Q16).
+    #[inline(always)]
+    fn value(&self, iv: u8, it: u8, av: i32, at: i32) -> i32 {
+        match self.p32 {
+            Some(p) => fused_small(p, iv, it, av, at),
+            None => fused_general(self.p_ir, iv, it, av, at),
+        }
+    }
+
+    /// Fuses one row into raw Q16 values.
+    #[inline]
+    fn raw_row(&self, iv: &[u8], it: &[u8], av: &[i32], at: &[i32], out: &mut [i32]) {
+        let pixels = out.iter_mut().zip(iv).zip(it).zip(av).zip(at);
+        match self.p32 {
+            // Every |D| < 2²⁶, so |A| < 2²⁷ and |p_IR| < 2³¹: the sum stays under 2⁵⁹, the
+            // same value as the general form without any saturation.
+            Some(p) => {
+                for ((((o, &iv), &it), &av), &at) in pixels {
+                    *o = fused_small(p, iv, it, av, at);
+                }
+            }
+            None => {
+                for ((((o, &iv), &it), &av), &at) in pixels {
+                    *o = fused_general(self.p_ir, iv, it, av, at);
+                }
+            }
+        }
+    }
+
+    /// Fuses one row into 8-bit values; `true` when some value saturated.
+    pub(crate) fn u8_row(&self, iv: &[u8], it: &[u8], av: &[i32], at: &[i32], out: &mut [u8]) -> bool {
+        let mut saturated = false;
+        for ((((o, &iv), &it), &av), &at) in out.iter_mut().zip(iv).zip(it).zip(av).zip(at) {
+            let v = self.value(iv, it, av, at);
+            saturated |= raw_saturates(v);
+            *o = raw_to_u8(v);
+        }
+        saturated
+    }
+}
+
+/// Whether the 8-bit cast of a raw Q16 value saturates (it rounds outside `0..=255`).
+#[inline(always)]
+fn raw_saturates(v: i32) -> bool {
+    !(-(1 << 15)..(255 << 16) + (1 << 15)).contains(&v)
+}
+
 /// The one code path: diffuse both bands, KL weights, then hand each fused raw row (Q16) to
 /// `emit(y, row)`.
 fn run(
@@ -973,56 +1116,65 @@ fn run(
     diffuse(tir, params, a_tir, tmp)?;
     let rows =
         || vis.rows().zip(tir.rows()).zip(a_vis.chunks_exact(w.max(1))).zip(a_tir.chunks_exact(w.max(1)));
-
-    // Covariance of the detail layers D = 2¹⁶·I − A (Q16), exact: i64 chunk sums when every
-    // |D| of the chunk is below SMALL_DETAIL, i128 otherwise.
-    let mut sums = [0i128; 5];
-    let mut small = true;
+    let mut cov = Covariance::new();
     for (((iv, it), av), at) in rows() {
-        let chunks = iv
-            .chunks(COV_CHUNK)
-            .zip(it.chunks(COV_CHUNK))
-            .zip(av.chunks(COV_CHUNK))
-            .zip(at.chunks(COV_CHUNK));
-        for (((iv, it), av), at) in chunks {
-            let m = moments_small(iv, it, av, at).unwrap_or_else(|| {
-                small = false;
-                moments_exact(iv, it, av, at)
-            });
-            for (s, v) in sums.iter_mut().zip(m) {
-                *s += v;
-            }
-        }
+        cov.add_row(iv, it, av, at);
     }
-    let [s1, s2, s11, s12, s22] = sums;
-    let n = (w * h) as i128;
-    let a = n * s11 - s1 * s1;
-    let b = n * s12 - s1 * s2;
-    let c = n * s22 - s2 * s2;
-    let weights = kl_weight(a, b, c, params.variant);
-    let p_ir = weights.p_ir_q30;
-
+    let fusion = cov.weights(w * h, params.variant);
     // F = ½(A_IR + A_VIS) + D_VIS + p_IR·(D_IR − D_VIS), in Q46, rounded to Q16.
-    let p32 = i32::try_from(p_ir).ok().filter(|_| small);
     for (y, ((((iv, it), av), at), out)) in rows().zip(tmp.chunks_exact_mut(w.max(1))).enumerate() {
-        let pixels = out.iter_mut().zip(iv).zip(it).zip(av).zip(at);
-        match p32 {
-            Some(p) => {
-                // Every |D| < 2²⁶, so |A| < 2²⁷ and |p_IR| < 2³¹: the sum below stays under
-                // 2⁵⁹, the same value as the general form without any saturation.
-                for ((((o, &iv), &it), &av), &at) in pixels {
-                    *o = fused_small(p, iv, it, av, at);
-                }
-            }
-            None => {
-                for ((((o, &iv), &it), &av), &at) in pixels {
-                    *o = fused_general(p_ir, iv, it, av, at);
-                }
-            }
-        }
+        fusion.raw_row(iv, it, av, at, out);
         emit(y, out);
     }
-    Ok(weights.guards)
+    Ok(fusion.guards)
+}
+
+/// Work words [`diffuse_pair_rows`] needs for `w`-wide frames: both bands' row pipelines
+/// (`iterations · 3 · (w + 2)` each) and one output row each — independent of the height.
+pub(crate) fn stream_words(w: usize, params: &AdfParams) -> usize {
+    2 * (usize::from(params.iterations) * STAGE_ROWS * (w + 2) + w)
+}
+
+/// Diffuses both bands together through one row pipeline each (all iterations in one group,
+/// the streaming form of [`diffuse`], the same bits) and hands every row `y < until` of the
+/// two base layers to `sink(y, A_VIS row, A_TIR row)`, top to bottom; rows from `until` on
+/// are not finished (row `y` needs the input only up to row `y + iterations`). Memory: `work`,
+/// [`stream_words`] words; no plane. The strip pipeline ([`crate::strips`]) runs it on windows.
+pub(crate) fn diffuse_pair_rows(
+    vis: FrameRef<'_, u8>,
+    tir: FrameRef<'_, u8>,
+    params: &AdfParams,
+    work: &mut [i32],
+    until: usize,
+    mut sink: impl FnMut(usize, &[i32], &[i32]),
+) -> Result<(), Error> {
+    params.validate()?;
+    check_sizes(&vis, &tir, vis.size())?;
+    let (w, h) = vis.size();
+    let stages = usize::from(params.iterations);
+    let needed = stream_words(w, params);
+    let capacity = work.len();
+    let work = work.get_mut(..needed).ok_or(Error::ScratchTooSmall { needed, capacity })?;
+    let (mem_v, rest) = work.split_at_mut(stages * STAGE_ROWS * (w + 2));
+    let (mem_t, rest) = rest.split_at_mut(stages * STAGE_ROWS * (w + 2));
+    let (row_v, row_t) = rest.split_at_mut(w);
+    mem_v.fill(0);
+    mem_t.fill(0);
+    let diffusion = Diffusion::new(params);
+    let (mut out_v, mut out_t) = (Output::Row(row_v), Output::Row(row_t));
+    for t in 0..until.min(h) + stages {
+        if diffusion.wide_step {
+            diffusion.pipeline_step::<true>(t, Input::Frame(vis), &mut out_v, mem_v, (w, h), stages);
+            diffusion.pipeline_step::<true>(t, Input::Frame(tir), &mut out_t, mem_t, (w, h), stages);
+        } else {
+            diffusion.pipeline_step::<false>(t, Input::Frame(vis), &mut out_v, mem_v, (w, h), stages);
+            diffusion.pipeline_step::<false>(t, Input::Frame(tir), &mut out_t, mem_t, (w, h), stages);
+        }
+        if let Some(y) = t.checked_sub(stages) {
+            sink(y, out_v.row(y, w), out_t.row(y, w));
+        }
+    }
+    Ok(())
 }
 
 /// One fused raw value (Q16): `F = ½(A_IR + A_VIS) + D_VIS + p_IR·(D_IR − D_VIS)` in Q46,
@@ -1075,7 +1227,7 @@ pub fn fuse_adf(
     let mut saturated = false;
     let guards = run(vis, tir, params, scratch, |y, raw| {
         for (o, &v) in out.row_mut(y).iter_mut().zip(raw) {
-            saturated |= !(-(1 << 15)..(255 << 16) + (1 << 15)).contains(&v);
+            saturated |= raw_saturates(v);
             *o = raw_to_u8(v);
         }
     })?;
@@ -1162,47 +1314,35 @@ pub fn fuse_adf_window(
             (iv, it, av, at)
         })
     };
-    let mut sums = [0i128; 5];
-    let mut small = true;
+    let mut cov = Covariance::new();
     for (iv, it, av, at) in rows() {
         let mut x = 0;
         while x < it.len() {
             let n = COV_CHUNK.min(it.len() - x);
             let iv = iv.map_or(level_row.get(..n), |r| r.get(x..x + n)).unwrap_or(&[]);
-            let (it, av, at) = (
-                it.get(x..x + n).unwrap_or(&[]),
-                av.get(x..x + n).unwrap_or(&[]),
-                at.get(x..x + n).unwrap_or(&[]),
-            );
-            let m = moments_small(iv, it, av, at).unwrap_or_else(|| {
-                small = false;
-                moments_exact(iv, it, av, at)
-            });
-            for (s, v) in sums.iter_mut().zip(m) {
-                *s += v;
-            }
+            let (av, at) = (av.get(x..x + n).unwrap_or(&[]), at.get(x..x + n).unwrap_or(&[]));
+            cov.add_row(iv, it.get(x..x + n).unwrap_or(&[]), av, at);
             x += n;
         }
     }
-    let [s1, s2, s11, s12, s22] = sums;
-    let n = frame_pixels as i128;
-    let weights = kl_weight(n * s11 - s1 * s1, n * s12 - s1 * s2, n * s22 - s2 * s2, params.variant);
-    let p_ir = weights.p_ir_q30;
-    let p32 = i32::try_from(p_ir).ok().filter(|_| small);
+    let fusion = cov.weights(frame_pixels, params.variant);
     let mut saturated = false;
     for (y, (iv, it, av, at)) in (exact.y0..).zip(rows()) {
         let dst = out.row_mut(y).get_mut(ex0..ex1).unwrap_or(&mut []);
-        for (x, (((o, &it), &av), &at)) in dst.iter_mut().zip(it).zip(av).zip(at).enumerate() {
-            let iv = iv.and_then(|r| r.get(x).copied()).unwrap_or(vis_level);
-            let v = match p32 {
-                Some(p) => fused_small(p, iv, it, av, at),
-                None => fused_general(p_ir, iv, it, av, at),
-            };
-            saturated |= !(-(1 << 15)..(255 << 16) + (1 << 15)).contains(&v);
-            *o = raw_to_u8(v);
-        }
+        saturated |= match iv {
+            Some(iv) => fusion.u8_row(iv, it, av, at, dst),
+            None => {
+                let mut sat = false;
+                for (((o, &it), &av), &at) in dst.iter_mut().zip(it).zip(av).zip(at) {
+                    let v = fusion.value(vis_level, it, av, at);
+                    sat |= raw_saturates(v);
+                    *o = raw_to_u8(v);
+                }
+                sat
+            }
+        };
     }
-    Ok(if saturated { weights.guards | Guards::OUTPUT_SATURATED } else { weights.guards })
+    Ok(if saturated { fusion.guards | Guards::OUTPUT_SATURATED } else { fusion.guards })
 }
 
 #[cfg(test)]

@@ -56,8 +56,11 @@
 //! # Scratch
 //!
 //! Three `i32` planes of W·H: the two box sums and the horizontal-pass plane; about 5 KiB of
-//! stack for the row chunks. The flight 8-bit kernel uses two of them: one row of column sums
-//! (`W + 2r + 1` entries; smaller frames take the general path) and the lane words.
+//! stack for the row chunks. The flight 8-bit kernel uses only the start of two of them: one
+//! row of column sums (`W + 2r + 1` entries) and a ring of `2r + 3` rows of lane words
+//! (frames shorter than the ring take the general path, with the same bytes). Its memory does
+//! not grow with the height and it can start at any row, which is what lets the strip
+//! pipeline ([`crate::strips`]) run it in 151 KiB at W = 1024.
 
 use super::{Guards, Variant};
 use crate::filters::border::Border;
@@ -375,8 +378,8 @@ fn run(
     let (zero, saturated) = match out {
         // Only Σ_IR − Σ_VIS enters the flight kernel; it keeps the window's column sums in one
         // padded row of `tmp` (a fallback for frames smaller than that row).
-        Out::U8(f) if !classic && tmp.len() > w + 2 * radius => {
-            flight_u8(vis, tir, taps as u32, radius, tmp, sum_v, f)
+        Out::U8(f) if !classic && flight_fits(w, radius, tmp.len(), sum_v.len()) => {
+            flight_u8(vis, tir, taps as u32, radius, tmp, sum_v, f, 0)
         }
         out => {
             box_sum_u8(vis, radius, params.mean_border(), tmp, sum_v)?;
@@ -460,18 +463,41 @@ fn saliency_reconstruct(
     (zero, saturated)
 }
 
-/// The flight variant's whole 8-bit fusion, row by row (replicate borders throughout).
+/// Rows of lane words the flight kernel keeps ([`flight_u8`]): the `2r + 2` rows of the
+/// 35×35 window's entering and leaving rows plus one ahead (`2r + 3`).
+pub(crate) const fn lane_ring_rows(radius: usize) -> usize {
+    2 * radius + 3
+}
+
+/// `i32` words the flight kernel needs for a `w`-wide frame: the padded column-sum row
+/// (`w + 2r + 1`) and the lane ring (`(2r + 3)·w`) — independent of the frame height.
+pub(crate) const fn flight_words(w: usize, radius: usize) -> usize {
+    w + 2 * radius + 1 + lane_ring_rows(radius) * w
+}
+
+/// Whether the flight kernel fits: `cols` words for the column sums, `lanes` for the ring.
+fn flight_fits(w: usize, radius: usize, cols: usize, lanes: usize) -> bool {
+    cols > w + 2 * radius && lanes >= lane_ring_rows(radius) * w
+}
+
+/// The flight variant's 8-bit fusion, row by row (replicate borders throughout): the rows
+/// `y0 .. y0 + out.height()` of the frame pair `(vis, tir)` into `out`.
 ///
-/// First both bands' pixels into the lane words `lanes` (W·H, [`lane_pair`]: VIS + IR·2¹⁶).
+/// Both bands' pixels go into lane words ([`lane_pair`]: VIS + IR·2¹⁶), kept in a ring of
+/// [`lane_ring_rows`] rows of `lanes` (`(2r + 3)·W` words): the rows `y − r − 1 ..= y + r + 1`
+/// around output row `y`, keyed by their unclamped index (a key beyond the frame holds the
+/// edge row), each converted once when it enters.
 /// Only `d = Σ_IR − Σ_VIS` of the box sums enters ([`fused_u8`] in the form below), so the
 /// window sums are of the difference `I_IR − I_VIS`: `cols` (at least `W + 2r + 1` entries)
-/// keeps each column's vertical window sum at `r + x`, updated by one entering and one leaving
-/// row per output row ([`column_step`]) and padded with `r + 1` copies of the edge columns on
-/// each side, so the horizontal running sum over it needs no border test. Then, chunk by chunk
-/// of the row, in short passes (few live values each): the weight-free part of each pixel,
-/// packed as below; the Scharr columns of both bands ([`scharr_columns_pair`]); per pixel the
-/// weights ([`scharr_l1_pair`], `w_VIS + w_IR·2¹⁶`) and the output. Returns (some pixel had
-/// both gradients 0, some output saturated).
+/// keeps each column's vertical window sum at `r + x`, summed over the window at the first
+/// row and then updated by one entering and one leaving row per output row ([`column_step`])
+/// and padded with `r + 1` copies of the edge columns on each side, so the horizontal running
+/// sum over it needs no border test. Then, chunk by chunk of the row, in short passes (few
+/// live values each): the weight-free part of each pixel, packed as below; the Scharr columns
+/// of both bands ([`scharr_columns_pair`]); per pixel the weights ([`scharr_l1_pair`],
+/// `w_VIS + w_IR·2¹⁶`) and the output. Returns (some pixel had both gradients 0, some output
+/// saturated). The memory does not grow with the frame height, and any row range gives the
+/// rows of the whole-frame run: the strip pipeline ([`crate::strips`]) runs it on windows.
 ///
 /// With `c = 2·taps`, `d = c·(a − 128) + r` (`a = ⌊(d + 128c)/c⌋ ∈ [0, 255]`,
 /// `0 ≤ r < c ≤ 7938`), `q_VIS = I_VIS + a ∈ [0, 510]`, `q_IR = I_IR − a + 255 ∈ [0, 510]`
@@ -483,6 +509,7 @@ fn saliency_reconstruct(
 /// `k = ⌊x/σ⌋ = ⌊(x + 128σ)/σ⌋ − 128` (`x + 128σ ≥ 0`: another unsigned division) clamped
 /// to `0..=255`, saturated exactly when `k ∉ 0..256` (σ ≤ 16320 < 2¹⁶ and `taps` is odd, so
 /// `2¹⁶ ∤ den` and the `U = 0` edge of [`fused_u8`] never arises).
+#[allow(clippy::too_many_arguments)]
 fn flight_u8(
     vis: FrameRef<'_, u8>,
     tir: FrameRef<'_, u8>,
@@ -491,6 +518,7 @@ fn flight_u8(
     cols: &mut [i32],
     lanes: &mut [i32],
     mut out: FrameMut<'_, u8>,
+    y0: usize,
 ) -> (bool, bool) {
     const TWO: NonZeroU32 = NonZeroU32::MIN.saturating_add(1);
     let (w, h) = vis.size();
@@ -506,43 +534,51 @@ fn flight_u8(
     let mut buf = [[0u32; 3]; CHUNK + 2];
     let span = 2 * radius + 1;
     let Some(cols) = cols.get_mut(..w + span) else { return (zero, false) };
-    // Both bands' pixels in the lanes of one word, read three times by the Scharr columns.
-    for (y, row) in lanes.chunks_exact_mut(w.max(1)).take(h).enumerate() {
-        for ((o, &v), &t) in row.iter_mut().zip(vis.row(y)).zip(tir.row(y)) {
+    let ring = lane_ring_rows(radius) as isize;
+    let Some(lanes) = lanes.get_mut(..ring as usize * w) else { return (zero, false) };
+    let slot = |k: isize| k.rem_euclid(ring) as usize * w;
+    // Converts the (clamped) frame row `k` into the ring slot of key `k`.
+    let fill = |lanes: &mut [i32], k: isize| {
+        let dst = lanes.get_mut(slot(k)..slot(k) + w).unwrap_or(&mut []);
+        for ((o, &v), &t) in dst.iter_mut().zip(vis.row_clamped(k)).zip(tir.row_clamped(k)) {
             *o = lane_pair(v, t);
         }
+    };
+    let first = y0 as isize;
+    for k in first - radius as isize - 1..=first + radius as isize + 1 {
+        fill(lanes, k);
     }
-    let lanes = FrameRef::new(lanes.get(..w * h).unwrap_or(&[]), w, h);
     // The lane weights of `column_step` (opaque: kept in registers, not rebuilt per pixel).
     let lane_weights = core::hint::black_box(LANE_WEIGHTS);
-    for y in 0..h {
+    for (y, dst) in (y0..h).zip(out.rows_mut()) {
         let yi = y as isize;
+        if yi > first {
+            fill(lanes, yi + radius as isize + 1);
+        }
         let (left, rest) = cols.split_at_mut(radius.min(cols.len()));
         let (mid, right) = rest.split_at_mut(w.min(rest.len()));
-        if y == 0 {
+        let lane_row = |k: isize| lanes.get(slot(k)..slot(k) + w).unwrap_or(&[]);
+        if yi == first {
             mid.fill(0);
-            for k in -(radius as isize)..=radius as isize {
+            for k in yi - radius as isize..=yi + radius as isize {
                 for ((m, &t), &v) in mid.iter_mut().zip(tir.row_clamped(k)).zip(vis.row_clamped(k)) {
                     *m += i32::from(t) - i32::from(v);
                 }
             }
-        } else if let Ok(l) = lanes {
-            let (enter, leave) =
-                (l.row_clamped(yi + radius as isize), l.row_clamped(yi - radius as isize - 1));
+        } else {
+            let (enter, leave) = (lane_row(yi + radius as isize), lane_row(yi - radius as isize - 1));
             for ((m, &e), &l) in mid.iter_mut().zip(enter).zip(leave) {
                 *m = column_step(*m, e, l, lane_weights);
             }
         }
-        let (first, last) = (mid.first().copied().unwrap_or(0), mid.last().copied().unwrap_or(0));
-        left.fill(first);
-        right.fill(last);
+        let (first_col, last_col) = (mid.first().copied().unwrap_or(0), mid.last().copied().unwrap_or(0));
+        left.fill(first_col);
+        right.fill(last_col);
         let cols = &*cols;
         // The running window sum of the pixel x = the sum of cols[x ..= x + 2r], plus the bias.
         let mut sum = cols.iter().take(span).sum::<i32>() + bias;
-        let rows =
-            lanes.as_ref().map_or([&[][..]; 3], |l| [l.row_clamped(yi - 1), l.row(y), l.row_clamped(yi + 1)]);
+        let rows = [lane_row(yi - 1), lane_row(yi), lane_row(yi + 1)];
         let (iv, ii) = (vis.row(y), tir.row(y));
-        let dst = out.row_mut(y);
         let mut x0 = 0;
         while x0 < w {
             let n = CHUNK.min(w - x0);
@@ -654,6 +690,51 @@ pub fn fuse_tsifsd_raw(
 ) -> Result<Guards, Error> {
     check_sizes(&vis, &tir, raw.size())?;
     run(vis, tir, params, scratch, Out::Raw(raw))
+}
+
+/// The flight variant's 8-bit rows `y0 .. y0 + out.height()` of the TSIFSD fusion of the pair
+/// `(vis, tir)`, the same bytes as those rows of [`fuse_tsifsd`] on the pair, from `work`
+/// alone: [`flight_words`]`(W, r)` words whatever the height (the strip pipeline,
+/// [`crate::strips`]). Returns the guards those rows fired.
+///
+/// Errors: [`Error::SizeMismatch`] (`vis`, `tir` sizes; `out` not `W` wide or reaching past the
+/// frame's last row), [`Error::InvalidParameter`] (`"variant"` for the classic variant, whose
+/// circular mean and zero-padded median have no row-local form here; bad parameters),
+/// [`Error::ScratchTooSmall`].
+pub(crate) fn fuse_tsifsd_flight_rows(
+    vis: FrameRef<'_, u8>,
+    tir: FrameRef<'_, u8>,
+    out: FrameMut<'_, u8>,
+    y0: usize,
+    params: &TsifsdParams,
+    work: &mut [i32],
+) -> Result<Guards, Error> {
+    params.validate()?;
+    if params.variant != Variant::Flight {
+        return Err(Error::InvalidParameter { name: "variant" });
+    }
+    let (w, h) = vis.size();
+    check_sizes(&vis, &tir, vis.size())?;
+    if out.width() != w || y0 + out.height() > h {
+        return Err(Error::SizeMismatch { expected: (w, h - y0.min(h)), got: out.size() });
+    }
+    let radius = usize::from(params.mean_size / 2);
+    let needed = flight_words(w, radius);
+    let capacity = work.len();
+    let (cols, lanes) = work
+        .get_mut(..needed)
+        .ok_or(Error::ScratchTooSmall { needed, capacity })?
+        .split_at_mut(w + 2 * radius + 1);
+    let taps = u32::from(params.mean_size) * u32::from(params.mean_size);
+    let (zero, saturated) = flight_u8(vis, tir, taps, radius, cols, lanes, out, y0);
+    let mut guards = Guards::NONE;
+    if zero {
+        guards |= Guards::TSIFSD_ZERO_SALIENCY;
+    }
+    if saturated {
+        guards |= Guards::OUTPUT_SATURATED;
+    }
+    Ok(guards)
 }
 
 #[cfg(test)]
@@ -919,14 +1000,30 @@ mod tests {
                         false,
                         Out::U8(FrameMut::new(&mut want, w, h)?),
                     );
-                    let (mut cols, mut lanes) = (std::vec![0i32; w + 2 * radius + 1], std::vec![0i32; w * h]);
+                    // The ring alone (dirty), whatever the height.
+                    let (mut cols, mut lanes) =
+                        (std::vec![7i32; w + 2 * radius + 1], std::vec![-3i32; lane_ring_rows(radius) * w]);
                     let out = FrameMut::new(&mut got, w, h)?;
-                    let g_got = flight_u8(vis, tir, taps as u32, radius, &mut cols, &mut lanes, out);
+                    let g_got = flight_u8(vis, tir, taps as u32, radius, &mut cols, &mut lanes, out, 0);
                     assert_eq!(
-                        (got, g_got),
-                        (want, g_want),
+                        (&got, g_got),
+                        (&want, g_want),
                         "case {k} {w}x{h} pattern {pattern} n {mean_size}"
                     );
+                    // Any row range gives those rows of the whole-frame run (the strip form).
+                    for (y0, n) in [(1, h - 1), (h / 2, h - h / 2), (h - 1, 1), (h / 3, 1.max(h / 3))] {
+                        if n == 0 || y0 + n > h {
+                            continue;
+                        }
+                        let mut rows = std::vec![0u8; w * n];
+                        let out = FrameMut::new(&mut rows, w, n)?;
+                        flight_u8(vis, tir, taps as u32, radius, &mut cols, &mut lanes, out, y0);
+                        assert_eq!(
+                            rows[..],
+                            want[y0 * w..(y0 + n) * w],
+                            "rows {y0}+{n} {w}x{h} n {mean_size}"
+                        );
+                    }
                 }
             }
         }

@@ -1,0 +1,327 @@
+//! Strip processing: fuse a frame pair in horizontal strips with halos, in a fixed working set
+//! of [`STRIP_SCRATCH_BYTES`] (512 KiB) besides the input and output frames, bit-identical to
+//! the whole-frame [`crate::pipeline::fuse`].
+//!
+//! The whole-frame pipeline keeps three `i32` planes and the rescaled band (13 bytes per grid
+//! pixel, 13 MiB at 1024²). A flight processor's fast RAM holds a few hundred KiB, so
+//! [`fuse_strips`] walks the grid top to bottom in strips of rows. For each strip it brings
+//! the strip's *window* (the strip grown by the method's halo, cut at the frame's edges) onto
+//! the grid — rescaling only the source rows the window's taps read, into the scratch's band
+//! buffer — and runs a row-streaming form of the method on the window, keeping only the strip's
+//! rows. Where a window ends inside the frame the halo absorbs the window's own border rule;
+//! where it ends at the frame's edge the border rule is the frame's. So every kept row is the
+//! whole-frame row, bit for bit (tested on rendered, synthetic and VIFB frames).
+//!
+//! | method | streaming form | halo (grid rows) | passes | work memory at width W |
+//! |---|---|---|---|---|
+//! | TSIFSD flight | the flight kernel started at the strip's first row: column sums of the 35×35 window and a ring of `2r + 3` rows of lane words | `r + 1` = 18 (mean radius + the Scharr row) | 1 | `(W + 2r + 1) + (2r + 3)·W` words (151 KiB at W = 1024) |
+//! | ADF (both variants) | both bands' diffusion row pipelines in lockstep (all iterations in one group) | `iterations` = 10 | 2: the covariance (global KL weights), then the output | `2·(iterations·3·(W + 2) + W)` words (248 KiB at W = 1024, 10 iterations) |
+//!
+//! ADF's weights come from the covariance of the whole frame's detail layers, which no strip
+//! knows alone: the first pass diffuses every strip and adds its rows to the exact integer sums
+//! (the order of addition does not change them), the second diffuses again and writes the
+//! output. The diffusion therefore runs twice; [`StripReport`] counts the rows.
+//!
+//! Not in strips (an `Err`, never a different result):
+//! * TSIFSD classic ([`Error::InvalidParameter`] `"variant"`): its circular 35×35 mean reads
+//!   the opposite edge of the frame and its median is zero-padded, a mix the row kernel does
+//!   not stream (it is the published-reproduction variant; flight is the one that flies).
+//! * IFEVIP ([`Error::InvalidParameter`] `"method"`): its background comes from a quadtree over
+//!   the whole IR frame, eroded and smoothed as planes, and its gain from whole-frame
+//!   histograms; a strip form would evaluate the background from the leaves' Bézier patches
+//!   row by row (not done).
+//! * Scene skipping ([`Error::InvalidParameter`] `"skip"`): strips run `SkipPolicy::None`.
+//! * A rescale that is not an exact 2× ratio of the policy's filter ([`Error::UnsupportedRatio`]):
+//!   only the 2× kernels rescale a window with the whole frame's bits. Same-size frames need
+//!   no band at all.
+//!
+//! Memory: [`StripScratch`] (`static` on the firmware): [`STRIP_WORK_WORDS`] `i32` words for the
+//! method and [`STRIP_BAND_BYTES`] bytes for the window of the rescaled band. The strip height
+//! is the largest the band holds (or `max_rows`, if smaller): at W = 1024 with TIR up, 210
+//! rows (TSIFSD) and 226 rows (ADF), five strips per frame.
+
+use crate::fuse::adf::{Covariance, diffuse_pair_rows, stream_words};
+use crate::fuse::tsifsd::{flight_words, fuse_tsifsd_flight_rows};
+use crate::fuse::{Guards, Variant};
+use crate::pipeline::{
+    FuseReport, Method, Pipeline, RescalePolicy, SkipPolicy, SkipReport, band_window, fusion_grid,
+};
+use crate::scene::Rect;
+use crate::{Error, Filter, FrameMut, FrameRef};
+
+/// `i32` words of method work memory in a [`StripScratch512K`] (256 KiB).
+pub const STRIP_WORK_WORDS: usize = 64 * 1024;
+/// Bytes of band window in a [`StripScratch512K`] (256 KiB: 256 rows of a 1024-wide grid).
+pub const STRIP_BAND_BYTES: usize = 256 * 1024;
+/// The whole strip working set of a [`StripScratch512K`]: 512 KiB.
+pub const STRIP_SCRATCH_BYTES: usize = STRIP_WORK_WORDS * 4 + STRIP_BAND_BYTES;
+
+/// Caller-owned strip memory: `WORDS` `i32` words for the method, `BAND` bytes for the window
+/// of the rescaled band.
+#[derive(Debug, Clone)]
+#[repr(C)]
+pub struct StripScratch<const WORDS: usize, const BAND: usize> {
+    work: [i32; WORDS],
+    band: [u8; BAND],
+}
+
+/// The 512 KiB strip scratch: fuses grids up to 1024 wide (TSIFSD flight and ADF with up to
+/// 10 iterations; wider grids or more iterations need more work words).
+pub type StripScratch512K = StripScratch<STRIP_WORK_WORDS, STRIP_BAND_BYTES>;
+
+impl<const WORDS: usize, const BAND: usize> StripScratch<WORDS, BAND> {
+    /// Zeroed scratch (usable in `static` initialisers).
+    pub const fn new() -> Self {
+        Self { work: [0; WORDS], band: [0; BAND] }
+    }
+
+    /// Borrows the memory as an unsized view.
+    pub fn view_mut(&mut self) -> StripScratchMut<'_> {
+        StripScratchMut { work: &mut self.work, band: &mut self.band }
+    }
+}
+
+impl<const WORDS: usize, const BAND: usize> Default for StripScratch<WORDS, BAND> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+/// Borrowed strip memory.
+#[derive(Debug)]
+pub struct StripScratchMut<'a> {
+    work: &'a mut [i32],
+    band: &'a mut [u8],
+}
+
+impl<'a> StripScratchMut<'a> {
+    /// Strip memory from caller-provided slices.
+    pub fn from_slices(work: &'a mut [i32], band: &'a mut [u8]) -> Self {
+        Self { work, band }
+    }
+
+    /// Bytes of the whole working set (work words and band).
+    pub fn bytes(&self) -> usize {
+        self.work.len() * 4 + self.band.len()
+    }
+}
+
+/// What a [`fuse_strips`] run did, for the working-set and halo-overhead reports.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct StripReport {
+    /// Number of strips per pass.
+    pub strips: usize,
+    /// Grid rows per strip (the last strip may be shorter).
+    pub strip_rows: usize,
+    /// Grid rows of the method's halo on each side of a strip.
+    pub halo_rows: usize,
+    /// Passes over the strips (1: TSIFSD; 2: ADF, covariance then output).
+    pub passes: usize,
+    /// Grid rows the method processed over all passes, halos included (the whole-frame run
+    /// processes the grid's height once).
+    pub method_rows: usize,
+    /// Rows of the rescaled band produced over all passes, halos and tap margins included
+    /// (0 when the frames share a grid; the whole-frame run produces the grid's height once).
+    pub band_rows: usize,
+    /// Work words the method used.
+    pub work_words: usize,
+    /// Most band bytes one window used.
+    pub band_bytes: usize,
+}
+
+impl StripReport {
+    /// The working set this run used: work words and the largest band window, in bytes.
+    pub fn working_set_bytes(&self) -> usize {
+        self.work_words * 4 + self.band_bytes
+    }
+}
+
+/// Band rows of `src` rescaled for the grid window rows `y0..y1` (mirrors `band_window`).
+fn band_rows_for(src: (usize, usize), grid: (usize, usize), y0: usize, y1: usize) -> usize {
+    if src == grid {
+        0
+    } else if grid.1 == 2 * src.1 {
+        let sy0 = (y0 / 2).saturating_sub(2);
+        let sy1 = (y1.div_ceil(2) + 2).min(src.1);
+        2 * (sy1 - sy0)
+    } else {
+        y1 - y0
+    }
+}
+
+/// The strips of one frame pair and how each window is brought onto the grid.
+struct Walk<'f> {
+    vis: FrameRef<'f, u8>,
+    tir: FrameRef<'f, u8>,
+    grid: (usize, usize),
+    /// Size of the band's source frame and the policy's filter.
+    src: (usize, usize),
+    filter: Filter,
+    /// Whether the sizes differ (a band is rescaled), and whether it is a 2× cubic up.
+    rescaled: bool,
+    up2: bool,
+    halo: usize,
+    strip_rows: usize,
+}
+
+impl Walk<'_> {
+    /// One pass: for each strip, top to bottom, its window `y0..y1` on the grid as two views
+    /// (the rescaled one in `band`) and `f(vis window, tir window, y0, strip rows)`, which
+    /// returns the grid rows the method processed. Adds the rows to `report`.
+    fn run(
+        &self,
+        band: &mut [u8],
+        report: &mut StripReport,
+        mut f: impl FnMut(
+            FrameRef<'_, u8>,
+            FrameRef<'_, u8>,
+            usize,
+            core::ops::Range<usize>,
+        ) -> Result<usize, Error>,
+    ) -> Result<(), Error> {
+        let (w, h) = self.grid;
+        for s0 in (0..h).step_by(self.strip_rows.max(1)) {
+            let s1 = (s0 + self.strip_rows).min(h);
+            let mut y0 = s0.saturating_sub(self.halo);
+            if self.up2 {
+                y0 &= !1; // the 2× kernel's phase: windows start on an even grid row
+            }
+            let y1 = (s1 + self.halo).min(h);
+            let win = Rect { x0: 0, y0, x1: w, y1 };
+            let (vis, tir) = (self.vis.sub_rect(0, y0, w, y1 - y0), self.tir.sub_rect(0, y0, w, y1 - y0));
+            let method_rows = if !self.rescaled {
+                f(vis?, tir?, y0, s0..s1)?
+            } else if self.filter == Filter::Cubic {
+                let (t, _) = band_window(self.tir, self.grid, win, self.filter, band)?;
+                f(vis?, t, y0, s0..s1)?
+            } else {
+                let (v, _) = band_window(self.vis, self.grid, win, self.filter, band)?;
+                f(v, tir?, y0, s0..s1)?
+            };
+            let band_rows = if self.rescaled { band_rows_for(self.src, self.grid, y0, y1) } else { 0 };
+            report.band_rows += band_rows;
+            report.band_bytes = report.band_bytes.max(band_rows * w);
+            report.method_rows += method_rows;
+        }
+        Ok(())
+    }
+}
+
+/// Fuses a VIS/TIR pair like [`crate::pipeline::fuse`] with `pipeline.skip` =
+/// [`SkipPolicy::None`], but strip by strip in `scratch` (see the module docs): the same
+/// bytes, the same guards. `max_rows` caps the strip height (`usize::MAX`: as tall as the
+/// scratch allows; smaller strips cost more halo rows).
+///
+/// Errors: those of [`crate::pipeline::fuse`]; [`Error::InvalidParameter`] for what strips do
+/// not run (`"skip"`, `"variant"` for TSIFSD classic, `"method"` for IFEVIP, `"max_rows"` for
+/// 0); [`Error::UnsupportedRatio`] for a rescale that is not an exact 2× of the policy's filter;
+/// [`Error::ScratchTooSmall`] (in bytes of band or words of work) when not even a one-row strip
+/// and its halos fit. Nothing is written to `out` before these checks pass.
+pub fn fuse_strips(
+    vis: FrameRef<'_, u8>,
+    tir: FrameRef<'_, u8>,
+    mut out: FrameMut<'_, u8>,
+    scratch: &mut StripScratchMut<'_>,
+    pipeline: &Pipeline,
+    max_rows: usize,
+) -> Result<(FuseReport, StripReport), Error> {
+    if pipeline.skip != SkipPolicy::None {
+        return Err(Error::InvalidParameter { name: "skip" });
+    }
+    if max_rows == 0 {
+        return Err(Error::InvalidParameter { name: "max_rows" });
+    }
+    pipeline.method.validate()?;
+    let grid = fusion_grid(vis.size(), tir.size(), pipeline.rescale)?;
+    if out.size() != grid {
+        return Err(Error::SizeMismatch { expected: grid, got: out.size() });
+    }
+    let (w, h) = grid;
+    let (halo, passes, words) = match &pipeline.method {
+        Method::Tsifsd(p) if p.variant == Variant::Flight => {
+            (usize::from(p.mean_size / 2) + 1, 1, flight_words(w, usize::from(p.mean_size / 2)))
+        }
+        Method::Tsifsd(_) => return Err(Error::InvalidParameter { name: "variant" }),
+        Method::Adf(p) => (usize::from(p.iterations), 2, stream_words(w, p)),
+        Method::Ifevip(_) => return Err(Error::InvalidParameter { name: "method" }),
+    };
+    if scratch.work.len() < words {
+        return Err(Error::ScratchTooSmall { needed: words, capacity: scratch.work.len() });
+    }
+    // The band: which input is rescaled, with which filter, and whether its 2× kernel can
+    // rescale a window with the whole frame's bits.
+    let (src, filter) = match pipeline.rescale {
+        RescalePolicy::TirUp => (tir.size(), Filter::Cubic),
+        RescalePolicy::VisDown | RescalePolicy::None => (vis.size(), Filter::Area),
+    };
+    let rescaled = vis.size() != tir.size();
+    let up2 = grid == (2 * src.0, 2 * src.1) && filter == Filter::Cubic;
+    let down2 = src == (2 * w, 2 * h) && filter == Filter::Area;
+    if rescaled && !up2 && !down2 {
+        return Err(Error::UnsupportedRatio);
+    }
+    // Window rows: the strip, its halo on both sides and (2× up) one row of alignment; the
+    // band of a 2× up window holds up to 9 rows more (the taps' margins).
+    let window_rows = if rescaled { scratch.band.len() / w.max(1) } else { usize::MAX };
+    let margin = if up2 { 9 } else { 0 };
+    let fit = window_rows.saturating_sub(margin + 2 * halo + usize::from(up2));
+    if fit == 0 {
+        let needed = w * (margin + 2 * halo + 2);
+        return Err(Error::ScratchTooSmall { needed, capacity: scratch.band.len() });
+    }
+    let strip_rows = fit.min(max_rows).min(h);
+    let strips = h.div_ceil(strip_rows);
+    let mut report = StripReport {
+        strips,
+        strip_rows,
+        halo_rows: halo,
+        passes,
+        method_rows: 0,
+        band_rows: 0,
+        work_words: words,
+        band_bytes: 0,
+    };
+
+    let StripScratchMut { work, band } = scratch;
+    let walk = Walk { vis, tir, grid, src, filter, rescaled, up2, halo, strip_rows };
+    let mut guards = Guards::NONE;
+    match &pipeline.method {
+        Method::Tsifsd(p) => walk.run(band, &mut report, |vis_w, tir_w, y0, strip| {
+            let rows = out.sub_rect_mut(0, strip.start, w, strip.len())?;
+            guards |= fuse_tsifsd_flight_rows(vis_w, tir_w, rows, strip.start - y0, p, work)?;
+            Ok(strip.len()) // the kernel starts at the strip's first row
+        })?,
+        Method::Adf(p) => {
+            let mut cov = Covariance::new();
+            walk.run(band, &mut report, |vis_w, tir_w, y0, strip| {
+                let keep = strip.start - y0..strip.end - y0;
+                diffuse_pair_rows(vis_w, tir_w, p, work, keep.end, |y, av, at| {
+                    if keep.contains(&y) {
+                        cov.add_row(vis_w.row(y), tir_w.row(y), av, at);
+                    }
+                })?;
+                Ok(keep.end) // the diffusion runs from the window's first row
+            })?;
+            let fusion = cov.weights(w * h, p.variant);
+            guards |= fusion.guards;
+            let mut saturated = false;
+            walk.run(band, &mut report, |vis_w, tir_w, y0, strip| {
+                let keep = strip.start - y0..strip.end - y0;
+                diffuse_pair_rows(vis_w, tir_w, p, work, keep.end, |y, av, at| {
+                    if keep.contains(&y) {
+                        let (iv, it) = (vis_w.row(y), tir_w.row(y));
+                        saturated |= fusion.u8_row(iv, it, av, at, out.row_mut(y0 + y));
+                    }
+                })?;
+                Ok(keep.end)
+            })?;
+            if saturated {
+                guards |= Guards::OUTPUT_SATURATED;
+            }
+        }
+        Method::Ifevip(_) => return Err(Error::InvalidParameter { name: "method" }),
+    }
+    let fuse =
+        FuseReport { grid, rescaled, guards, skip: SkipReport::none(SkipPolicy::None, grid, rescaled) };
+    Ok((fuse, report))
+}

@@ -270,7 +270,7 @@ pub fn fuse_strips(
         return Err(Error::ScratchTooSmall { needed, capacity: scratch.band.len() });
     }
     let strip_rows = fit.min(max_rows).min(h);
-    let strips = h.div_ceil(strip_rows);
+    let strips = h.div_ceil(strip_rows.max(1));
     let mut report = StripReport {
         strips,
         strip_rows,

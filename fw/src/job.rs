@@ -9,7 +9,9 @@
 //! 24      n × 4 bytes: method (0 ADF, 1 TSIFSD, 2 IFEVIP), variant (0 classic, 1 flight),
 //!         rescale policy (0 TIR up, 1 VIS down, 2 none), flags (bit 0: measure the stages;
 //!         bit 1: raise a fault instead, to test that a fault ends the emulation with status 1;
-//!         bits 2–3: scene skip level, 0 none, 1 ROI, 2 all; bits 4–7 must be 0)
+//!         bits 2–3: scene skip level, 0 none, 1 ROI, 2 all; bit 4: fuse in strips
+//!         (`fusion_nostd::strips::fuse_strips`, the 512 KiB strip scratch, tallest strips;
+//!         not with bits 0 or 2–3); bits 5–7 must be 0)
 //! ```
 //! Method parameters are the core's defaults for the variant, the scene analysis thresholds
 //! `SceneParams::default()` (the host builds the same [`Pipeline`] for its comparison run).
@@ -33,6 +35,8 @@ pub struct Run {
     pub stages: bool,
     /// Raise a fault (an undefined instruction) instead of running.
     pub fault: bool,
+    /// Fuse strip by strip in the strip scratch.
+    pub strips: bool,
 }
 
 /// A parsed job.
@@ -89,14 +93,25 @@ impl Job {
                 2 => SkipPolicy::All,
                 _ => return Err("job.bin: bad skip level"),
             };
-            if flags >> 4 != 0 {
+            if flags >> 5 != 0 {
                 return Err("job.bin: unknown flags");
             }
             if flags & 1 != 0 && skip != SkipPolicy::None {
                 return Err("job.bin: a staged run cannot skip");
             }
-            *slot =
-                Some(Run { method, variant, policy, skip, stages: flags & 1 != 0, fault: flags & 2 != 0 });
+            let strips = flags & 0x10 != 0;
+            if strips && (flags & 1 != 0 || skip != SkipPolicy::None) {
+                return Err("job.bin: a strip run cannot be staged or skip");
+            }
+            *slot = Some(Run {
+                method,
+                variant,
+                policy,
+                skip,
+                stages: flags & 1 != 0,
+                fault: flags & 2 != 0,
+                strips,
+            });
         }
         Ok(Job { vis, tir, runs, n })
     }
@@ -115,6 +130,7 @@ impl Run {
         skip: SkipPolicy::None,
         stages: false,
         fault: false,
+        strips: false,
     };
 
     /// The core configuration of this run.

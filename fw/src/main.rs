@@ -65,6 +65,10 @@ static mut TIR: [u8; sizes::TIR] = [0; sizes::TIR];
 static mut OUT: [u8; sizes::OUT] = [0; sizes::OUT];
 #[unsafe(link_section = ".bigram")]
 static mut SCRATCH: sizes::Scratch = sizes::Scratch::new();
+/// The strip pipeline's whole working set (512 KiB), in the processor's RAM (`.bss`), not in
+/// the big frame memory: the design point of `fusion_nostd::strips`.
+static mut STRIP_SCRATCH: fusion_nostd::strips::StripScratch512K =
+    fusion_nostd::strips::StripScratch512K::new();
 
 /// Written by the marker functions so that they have distinct bodies (identical functions
 /// could be merged into one address) and a visible side effect.
@@ -273,7 +277,8 @@ fn exercise_entry_points() {
             (black_box(40usize), black_box(30usize), black_box(20usize), black_box(15usize), dw, dh);
         for method in methods {
             for policy in policies {
-                let pipeline = black_box(Pipeline { rescale: policy, method: black_box(method), ..Default::default() });
+                let pipeline =
+                    black_box(Pipeline { rescale: policy, method: black_box(method), ..Default::default() });
                 let [p0, p1, p2] = &mut *planes;
                 let mut scratch = ScratchMut::with_band([p0, p1, p2], &mut *band);
                 if let (Ok(v), Ok(t), Ok(o)) =
@@ -285,6 +290,25 @@ fn exercise_entry_points() {
                     (FrameRef::new(a, vw, vh), FrameRef::new(a2, tw, th), FrameMut::new(&mut *raw, ow, oh))
                 {
                     let _ = black_box(fuse_raw(v, t, o, &mut scratch, &pipeline));
+                }
+                // The strip pipeline, in the strip scratch's words and band (cut short too).
+                if let (Ok(v), Ok(t), Ok(o)) =
+                    (FrameRef::new(a, vw, vh), FrameRef::new(a2, tw, th), FrameMut::new(&mut *b, ow, oh))
+                {
+                    let [p0, _, _] = &mut *planes;
+                    let (words, band_len) = (black_box(p0.len()), black_box(band.len()));
+                    let mut strip = fusion_nostd::strips::StripScratchMut::from_slices(
+                        p0.get_mut(..words).unwrap_or(&mut []),
+                        band.get_mut(..band_len).unwrap_or(&mut []),
+                    );
+                    let _ = black_box(fusion_nostd::strips::fuse_strips(
+                        v,
+                        t,
+                        o,
+                        &mut strip,
+                        &pipeline,
+                        black_box(7),
+                    ));
                 }
                 let _ = black_box(pipeline.scratch_pixels((vw, vh), (tw, th)));
             }

@@ -2,12 +2,13 @@
 //! in measured regions), writes the fused frames; or, without a job, a small self-test.
 
 use crate::semihosting;
-use crate::{Meter, OUT, SCRATCH, TIR, VIS, fnv1a, job, say, sizes};
+use crate::{Meter, OUT, SCRATCH, STRIP_SCRATCH, TIR, VIS, fnv1a, job, say, sizes};
 use core::fmt::Write;
 use fusion_nostd::fuse::adf::diffuse;
 use fusion_nostd::fuse::ifevip::background;
 use fusion_nostd::pipeline::{FuseReport, Method, Pipeline, RescalePolicy, fuse, fuse_method, fusion_grid};
 use fusion_nostd::scene::Decline;
+use fusion_nostd::strips::fuse_strips;
 use fusion_nostd::{Filter, FrameMut, FrameRef, Guards, ScratchMut, rescale};
 
 /// What can stop a job.
@@ -90,12 +91,13 @@ fn staged(
 
 pub fn run_job(m: &mut Meter) -> Result<(), FwError> {
     // SAFETY: single-threaded; these are the only references to the buffers.
-    let (vis_buf, tir_buf, out_buf, scratch) = unsafe {
+    let (vis_buf, tir_buf, out_buf, scratch, strip_scratch) = unsafe {
         (
             &mut *core::ptr::addr_of_mut!(VIS),
             &mut *core::ptr::addr_of_mut!(TIR),
             &mut *core::ptr::addr_of_mut!(OUT),
             &mut *core::ptr::addr_of_mut!(SCRATCH),
+            &mut *core::ptr::addr_of_mut!(STRIP_SCRATCH),
         )
     };
     let mut raw = [0u8; job::MAX_LEN];
@@ -142,7 +144,26 @@ pub fn run_job(m: &mut Meter) -> Result<(), FwError> {
             staged_sum = Some(fnv1a(out));
             out.fill(0);
         }
-        let report: FuseReport = {
+        let report: FuseReport = if run.strips {
+            let out_frame = FrameMut::new(&mut *out, w, h)?;
+            let mut sv = strip_scratch.view_mut();
+            let (report, s) =
+                m.region("pipeline", || fuse_strips(vis, tir, out_frame, &mut sv, &pipeline, usize::MAX))?;
+            say!(
+                m.con,
+                "@fw strips {} count {} rows {} halo {} passes {} method_rows {} band_rows {} work_words {} band_bytes {}",
+                i,
+                s.strips,
+                s.strip_rows,
+                s.halo_rows,
+                s.passes,
+                s.method_rows,
+                s.band_rows,
+                s.work_words,
+                s.band_bytes
+            );
+            report
+        } else {
             let out_frame = FrameMut::new(&mut *out, w, h)?;
             let mut sv = scratch.view_mut();
             m.region("pipeline", || fuse(vis, tir, out_frame, &mut sv, &pipeline))?

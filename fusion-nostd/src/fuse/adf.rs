@@ -1135,6 +1135,14 @@ pub(crate) fn stream_words(w: usize, params: &AdfParams) -> usize {
     2 * (usize::from(params.iterations) * STAGE_ROWS * (w + 2) + w)
 }
 
+/// `work` cut into four consecutive slices of these lengths (`None` when it is too short).
+fn split4(work: &mut [i32], [a, b, c, d]: [usize; 4]) -> Option<[&mut [i32]; 4]> {
+    let (first, rest) = work.split_at_mut_checked(a)?;
+    let (second, rest) = rest.split_at_mut_checked(b)?;
+    let (third, rest) = rest.split_at_mut_checked(c)?;
+    Some([first, second, third, rest.get_mut(..d)?])
+}
+
 /// Diffuses both bands together through one row pipeline each (all iterations in one group,
 /// the streaming form of [`diffuse`], the same bits) and hands every row `y < until` of the
 /// two base layers to `sink(y, A_VIS row, A_TIR row)`, top to bottom; rows from `until` on
@@ -1154,10 +1162,9 @@ pub(crate) fn diffuse_pair_rows(
     let stages = usize::from(params.iterations);
     let needed = stream_words(w, params);
     let capacity = work.len();
-    let work = work.get_mut(..needed).ok_or(Error::ScratchTooSmall { needed, capacity })?;
-    let (mem_v, rest) = work.split_at_mut(stages * STAGE_ROWS * (w + 2));
-    let (mem_t, rest) = rest.split_at_mut(stages * STAGE_ROWS * (w + 2));
-    let (row_v, row_t) = rest.split_at_mut(w);
+    let per_band = stages * STAGE_ROWS * (w + 2);
+    let [mem_v, mem_t, row_v, row_t] =
+        split4(work, [per_band, per_band, w, w]).ok_or(Error::ScratchTooSmall { needed, capacity })?;
     mem_v.fill(0);
     mem_t.fill(0);
     let diffusion = Diffusion::new(params);

@@ -536,7 +536,7 @@ fn flight_u8(
     let Some(cols) = cols.get_mut(..w + span) else { return (zero, false) };
     let ring = lane_ring_rows(radius) as isize;
     let Some(lanes) = lanes.get_mut(..ring as usize * w) else { return (zero, false) };
-    let slot = |k: isize| k.rem_euclid(ring) as usize * w;
+    let slot = |k: isize| k.checked_rem_euclid(ring).unwrap_or(0) as usize * w;
     // Converts the (clamped) frame row `k` into the ring slot of key `k`.
     let fill = |lanes: &mut [i32], k: isize| {
         let dst = lanes.get_mut(slot(k)..slot(k) + w).unwrap_or(&mut []);
@@ -723,8 +723,8 @@ pub(crate) fn fuse_tsifsd_flight_rows(
     let capacity = work.len();
     let (cols, lanes) = work
         .get_mut(..needed)
-        .ok_or(Error::ScratchTooSmall { needed, capacity })?
-        .split_at_mut(w + 2 * radius + 1);
+        .and_then(|m| m.split_at_mut_checked(w + 2 * radius + 1))
+        .ok_or(Error::ScratchTooSmall { needed, capacity })?;
     let taps = u32::from(params.mean_size) * u32::from(params.mean_size);
     let (zero, saturated) = flight_u8(vis, tir, taps, radius, cols, lanes, out, y0);
     let mut guards = Guards::NONE;

@@ -165,12 +165,15 @@ pub struct RunSpec {
     pub stages: bool,
     /// Make the image raise a fault instead (tests that a fault ends the run with status 1).
     pub fault: bool,
+    /// Fuse strip by strip in the image's 512 KiB strip scratch (`fusion_nostd::strips`); the
+    /// output must equal the host's whole-frame `fuse`.
+    pub strips: bool,
 }
 
 impl RunSpec {
     /// A whole-pipeline run (no stages, no fault, no skipping).
     pub fn plain(method: MethodArg, variant: VariantArg, policy: RescaleArg) -> Self {
-        RunSpec { method, variant, policy, skip: SkipArg::None, stages: false, fault: false }
+        RunSpec { method, variant, policy, skip: SkipArg::None, stages: false, fault: false, strips: false }
     }
 
     /// The core configuration the image builds for this run (`fw/src/job.rs`), for the host's
@@ -205,7 +208,9 @@ impl RunSpec {
             SkipArg::Roi => 1,
             SkipArg::All => 2,
         };
-        [method, variant, policy, u8::from(self.stages) | (u8::from(self.fault) << 1) | (skip << 2)]
+        let flags =
+            u8::from(self.stages) | (u8::from(self.fault) << 1) | (skip << 2) | (u8::from(self.strips) << 4);
+        [method, variant, policy, flags]
     }
 
     /// The inverse of [`RunSpec::encode`], with the image's checks (`fw/src/job.rs`).
@@ -233,10 +238,11 @@ impl RunSpec {
             2 => SkipArg::All,
             s => bail!("bad skip level {s}"),
         };
-        ensure!(flags >> 4 == 0, "unknown flags {flags:#x}");
-        let (stages, fault) = (flags & 1 != 0, flags & 2 != 0);
+        ensure!(flags >> 5 == 0, "unknown flags {flags:#x}");
+        let (stages, fault, strips) = (flags & 1 != 0, flags & 2 != 0, flags & 0x10 != 0);
         ensure!(!(stages && skip != SkipArg::None), "a staged run cannot skip");
-        Ok(RunSpec { method, variant, policy, skip, stages, fault })
+        ensure!(!(strips && (stages || skip != SkipArg::None)), "a strip run cannot be staged or skip");
+        Ok(RunSpec { method, variant, policy, skip, stages, fault, strips })
     }
 }
 
@@ -296,6 +302,8 @@ pub struct RunOut {
     pub image: Option<Gray<u8>>,
     /// The scene-skip report (images before the skip level print none).
     pub skip: Option<SkipOut>,
+    /// The strip report of a strip run (`@fw strips` line).
+    pub strips: Option<fusion_nostd::strips::StripReport>,
 }
 
 impl RunOut {
@@ -376,6 +384,7 @@ pub fn parse_report(console: &str, plugin_log: Option<&str>) -> Result<FwReport>
                     size: (w.parse()?, h.parse()?),
                     image: None,
                     skip: None,
+                    strips: None,
                 });
             }
             ["result", i, "guards", g, "rescaled", r, "fnv1a", sum, "file", _] => {
@@ -391,6 +400,38 @@ pub fn parse_report(console: &str, plugin_log: Option<&str>) -> Result<FwReport>
                     taken: parse_hex(taken)?,
                     declined: declined.to_string(),
                     computed: [x0.parse()?, y0.parse()?, x1.parse()?, y1.parse()?],
+                });
+            }
+            [
+                "strips",
+                i,
+                "count",
+                count,
+                "rows",
+                rows,
+                "halo",
+                halo,
+                "passes",
+                passes,
+                "method_rows",
+                method_rows,
+                "band_rows",
+                band_rows,
+                "work_words",
+                words,
+                "band_bytes",
+                band_bytes,
+            ] => {
+                let run = runs.get_mut(i.parse::<usize>()?).context("strip report for an unknown run")?;
+                run.strips = Some(fusion_nostd::strips::StripReport {
+                    strips: count.parse()?,
+                    strip_rows: rows.parse()?,
+                    halo_rows: halo.parse()?,
+                    passes: passes.parse()?,
+                    method_rows: method_rows.parse()?,
+                    band_rows: band_rows.parse()?,
+                    work_words: words.parse()?,
+                    band_bytes: band_bytes.parse()?,
                 });
             }
             ["stack", n] => stack_bytes = Some(n.parse()?),
@@ -605,6 +646,7 @@ mod tests {
                 skip: SkipArg::None,
                 stages: true,
                 fault: true,
+                strips: false,
             }],
         };
         let b = job.encode()?;

@@ -73,6 +73,11 @@ fn method_region(m: MethodArg) -> &'static str {
     }
 }
 
+/// Whether the method runs in strips ([`fusion_nostd::strips`]: TSIFSD flight and ADF).
+pub fn has_strips(m: MethodArg) -> bool {
+    matches!(m, MethodArg::Adf | MethodArg::Tsifsd)
+}
+
 /// One row of the stage table.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Stage {
@@ -320,6 +325,8 @@ pub struct Outcome {
     pub wall: Vec<(Target, String, f64)>,
     /// Targets on which a deliberate fault was checked to end the run with status 1.
     pub fault_exit: Vec<Target>,
+    /// The strip runs' reports: `(target, grid, method, report)`.
+    pub strips: Vec<(Target, Grid, MethodArg, fusion_nostd::strips::StripReport)>,
 }
 
 /// Compares every run of `report` with the host's result for the same job; returns how many
@@ -438,18 +445,17 @@ pub fn run(opts: &Options) -> Result<Outcome> {
             if !opts.grids.contains(&grid) || opts.methods.is_empty() {
                 continue;
             }
-            let job = Job {
-                vis: pair.0.clone(),
-                tir: pair.1.clone(),
-                runs: opts
-                    .methods
-                    .iter()
-                    .map(|&method| RunSpec {
-                        stages: true,
-                        ..RunSpec::plain(method, VariantArg::Flight, grid.policy())
-                    })
-                    .collect(),
-            };
+            // The staged run of every method, then the strip run of each method that has one
+            // (the same pipeline strip by strip in the 512 KiB strip scratch).
+            let staged = opts.methods.iter().map(|&method| RunSpec {
+                stages: true,
+                ..RunSpec::plain(method, VariantArg::Flight, grid.policy())
+            });
+            let strips = opts.methods.iter().filter(|&&m| has_strips(m)).map(|&method| RunSpec {
+                strips: true,
+                ..RunSpec::plain(method, VariantArg::Flight, grid.policy())
+            });
+            let job = Job { vis: pair.0.clone(), tir: pair.1.clone(), runs: staged.chain(strips).collect() };
             let mut first: Option<FwReport> = None;
             for rep in 0..opts.repeat.max(1) {
                 progress(&format!(
@@ -489,19 +495,35 @@ pub fn run(opts: &Options) -> Result<Outcome> {
                 &format!("{target} {}² budget pair", grid.side()),
             )?;
             out.exact.push((
-                format!("{target}: budget pair, {}² grid, flight", grid.side()),
+                format!("{target}: budget pair, {}² grid, flight (whole frame and strips)", grid.side()),
                 job.runs.len(),
                 same,
             ));
             out.stacks.push((target, grid, report.stack_bytes));
             out.overheads.push((target, grid, report.overhead));
             for (spec, run) in job.runs.iter().zip(&report.runs) {
-                out.measured.push(Measured {
-                    target,
-                    grid,
-                    method: spec.method,
-                    stages: stages_of(spec.method, run)?,
+                if !spec.strips {
+                    out.measured.push(Measured {
+                        target,
+                        grid,
+                        method: spec.method,
+                        stages: stages_of(spec.method, run)?,
+                    });
+                    continue;
+                }
+                let count = run.region("pipeline").context("no pipeline region in a strip run")?;
+                let strips = run.strips.context("no strip report")?;
+                let m = out
+                    .measured
+                    .iter_mut()
+                    .find(|m| m.target == target && m.grid == grid && m.method == spec.method)
+                    .context("a strip run without its staged run")?;
+                m.stages.push(Stage {
+                    key: "strips",
+                    what: "whole pipeline in strips (512 KiB working set, bit-identical)",
+                    count,
                 });
+                out.strips.push((target, grid, spec.method, strips));
             }
         }
         if opts.exactness {
@@ -716,6 +738,9 @@ pub fn report(out: &Outcome, budgets: &Table, chk: &Check) -> String {
             },
         );
     }
+    if !out.strips.is_empty() {
+        s.push_str(&strip_table(out));
+    }
     if !out.exact.is_empty() {
         s.push_str("\n### Bit-exactness against the host\n\n| runs | identical |\n|---|---|\n");
         for (what, n, same) in &out.exact {
@@ -739,6 +764,46 @@ pub fn report(out: &Outcome, budgets: &Table, chk: &Check) -> String {
     s
 }
 
+/// The strip runs next to the whole-frame runs: strips, halos, the rows and instructions the
+/// halos add, and the working set (method words + band window) against the 512 KiB scratch.
+fn strip_table(out: &Outcome) -> String {
+    let mut s = String::from(
+        "\n### Strip processing: 512 KiB working set besides the frames (`fusion_nostd::strips`)\n\n\
+         | target | grid | method | strips × rows | halo | passes | method rows / grid rows | band rows | \
+         working set (work + band) | instructions, strips | whole frame | strips / whole |\n\
+         |---|---|---|---|---:|---:|---:|---:|---|---:|---:|---:|\n",
+    );
+    for (target, grid, method, r) in &out.strips {
+        let Some(m) =
+            out.measured.iter().find(|m| m.target == *target && m.grid == *grid && m.method == *method)
+        else {
+            continue;
+        };
+        let strips = m.stages.iter().find(|st| st.key == "strips").map_or(0, |st| st.count);
+        let whole = m.pipeline();
+        let side = grid.side();
+        let _ = writeln!(
+            s,
+            "| {target} | {side}² | {} | {} × {} | {} | {} | {:.3} | {} | {:.1} + {:.1} = {:.1} KiB | {strips} | {whole} | {:.3} |",
+            method_key(*method),
+            r.strips,
+            r.strip_rows,
+            r.halo_rows,
+            r.passes,
+            r.method_rows as f64 / side as f64,
+            r.band_rows,
+            (r.work_words * 4) as f64 / 1024.0,
+            r.band_bytes as f64 / 1024.0,
+            r.working_set_bytes() as f64 / 1024.0,
+            strips as f64 / whole.max(1) as f64,
+        );
+    }
+    s.push_str(
+        "\nEach strip run's output is compared with the host's whole-frame `fuse` (the bit-exactness table).\n",
+    );
+    s
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -752,6 +817,7 @@ mod tests {
             size: (4, 4),
             image: None,
             skip: None,
+            strips: None,
         }
     }
 

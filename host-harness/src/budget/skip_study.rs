@@ -437,7 +437,14 @@ mod tests {
         assert_eq!(RunSpec::decode(all.encode())?, all);
         // Skip level 3, unknown flag bits and a staged skipping run are refused (as by the image).
         assert!(RunSpec::decode([0, 1, 0, 3 << 2]).is_err());
-        assert!(RunSpec::decode([0, 1, 0, 1 << 4]).is_err());
+        assert!(RunSpec::decode([0, 1, 0, 1 << 5]).is_err());
+        // A strip run round-trips; staged or skipping strip runs are refused.
+        let strips =
+            RunSpec { strips: true, ..RunSpec::plain(MethodArg::Adf, VariantArg::Flight, RescaleArg::TirUp) };
+        assert_eq!(strips.encode(), [0, 1, 0, 1 << 4]);
+        assert_eq!(RunSpec::decode(strips.encode())?, strips);
+        assert!(RunSpec::decode([0, 1, 0, (1 << 4) | 1]).is_err());
+        assert!(RunSpec::decode([0, 1, 0, (1 << 4) | (1 << 2)]).is_err());
         assert!(RunSpec::decode([0, 1, 0, (1 << 2) | 1]).is_err());
         assert_eq!(all.pipeline().skip, fusion_nostd::pipeline::SkipPolicy::All);
         Ok(())
@@ -465,6 +472,7 @@ mod tests {
                 declined: decline_text(&report),
                 computed: [c.x0, c.y0, c.x1, c.y1],
             }),
+            strips: None,
         };
         assert!(compare_run(&spec, &image, &report, &good).is_empty());
         let mut bad = good.clone();

@@ -124,12 +124,57 @@ pub struct FuseArgs {
     /// ROI are bit-identical to none); all adds the eclipse plan. The report is printed.
     #[arg(long, value_enum, default_value_t = SkipArg::None)]
     pub skip: SkipArg,
+    /// Fuse strip by strip in the flight core's 512 KiB strip scratch (core engine, TSIFSD
+    /// flight and ADF; no --skip, no --raw): bit-identical to the whole-frame run. The value
+    /// caps the strip height in grid rows (`max`: as tall as the scratch allows). The strip
+    /// report is printed.
+    #[arg(long, value_name = "ROWS|max")]
+    pub strips: Option<StripRows>,
     /// Visible image (grey PNG; colour is converted with BT.601 weights).
     pub vis: PathBuf,
     /// Thermal-infrared image (grey PNG; colour is converted with BT.601 weights).
     pub tir: PathBuf,
     /// Fused output (8-bit grey PNG).
     pub output: PathBuf,
+}
+
+/// `--strips` value: a strip height cap in grid rows, or `max`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct StripRows(pub usize);
+
+impl std::str::FromStr for StripRows {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        if s == "max" {
+            return Ok(StripRows(usize::MAX));
+        }
+        match s.parse::<usize>() {
+            Ok(n) if n > 0 => Ok(StripRows(n)),
+            _ => Err(format!("`{s}` is not a positive number of rows or `max`")),
+        }
+    }
+}
+
+/// One line per field of a strip report, as `fusion fuse --strips` prints it.
+pub fn strip_report_text(r: &fusion_nostd::strips::StripReport, grid: (usize, usize)) -> String {
+    format!(
+        "strips: {} strips of {} rows (halo {} rows, {} pass{})\n\
+         strips: method rows {} = {:.3} × the grid's {}; band rows {}\n\
+         strips: working set {} B = {} work words ({} B) + {} B of band window\n",
+        r.strips,
+        r.strip_rows,
+        r.halo_rows,
+        r.passes,
+        if r.passes == 1 { "" } else { "es" },
+        r.method_rows,
+        r.method_rows as f64 / grid.1.max(1) as f64,
+        grid.1,
+        r.band_rows,
+        r.working_set_bytes(),
+        r.work_words,
+        r.work_words * 4,
+        r.band_bytes,
+    )
 }
 
 /// `--skip` values.
@@ -308,6 +353,22 @@ pub fn run(args: &FuseArgs) -> Result<()> {
                 ..Default::default()
             };
             let engine = args.engine.unwrap_or(EngineArg::Core);
+            if let Some(StripRows(rows)) = args.strips {
+                if engine != EngineArg::Core || args.raw.is_some() || args.skip != SkipArg::None {
+                    bail!(
+                        "--strips works with the core engine's 8-bit output only (no --engine reference, no --raw, no --skip)"
+                    );
+                }
+                let mut scratch = crate::strips::HostStripScratch::default();
+                let (image, report, strips, _) =
+                    crate::strips::fuse_strips_once(&vis, &tir, &pipeline, rows, &mut scratch)?;
+                print!("{}", strip_report_text(&strips, report.grid));
+                save_gray_u8(&args.output, &image)?;
+                if report.guards != Guards::NONE {
+                    eprintln!("fusion: guards fired: {:#x}", report.guards.0);
+                }
+                return Ok(());
+            }
             if args.skip != SkipArg::None {
                 if engine != EngineArg::Core || args.raw.is_some() {
                     bail!(
@@ -328,6 +389,9 @@ pub fn run(args: &FuseArgs) -> Result<()> {
             }
         }
         Err(host) => {
+            if args.strips.is_some() || args.skip != SkipArg::None {
+                bail!("{} is a host-only method (f64): --strips and --skip are core options", host.name());
+            }
             if args.engine == Some(EngineArg::Core) {
                 bail!(
                     "{} is a host-only method (f64): it has no core engine; use --engine reference",

@@ -359,6 +359,15 @@ pub fn run(args: &FuseArgs) -> Result<()> {
                         "--strips works with the core engine's 8-bit output only (no --engine reference, no --raw, no --skip)"
                     );
                 }
+                match pipeline.method {
+                    fusion_nostd::Method::Ifevip(_) => bail!(
+                        "--strips: IFEVIP does not run in strips (its background is a quadtree over the whole IR frame)"
+                    ),
+                    fusion_nostd::Method::Tsifsd(p) if p.variant == fusion_nostd::Variant::Classic => bail!(
+                        "--strips: TSIFSD runs in strips in its flight variant only (the classic circular mean wraps the frame)"
+                    ),
+                    _ => {}
+                }
                 let mut scratch = crate::strips::HostStripScratch::default();
                 let (image, report, strips, _) =
                     crate::strips::fuse_strips_once(&vis, &tir, &pipeline, rows, &mut scratch)?;

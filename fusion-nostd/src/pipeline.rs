@@ -199,7 +199,9 @@ pub struct SkipReport {
     /// The window the method actually ran on (`roi` plus its halo); outside it the output is
     /// `background`.
     pub computed: Rect,
-    /// The value written outside `computed` (`None` when `computed` is the whole grid).
+    /// The background value the plan wrote (`None` when `computed` is the whole grid): outside
+    /// `computed` for TSIFSD (its halo ring keeps the window's values), outside `roi` for ADF
+    /// (there it is the exact value, see `exact_outside`), everywhere for an empty frame.
     pub background: Option<u8>,
     /// Whether the output outside `roi` is proven bit-identical as well (ADF on an exactly
     /// constant background).
@@ -580,8 +582,8 @@ fn fuse_skipping(
         (vis.sub_rect(computed.x0, computed.y0, cw, ch)?, t, w)
     };
     let mut out_w = out.sub_rect_mut(computed.x0, computed.y0, cw, ch)?;
-    let guards = match (&pipeline.method, plan_is_adf(&pipeline.method)) {
-        (Method::Adf(p), true) => {
+    let guards = match &pipeline.method {
+        Method::Adf(p) => {
             let exact = Rect {
                 x0: roi.x0 - computed.x0,
                 y0: roi.y0 - computed.y0,
@@ -627,8 +629,4 @@ fn fuse_skipping(
         report.taken |= Skips::ECLIPSE_TIR_TARGET;
     }
     Ok(FuseReport { grid, rescaled, guards, skip: report })
-}
-
-fn plan_is_adf(method: &Method) -> bool {
-    matches!(method, Method::Adf(_))
 }

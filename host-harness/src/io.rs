@@ -110,6 +110,30 @@ pub fn load_png(path: &Path, color: ColorPolicy) -> Result<GrayPng> {
     })
 }
 
+/// One named VIS/IR pair: `(NAME, VIS, IR)`.
+pub type NamedPair = (String, Gray<u8>, Gray<u8>);
+
+/// The VIFB-style pairs of a folder (`NAME_VIS.png` with `NAME_IR.png`), sorted by name,
+/// colour converted with BT.601. An error when the folder has none.
+pub fn vifb_pairs(dir: &Path) -> Result<Vec<NamedPair>> {
+    let mut names: Vec<String> = std::fs::read_dir(dir)
+        .with_context(|| format!("cannot list {}", dir.display()))?
+        .filter_map(|e| e.ok()?.file_name().to_str()?.strip_suffix("_VIS.png").map(str::to_string))
+        .collect();
+    names.sort();
+    if names.is_empty() {
+        bail!("no *_VIS.png pairs in {}", dir.display());
+    }
+    names
+        .into_iter()
+        .map(|name| {
+            let vis = load_gray_u8(&dir.join(format!("{name}_VIS.png")), ColorPolicy::Bt601)?;
+            let ir = load_gray_u8(&dir.join(format!("{name}_IR.png")), ColorPolicy::Bt601)?;
+            Ok((name, vis, ir))
+        })
+        .collect()
+}
+
 /// Loads an 8-bit grey PNG (colour converted with BT.601 if `color` allows it; 16-bit refused).
 pub fn load_gray_u8(path: &Path, color: ColorPolicy) -> Result<Gray<u8>> {
     match load_png(path, color)? {

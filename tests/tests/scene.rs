@@ -7,7 +7,7 @@ use anyhow::Result;
 use fusion_nostd::pipeline::{Method, Pipeline, RescalePolicy, SkipPolicy, Skips};
 use fusion_nostd::scene::{Decline, Illumination, Rect, SceneParams, analyze};
 use fusion_nostd::{AdfParams, Error, IfevipParams, TsifsdParams, Variant};
-use host_harness::io::{ColorPolicy, Gray, load_gray_u8};
+use host_harness::io::{Gray, vifb_pairs};
 use host_harness::skip::{first_difference_in, fuse_once, skip_error};
 use host_harness::study::Dataset;
 use render_host::{DatasetConfig, render_dataset};
@@ -231,16 +231,8 @@ fn shared_dir() -> PathBuf {
 
 #[test]
 fn vifb_pairs_decline_and_stay_identical() -> Result<()> {
-    let dir = shared_dir().join("data/vifb");
     let mut pairs = 0;
-    for entry in std::fs::read_dir(&dir)? {
-        let path = entry?.path();
-        let Some(name) = path.file_name().and_then(|n| n.to_str()).and_then(|n| n.strip_suffix("_VIS.png"))
-        else {
-            continue;
-        };
-        let vis = load_gray_u8(&path, ColorPolicy::Bt601)?;
-        let tir = load_gray_u8(&dir.join(format!("{name}_IR.png")), ColorPolicy::Bt601)?;
+    for (name, vis, tir) in vifb_pairs(&shared_dir().join("data/vifb"))? {
         let scene = analyze(vis.view()?, tir.view()?, (vis.width, vis.height), &SceneParams::default())?;
         assert!(scene.decline.is_some(), "{name}: the analysis must decline a real scene: {scene:?}");
         for (m, method) in methods() {

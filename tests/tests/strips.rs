@@ -8,7 +8,7 @@ use anyhow::Result;
 use fusion_nostd::pipeline::{Method, Pipeline, RescalePolicy, SkipPolicy};
 use fusion_nostd::strips::{STRIP_SCRATCH_BYTES, StripScratchMut, fuse_strips};
 use fusion_nostd::{AdfParams, Error, IfevipParams, TsifsdParams, Variant};
-use host_harness::io::{ColorPolicy, Gray, load_gray_u8};
+use host_harness::io::{Gray, vifb_pairs};
 use host_harness::skip::fuse_once;
 use host_harness::strips::{HostStripScratch, fuse_strips_once};
 use host_harness::study::Dataset;
@@ -147,16 +147,8 @@ fn shared_dir() -> PathBuf {
 
 #[test]
 fn vifb_pairs_are_bit_identical_in_strips() -> Result<()> {
-    let dir = shared_dir().join("data/vifb");
     let mut pairs = 0;
-    for entry in std::fs::read_dir(&dir)? {
-        let path = entry?.path();
-        let Some(name) = path.file_name().and_then(|n| n.to_str()).and_then(|n| n.strip_suffix("_VIS.png"))
-        else {
-            continue;
-        };
-        let vis = load_gray_u8(&path, ColorPolicy::Refuse)?;
-        let tir = load_gray_u8(&dir.join(format!("{name}_IR.png")), ColorPolicy::Refuse)?;
+    for (name, vis, tir) in vifb_pairs(&shared_dir().join("data/vifb"))? {
         for (label, method) in methods() {
             let p = Pipeline { rescale: RescalePolicy::None, method, ..Pipeline::default() };
             for rows in [usize::MAX, 64, 17] {

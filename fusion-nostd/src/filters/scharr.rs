@@ -141,7 +141,7 @@ const GY_BIAS: u32 = 4096 | 4096 << 16;
 #[inline(always)]
 pub fn scharr_l1_pair([sm_l, sm_r]: [u32; 2], df: [u32; 3]) -> u32 {
     let gy = df[0].wrapping_add(df[2]).wrapping_mul(3).wrapping_add(df[1].wrapping_mul(10));
-    #[cfg(target_arch = "arm")]
+    #[cfg(fusion_arm_dsp)]
     {
         let packed: u32;
         // SAFETY: register-only Armv7E-M DSP instructions (no memory, no stack); they set and
@@ -167,7 +167,7 @@ pub fn scharr_l1_pair([sm_l, sm_r]: [u32; 2], df: [u32; 3]) -> u32 {
         }
         packed
     }
-    #[cfg(not(target_arch = "arm"))]
+    #[cfg(not(fusion_arm_dsp))]
     {
         let gx = sm_r.wrapping_sub(sm_l);
         let low = ((gx << 16) as i32).unsigned_abs() >> 16;

@@ -274,9 +274,9 @@ impl Diffusion {
     /// `flux(−∇) = −flux(∇)` for every `∇` (the wrapped `i32::MIN` reads a 0 entry).
     #[inline(always)]
     fn flux(&self, d: i32) -> i32 {
-        #[cfg(target_arch = "arm")]
+        #[cfg(fusion_arm_dsp)]
         let idx = self.index_signed(d.unsigned_abs());
-        #[cfg(not(target_arch = "arm"))]
+        #[cfg(not(fusion_arm_dsp))]
         let idx = self.index_unsigned(d.unsigned_abs());
         let g = EXP_FLUX.get(idx).map_or(0, |&g| i32::from(g));
         if d < 0 { -g } else { g }
@@ -284,11 +284,11 @@ impl Diffusion {
 
     /// The table index of `|∇|` in signed 32-bit form: `min(max(⌊(a·recip_q16 + 2³¹)/2³²⌋, 0),
     /// LUT_LAST)` with `a = |∇| >> shift`.
-    #[cfg_attr(not(any(target_arch = "arm", test)), allow(dead_code))]
+    #[cfg_attr(not(any(fusion_arm_dsp, test)), allow(dead_code))]
     #[inline(always)]
     fn index_signed(&self, abs: u32) -> usize {
         let a = (abs >> self.shift) as i32; // ≤ 2²⁹: shift ≥ 2
-        #[cfg(target_arch = "arm")]
+        #[cfg(fusion_arm_dsp)]
         let idx = {
             // `smmulr`: LLVM would otherwise turn the multiply into `umull` + `umlal` once it
             // proves `a ≥ 0`. The clamp below becomes `usat #13`.
@@ -305,13 +305,13 @@ impl Diffusion {
             }
             idx
         };
-        #[cfg(not(target_arch = "arm"))]
+        #[cfg(not(fusion_arm_dsp))]
         let idx = ((i64::from(a) * i64::from(self.recip_q16) + (1 << 31)) >> 32) as i32;
         idx.clamp(0, LUT_LAST as i32) as usize
     }
 
     /// The table index of `|∇|` in unsigned 64-bit form (one `imul`, no sign clamp).
-    #[cfg_attr(target_arch = "arm", allow(dead_code))]
+    #[cfg_attr(fusion_arm_dsp, allow(dead_code))]
     #[inline(always)]
     fn index_unsigned(&self, abs: u32) -> usize {
         let a = u64::from(abs >> self.shift);

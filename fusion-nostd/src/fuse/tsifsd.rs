@@ -290,6 +290,18 @@ fn check_sizes(vis: &FrameRef<'_, u8>, tir: &FrameRef<'_, u8>, out: (usize, usiz
     Ok(())
 }
 
+/// The guards of a run: some pixel had both saliencies 0, some 8-bit output saturated.
+fn guards_of(zero: bool, saturated: bool) -> Guards {
+    let mut guards = Guards::NONE;
+    if zero {
+        guards |= Guards::TSIFSD_ZERO_SALIENCY;
+    }
+    if saturated {
+        guards |= Guards::OUTPUT_SATURATED;
+    }
+    guards
+}
+
 /// Where [`run`] puts the fused rows.
 enum Out<'a> {
     /// The 8-bit output ([`combine_u8`]).
@@ -387,14 +399,7 @@ fn run(
             saliency_reconstruct(vis, tir, sum_v, sum_i, taps, classic, out)
         }
     };
-    let mut guards = Guards::NONE;
-    if zero {
-        guards |= Guards::TSIFSD_ZERO_SALIENCY;
-    }
-    if saturated {
-        guards |= Guards::OUTPUT_SATURATED;
-    }
-    Ok(guards)
+    Ok(guards_of(zero, saturated))
 }
 
 /// The general saliency and reconstruction (both variants, both outputs) after the box sums:
@@ -624,9 +629,9 @@ const LANE_WEIGHTS: [i32; 2] = [0x0001_FFFF, 0xFFFF_0001u32 as i32];
 /// ([`lane_pair`]: VIS + IR·2¹⁶): on Arm two dual multiply-accumulates (`smlad` with the lane
 /// weights `[up, down]` = [`LANE_WEIGHTS`]), else lane by lane.
 #[inline(always)]
-#[cfg_attr(not(target_arch = "arm"), allow(unused_variables))]
+#[cfg_attr(not(fusion_arm_dsp), allow(unused_variables))]
 fn column_step(col: i32, enter: i32, leave: i32, [up, down]: [i32; 2]) -> i32 {
-    #[cfg(target_arch = "arm")]
+    #[cfg(fusion_arm_dsp)]
     {
         let out: i32;
         // SAFETY: register-only Armv7E-M DSP instructions (no memory, no stack, no flags but
@@ -646,7 +651,7 @@ fn column_step(col: i32, enter: i32, leave: i32, [up, down]: [i32; 2]) -> i32 {
         }
         out
     }
-    #[cfg(not(target_arch = "arm"))]
+    #[cfg(not(fusion_arm_dsp))]
     {
         let diff = |v: i32| (v >> 16) - (v & 0xFFFF);
         col + diff(enter) - diff(leave)
@@ -727,14 +732,7 @@ pub(crate) fn fuse_tsifsd_flight_rows(
         .ok_or(Error::ScratchTooSmall { needed, capacity })?;
     let taps = u32::from(params.mean_size) * u32::from(params.mean_size);
     let (zero, saturated) = flight_u8(vis, tir, taps, radius, cols, lanes, out, y0);
-    let mut guards = Guards::NONE;
-    if zero {
-        guards |= Guards::TSIFSD_ZERO_SALIENCY;
-    }
-    if saturated {
-        guards |= Guards::OUTPUT_SATURATED;
-    }
-    Ok(guards)
+    Ok(guards_of(zero, saturated))
 }
 
 #[cfg(test)]

@@ -392,19 +392,7 @@ fn exactness_jobs(opts: &Options, pair: &(Gray<u8>, Gray<u8>)) -> Result<Vec<(St
         format!("synthetic {}x{}/{}x{}", vis.width, vis.height, tir.width, tir.height),
         Job { vis, tir, runs: all(&[RescaleArg::TirUp, RescaleArg::VisDown]) },
     ));
-    let mut names: Vec<PathBuf> = std::fs::read_dir(&opts.vifb)
-        .with_context(|| format!("cannot list {}", opts.vifb.display()))?
-        .filter_map(|e| e.ok().map(|e| e.path()))
-        .filter(|p| p.to_string_lossy().ends_with("_VIS.png"))
-        .collect();
-    names.sort();
-    ensure!(!names.is_empty(), "no *_VIS.png pairs in {}", opts.vifb.display());
-    for vis_path in names {
-        let ir_path = PathBuf::from(vis_path.to_string_lossy().replace("_VIS.png", "_IR.png"));
-        let vis = load_gray_u8(&vis_path, ColorPolicy::Bt601)?;
-        let tir = load_gray_u8(&ir_path, ColorPolicy::Bt601)?;
-        let name =
-            vis_path.file_name().map(|n| n.to_string_lossy().replace("_VIS.png", "")).unwrap_or_default();
+    for (name, vis, tir) in crate::io::vifb_pairs(&opts.vifb)? {
         jobs.push((
             format!("VIFB {name} {}x{}", vis.width, vis.height),
             Job { vis, tir, runs: all(&[RescaleArg::None]) },

@@ -200,7 +200,10 @@ pub fn summary(rows: &[Row]) -> String {
         let counts: Vec<f64> = group.iter().filter_map(|r| r.instructions).map(|n| n as f64).collect();
         let windows: Vec<f64> = group.iter().map(|r| r.window).collect();
         let roi_taken = group.iter().filter(|r| r.taken & Skips::ROI.0 != 0).count();
-        let eclipse = group.iter().filter(|r| r.taken & Skips::ECLIPSE_VIS.0 != 0).count();
+        // The eclipse plan of either method: ADF takes VIS as its constant level, TSIFSD's
+        // window follows the TIR target alone.
+        let plan = Skips::ECLIPSE_VIS.0 | Skips::ECLIPSE_TIR_TARGET.0;
+        let eclipse = group.iter().filter(|r| r.taken & plan != 0).count();
         let mut declined: Vec<&str> =
             group.iter().map(|r| r.declined.as_str()).filter(|d| *d != "-").collect();
         declined.sort_unstable();
@@ -397,7 +400,8 @@ pub fn markdown(opts: &StudyOptions, frames: usize, rows: &[Row]) -> String {
          instructions). Every emulated fused frame was compared byte for byte with the host's \
          `fuse` of the same pipeline, and the skip report (skips taken, decline, window) field \
          by field. Window = pixels the method ran on / frame; eclipse plan = frames where ADF took \
-         VIS as its constant level (`Skips::ECLIPSE_VIS`). {}\n\n",
+         VIS as its constant level (`Skips::ECLIPSE_VIS`) or TSIFSD followed the TIR target alone \
+         (`Skips::ECLIPSE_TIR_TARGET`). {}\n\n",
         opts.target.core(),
         opts.target,
         opts.dataset.display(),

@@ -47,22 +47,24 @@ unsafe fn xgetbv0() -> u64 {
     unsafe { core::arch::x86_64::_xgetbv(0) }
 }
 
-/// Defines `fn $name(args) -> ()` calling `$kernel(args)`, through an AVX2-compiled copy of
-/// the kernel on x86-64 CPUs that have AVX2.
+/// Defines `fn $name(args) -> ret` (`-> ()` when omitted) calling `$kernel(args)`, through
+/// an AVX2-compiled copy of the kernel on x86-64 CPUs that have AVX2.
 macro_rules! dispatch {
     ($(#[$meta:meta])* $vis:vis fn $name:ident($($arg:ident: $ty:ty),* $(,)?) => $kernel:ident) => {
+        $crate::cpu::dispatch! { $(#[$meta])* $vis fn $name($($arg: $ty),*) -> () => $kernel }
+    };
+    ($(#[$meta:meta])* $vis:vis fn $name:ident($($arg:ident: $ty:ty),* $(,)?) -> $ret:ty => $kernel:ident) => {
         $(#[$meta])*
-        $vis fn $name($($arg: $ty),*) {
+        $vis fn $name($($arg: $ty),*) -> $ret {
             #[cfg(target_arch = "x86_64")]
             {
                 #[target_feature(enable = "avx2")]
-                fn avx2_copy($($arg: $ty),*) {
+                fn avx2_copy($($arg: $ty),*) -> $ret {
                     $kernel($($arg),*)
                 }
                 if $crate::cpu::has_avx2() {
                     // SAFETY: the CPU supports AVX2, checked at run time just above.
-                    unsafe { avx2_copy($($arg),*) };
-                    return;
+                    return unsafe { avx2_copy($($arg),*) };
                 }
             }
             $kernel($($arg),*)

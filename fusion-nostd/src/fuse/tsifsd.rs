@@ -515,7 +515,8 @@ fn flight_fits(w: usize, radius: usize, cols: usize, lanes: usize) -> bool {
 /// to `0..=255`, saturated exactly when `k ∉ 0..256` (σ ≤ 16320 < 2¹⁶ and `taps` is odd, so
 /// `2¹⁶ ∤ den` and the `U = 0` edge of [`fused_u8`] never arises).
 #[allow(clippy::too_many_arguments)]
-fn flight_u8(
+#[inline(always)]
+fn flight_u8_kernel<const WIDE: bool>(
     vis: FrameRef<'_, u8>,
     tir: FrameRef<'_, u8>,
     taps: u32,
@@ -528,15 +529,18 @@ fn flight_u8(
     const TWO: NonZeroU32 = NonZeroU32::MIN.saturating_add(1);
     let (w, h) = vis.size();
     let c = NonZeroU32::new(2 * taps).unwrap_or(TWO);
+    let by_c = ByC::new(c);
     let bias = 128 * c.get() as i32; // d + 128c > 0: |d| ≤ 255·taps
     // q = I_VIS + I_IR·2⁹ + dd·2¹⁸ + a·(1 − 2⁹ − c·2¹⁸) + 255·2⁹ + taps·2¹⁸ (wrapping; exact
     // in the end).
     let a_factor = 1u32.wrapping_sub(1 << 9).wrapping_sub(c.get() << 18);
     let q_const = (255 << 9) + (taps << 18);
     let (mut zero, mut sat) = (false, 0i32);
+    let k = Consts { c, by_c, inv_c: 1.0 / f64::from(c.get()), taps, a_factor, q_const };
     // Per column of a chunk: the two lane words of the Scharr columns and, one column to the
     // right of its pixel (the centre of its window), the packed weight-free part.
     let mut buf = [[0u32; 3]; CHUNK + 2];
+    let mut wide = Wide::new();
     let span = 2 * radius + 1;
     let Some(cols) = cols.get_mut(..w + span) else { return (zero, false) };
     let ring = lane_ring_rows(radius) as isize;
@@ -587,39 +591,290 @@ fn flight_u8(
         let mut x0 = 0;
         while x0 < w {
             let n = CHUNK.min(w - x0);
-            let Some(buf) = buf.get_mut(..n + 2) else { break };
-            let pixels = cut(iv, x0, n).iter().zip(cut(ii, x0, n));
-            let window = cols.get(x0 + span..).unwrap_or(&[]).iter().zip(cols.get(x0..).unwrap_or(&[]));
-            for ((b, (&enter, &leave)), (&iv, &ii)) in buf.iter_mut().skip(1).zip(window).zip(pixels) {
-                let dd = sum as u32;
-                sum += enter - leave;
-                let a = dd / c;
-                let low = u32::from(iv) + (u32::from(ii) << 9) + q_const;
-                b[2] = a.wrapping_mul(a_factor).wrapping_add(dd << 18).wrapping_add(low);
-            }
-            let store = |[s, d, _]: &mut [u32; 3], sm, df| (*s, *d) = (sm, df);
-            scharr_columns_pair(rows, Border::Replicate, x0, buf, store);
+            let chunk = FlightChunk {
+                enter: cols.get(x0 + span..x0 + span + n).unwrap_or(&[]),
+                leave: cols.get(x0..x0 + n).unwrap_or(&[]),
+                iv: cut(iv, x0, n),
+                ii: cut(ii, x0, n),
+                rows,
+                x0,
+            };
             let o = dst.get_mut(x0..x0 + n).unwrap_or(&mut []);
-            for (o, w) in o.iter_mut().zip(buf.windows(3)) {
-                let &[[s0, d0, _], [_, d1, q], [s2, d2, _]] = w else { continue };
-                let wts = scharr_l1_pair([s0, s2], [d0, d1, d2]);
-                let (gv, gi) = (wts & 0xFFFF, wts >> 16);
-                let (gv, gi, sigma) = match NonZeroU32::new(gv + gi) {
-                    Some(sigma) => (gv, gi, sigma),
-                    None => flat(&mut zero),
-                };
-                let (qv, qi, rt) = (q & 0x1FF, q >> 9 & 0x1FF, q >> 18);
-                // w_VIS·r + w_IR·(c − r) + den = w_VIS·(r + taps) + w_IR·(2c − (r + taps)).
-                let f = (gv * rt + gi * (2 * c.get() - rt) + ((taps * sigma.get()) >> 16)) / c;
-                // ⌊x/σ⌋ = ⌊(x + 128σ)/σ⌋ − 128, and x + 128σ ≥ 0.
-                let k = ((gv * qv + gi * qi + f) / sigma) as i32 - 128;
-                *o = k.clamp(0, 255) as u8;
-                sat |= k >> 8;
+            if WIDE {
+                chunk_wide(&chunk, &k, &mut sum, &mut wide, o, &mut zero, &mut sat);
+            } else {
+                chunk_portable(&chunk, &k, &mut sum, &mut buf, o, &mut zero, &mut sat);
             }
             x0 += n;
         }
     }
     (zero, sat != 0)
+}
+
+/// Whether the flight kernel's chunks take the wide form ([`chunk_wide`]: `f64` divisions in
+/// separate passes the compiler vectorises, on x86-64) or the portable one ([`chunk_portable`]:
+/// integer divisions in one pass, the fewest instructions on the flight targets). Both give
+/// the same bytes (unit test `wide_and_portable_chunks_agree`).
+const WIDE_CHUNKS: bool = cfg!(target_arch = "x86_64");
+
+/// [`flight_u8_kernel`] in this target's chunk form.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn flight_u8_native(
+    vis: FrameRef<'_, u8>,
+    tir: FrameRef<'_, u8>,
+    taps: u32,
+    radius: usize,
+    cols: &mut [i32],
+    lanes: &mut [i32],
+    out: FrameMut<'_, u8>,
+    y0: usize,
+) -> (bool, bool) {
+    flight_u8_kernel::<WIDE_CHUNKS>(vis, tir, taps, radius, cols, lanes, out, y0)
+}
+
+/// The per-frame constants of the flight kernel's output (see [`flight_u8_kernel`]).
+struct Consts {
+    c: NonZeroU32,
+    by_c: ByC,
+    /// `1/c` in `f64` for [`div_c_f64`].
+    inv_c: f64,
+    taps: u32,
+    a_factor: u32,
+    q_const: u32,
+}
+
+/// One chunk of a row: the column sums entering and leaving each pixel's window, the pixels,
+/// the three lane rows of the Scharr columns and the chunk's first column.
+struct FlightChunk<'a> {
+    enter: &'a [i32],
+    leave: &'a [i32],
+    iv: &'a [u8],
+    ii: &'a [u8],
+    rows: [&'a [i32]; 3],
+    x0: usize,
+}
+
+/// The packed weight-free part of a pixel (see [`flight_u8_kernel`]) from its window sum
+/// `dd` (biased) and `a = ⌊dd/c⌋`.
+#[inline(always)]
+fn packed(k: &Consts, dd: u32, a: u32, iv: u8, ii: u8) -> u32 {
+    let low = u32::from(iv) + (u32::from(ii) << 9) + k.q_const;
+    a.wrapping_mul(k.a_factor).wrapping_add(dd << 18).wrapping_add(low)
+}
+
+/// The 8-bit output of a pixel from its weights (`σ = w_VIS + w_IR > 0`) and packed part,
+/// with the two divisions given: `(value, k >> 8)` (non-zero when saturated).
+#[inline(always)]
+fn output(
+    k: &Consts,
+    (gv, gi, sigma): (u32, u32, u32),
+    q: u32,
+    div_c: impl Fn(u32) -> u32,
+    div_s: impl Fn(u32, u32) -> u32,
+) -> (u8, i32) {
+    let (qv, qi, rt) = (q & 0x1FF, q >> 9 & 0x1FF, q >> 18);
+    // w_VIS·r + w_IR·(c − r) + den = w_VIS·(r + taps) + w_IR·(2c − (r + taps)).
+    let f = div_c(gv * rt + gi * (2 * k.c.get() - rt) + ((k.taps * sigma) >> 16));
+    // ⌊x/σ⌋ = ⌊(x + 128σ)/σ⌋ − 128, and x + 128σ ≥ 0.
+    let v = div_s(gv * qv + gi * qi + f, sigma) as i32 - 128;
+    (v.clamp(0, 255) as u8, v >> 8)
+}
+
+/// One chunk in one pass with integer divisions (the flight targets: one `udiv` each).
+#[inline(always)]
+fn chunk_portable(
+    ch: &FlightChunk<'_>,
+    k: &Consts,
+    sum: &mut i32,
+    buf: &mut [[u32; 3]; CHUNK + 2],
+    out: &mut [u8],
+    zero: &mut bool,
+    sat: &mut i32,
+) {
+    let n = out.len();
+    let Some(buf) = buf.get_mut(..n + 2) else { return };
+    let pixels = ch.iv.iter().zip(ch.ii);
+    for ((b, (&enter, &leave)), (&iv, &ii)) in
+        buf.iter_mut().skip(1).zip(ch.enter.iter().zip(ch.leave)).zip(pixels)
+    {
+        let dd = *sum as u32;
+        *sum += enter - leave;
+        b[2] = packed(k, dd, k.by_c.div(dd), iv, ii);
+    }
+    let store = |[s, d, _]: &mut [u32; 3], sm, df| (*s, *d) = (sm, df);
+    scharr_columns_pair(ch.rows, Border::Replicate, ch.x0, buf, store);
+    for (o, w) in out.iter_mut().zip(buf.windows(3)) {
+        let &[[s0, d0, _], [_, d1, q], [s2, d2, _]] = w else { continue };
+        let wts = scharr_l1_pair([s0, s2], [d0, d1, d2]);
+        let (gv, gi) = (wts & 0xFFFF, wts >> 16);
+        let (gv, gi, sigma) = match NonZeroU32::new(gv + gi) {
+            Some(sigma) => (gv, gi, sigma),
+            None => flat(zero),
+        };
+        let (v, s) = output(k, (gv, gi, sigma.get()), q, |n| k.by_c.div(n), |n, _| div_sigma(n, sigma));
+        *o = v;
+        *sat |= s;
+    }
+}
+
+/// The wide form's chunk buffers: window sums, packed parts, Scharr columns.
+struct Wide {
+    dd: [u32; CHUNK],
+    q: [u32; CHUNK],
+    sd: [[u32; 2]; CHUNK + 2],
+}
+
+impl Wide {
+    fn new() -> Self {
+        Self { dd: [0; CHUNK], q: [0; CHUNK], sd: [[0; 2]; CHUNK + 2] }
+    }
+}
+
+/// `⌊n / c⌋` in `f64` for `n < 2²⁸`, `c < 2¹³` (vectorisable): `n·fl(1/c)` is within 2⁻²⁵ of
+/// `n/c`; adding 2⁻²⁰ lifts an exact quotient above its integer, and a non-integer quotient is
+/// at least `1/c > 2⁻¹³` below the next one, so truncation gives the floor.
+#[inline(always)]
+fn div_c_f64(n: u32, inv_c: f64) -> u32 {
+    trunc_u32(f64::from(n as i32) * inv_c + 1.0 / (1u32 << 20) as f64)
+}
+
+/// `⌊n / σ⌋` of the flight kernel's last division in `f32` (vectorisable, 8 lanes with AVX2):
+/// `n < 2²⁴` and `σ ≤ 16320` are exact in `f32`, the quotient is below 2¹⁰ (`n ≤ 512σ + 1`),
+/// so the correctly rounded quotient is within 2⁻²⁴·2¹⁰ = 2⁻¹⁴ of the true one, less than the
+/// distance `≥ 1/σ > 2⁻¹⁴` of a non-integer quotient to the next integer: truncation gives the
+/// floor (tested against the integer division over the whole range of `σ`).
+#[inline(always)]
+fn div_sigma_f32(n: u32, sigma: u32) -> u32 {
+    const MAGIC: f32 = (1u32 << 23) as f32;
+    let x = (n as i32) as f32 / (sigma as i32) as f32;
+    let r = (x + MAGIC).to_bits() & 0x7F_FFFF;
+    r - u32::from((r as i32) as f32 > x)
+}
+
+/// `⌊x⌋` for `0 ≤ x < 2³¹` in lane-wise arithmetic the compiler keeps vectorised (`as` would
+/// add a saturation and NaN test per lane): adding 2⁵² rounds `x` to the nearest integer `r`
+/// in the low mantissa bits; `r − 1` when that rounded up.
+#[inline(always)]
+fn trunc_u32(x: f64) -> u32 {
+    const MAGIC: f64 = (1u64 << 52) as f64;
+    let r = (x + MAGIC).to_bits() as u32;
+    r - u32::from(f64::from(r as i32) > x)
+}
+
+/// One chunk in separate short passes without branches or integer divisions (`f64`, see
+/// [`div_c_f64`] and [`div_sigma`]), which the compiler vectorises (the AVX2 copy on x86-64).
+#[inline(always)]
+fn chunk_wide(
+    ch: &FlightChunk<'_>,
+    k: &Consts,
+    sum: &mut i32,
+    wide: &mut Wide,
+    out: &mut [u8],
+    zero: &mut bool,
+    sat: &mut i32,
+) {
+    let n = out.len();
+    let (Some(dd), Some(q), Some(sd)) = (wide.dd.get_mut(..n), wide.q.get_mut(..n), wide.sd.get_mut(..n + 2))
+    else {
+        return;
+    };
+    for (d, (&enter, &leave)) in dd.iter_mut().zip(ch.enter.iter().zip(ch.leave)) {
+        *d = *sum as u32;
+        *sum += enter - leave;
+    }
+    for ((q, &dd), (&iv, &ii)) in q.iter_mut().zip(&*dd).zip(ch.iv.iter().zip(ch.ii)) {
+        *q = packed(k, dd, div_c_f64(dd, k.inv_c), iv, ii);
+    }
+    scharr_columns_pair(ch.rows, Border::Replicate, ch.x0, sd, |o: &mut [u32; 2], s, d| *o = [s, d]);
+    let (left, mid, right) =
+        (sd.get(..n).unwrap_or(&[]), sd.get(1..).unwrap_or(&[]), sd.get(2..).unwrap_or(&[]));
+    let (mut flat_any, mut sat_any) = (0u32, 0i32);
+    for ((((o, &q), &[s0, d0]), &[_, d1]), &[s2, d2]) in out.iter_mut().zip(&*q).zip(left).zip(mid).zip(right)
+    {
+        let wts = scharr_l1_pair([s0, s2], [d0, d1, d2]);
+        let (gv, gi) = (wts & 0xFFFF, wts >> 16);
+        let flat = u32::from(gv + gi == 0);
+        flat_any |= flat;
+        let (gv, gi) = (gv | flat, gi | flat); // both 0: the ½, ½ weights (1, 1)
+        let sigma = gv + gi;
+        let div_s = |n: u32, s: u32| div_sigma_f32(n, s);
+        let (v, s) = output(k, (gv, gi, sigma), q, |n| div_c_f64(n, k.inv_c), div_s);
+        *o = v;
+        sat_any |= s;
+    }
+    *zero |= flat_any != 0;
+    *sat |= sat_any;
+}
+
+crate::cpu::dispatch! {
+    /// [`flight_u8_kernel`] (an AVX2-compiled copy on x86-64 CPUs that have AVX2).
+    #[allow(clippy::too_many_arguments)]
+    fn flight_u8(
+        vis: FrameRef<'_, u8>,
+        tir: FrameRef<'_, u8>,
+        taps: u32,
+        radius: usize,
+        cols: &mut [i32],
+        lanes: &mut [i32],
+        out: FrameMut<'_, u8>,
+        y0: usize,
+    ) -> (bool, bool) => flight_u8_native
+}
+
+/// `⌊n / c⌋` for the frame's constant `c = 2·taps < 2¹³` and `n < 2²⁸` (the flight kernel's two
+/// divisions by `c`). On x86-64, where a 32-bit `div` costs ≈ 6 cycles of throughput, by a
+/// multiply with `m = ⌈2⁴¹/c⌉` and a shift: `m = (2⁴¹ + e)/c` with `0 ≤ e < c`, so
+/// `n·m/2⁴¹ = n/c + n·e/(c·2⁴¹)` and the added term is below `1/c` (`n·c < 2⁴¹`): the floor is
+/// exact. Elsewhere the plain division (one `udiv` on the flight targets).
+#[derive(Clone, Copy)]
+struct ByC {
+    #[cfg(not(target_arch = "x86_64"))]
+    c: NonZeroU32,
+    #[cfg(target_arch = "x86_64")]
+    magic: u128,
+}
+
+impl ByC {
+    #[cfg(target_arch = "x86_64")]
+    const SHIFT: u32 = 41;
+
+    fn new(c: NonZeroU32) -> Self {
+        Self {
+            #[cfg(not(target_arch = "x86_64"))]
+            c,
+            #[cfg(target_arch = "x86_64")]
+            magic: (1u128 << Self::SHIFT).div_ceil(u128::from(c.get())),
+        }
+    }
+
+    #[inline(always)]
+    fn div(self, n: u32) -> u32 {
+        #[cfg(target_arch = "x86_64")]
+        {
+            ((u128::from(n) * self.magic) >> Self::SHIFT) as u32
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        {
+            n / self.c
+        }
+    }
+}
+
+/// `⌊n / σ⌋` for the flight kernel's last division (`n < 2²⁴`, `σ ≤ 16320`). On x86-64 in
+/// `f64`: both operands are exact, the quotient is correctly rounded and below 2¹⁰, and a
+/// non-integer `n/σ` is at least `1/σ` below the next integer, far more than the rounding
+/// (2⁻⁵³ relative), so truncating gives the floor. Elsewhere the integer division.
+#[inline(always)]
+fn div_sigma(n: u32, sigma: NonZeroU32) -> u32 {
+    #[cfg(target_arch = "x86_64")]
+    {
+        (f64::from(n) / f64::from(sigma.get())) as u32
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        n / sigma
+    }
 }
 
 /// The lane weights (−1, 1) and (1, −1) of [`column_step`] (low lane first).
@@ -1020,6 +1275,102 @@ mod tests {
                             rows[..],
                             want[y0 * w..(y0 + n) * w],
                             "rows {y0}+{n} {w}x{h} n {mean_size}"
+                        );
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// The divisions of the wide chunk form and of `ByC` against integer division, at and around
+    /// every multiple that matters: `⌊n/c⌋` for every `c = 2·n²` (odd `n ≤ 63`) and `n` up to
+    /// 2²⁸; `⌊n/σ⌋` for every `σ ≤ 16320` and quotients up to 512.
+    #[test]
+    fn division_helpers_are_exact() {
+        for side in (1u32..=63).step_by(2) {
+            let c = 2 * side * side;
+            let by_c = ByC::new(NonZeroU32::new(c).unwrap());
+            let inv_c = 1.0 / f64::from(c);
+            let check = |n: u32| {
+                assert_eq!(div_c_f64(n, inv_c), n / c, "n {n} c {c}");
+                assert_eq!(by_c.div(n), n / c, "n {n} c {c}");
+            };
+            for k in (0..(1u32 << 28) / c).step_by(997).chain([(1 << 28) / c - 1]) {
+                for n in [k * c, k * c + 1, k * c + c - 1, (k + 1) * c - 1] {
+                    if n < 1 << 28 {
+                        check(n);
+                    }
+                }
+            }
+        }
+        for sigma in 1u32..=16320 {
+            for k in [0u32, 1, 2, 127, 128, 255, 383, 510, 511, 512] {
+                for n in [k * sigma, (k * sigma).saturating_sub(1), k * sigma + sigma - 1, k * sigma + 1] {
+                    let want = n / sigma;
+                    assert_eq!(div_sigma_f32(n, sigma), want, "n {n} sigma {sigma}");
+                    assert_eq!(div_sigma(n, NonZeroU32::new(sigma).unwrap()), want, "n {n} sigma {sigma}");
+                }
+            }
+        }
+    }
+
+    /// The wide chunk form (x86-64) gives the portable form's bytes and flags: random frames,
+    /// flat ones (the zero-saliency guard), and full-swing checkerboards and stripes (the
+    /// largest gradients, σ up to 16320, and saturated outputs), several widths and row ranges.
+    #[test]
+    fn wide_and_portable_chunks_agree() -> Result<(), Error> {
+        let mut s = 0x2545_F491u32;
+        let mut next = move || {
+            s ^= s << 13;
+            s ^= s >> 17;
+            s ^= s << 5;
+            s
+        };
+        for (w, h) in [(300usize, 41usize), (257, 40), (600, 45), (64, 38)] {
+            for pattern in 0..5 {
+                let mut frame = |salt: usize| -> std::vec::Vec<u8> {
+                    (0..w * h)
+                        .map(|i| {
+                            let (x, y) = (i % w, i / w);
+                            match pattern {
+                                0 => next() as u8,
+                                1 => 90,
+                                2 => (((x + y + salt) % 2) * 255) as u8,
+                                3 => (((x / 3 + salt) % 2) * 255) as u8 ^ ((y % 2) * 255) as u8,
+                                _ => {
+                                    if next() % 7 == 0 {
+                                        255
+                                    } else {
+                                        (x * salt) as u8
+                                    }
+                                }
+                            }
+                        })
+                        .collect()
+                };
+                let (vis, tir) = (frame(1), frame(2));
+                let (vis, tir) = (FrameRef::new(&vis, w, h)?, FrameRef::new(&tir, w, h)?);
+                for mean_size in [1u16, 3, 35] {
+                    let radius = usize::from(mean_size / 2);
+                    let taps = u32::from(mean_size) * u32::from(mean_size);
+                    let run = |wide: bool, y0: usize| {
+                        let mut cols = std::vec![0i32; w + 2 * radius + 1];
+                        let mut lanes = std::vec![0i32; lane_ring_rows(radius) * w];
+                        let mut out = std::vec![0u8; w * (h - y0)];
+                        let f = FrameMut::new(&mut out, w, h - y0).unwrap();
+                        let flags = if wide {
+                            flight_u8_kernel::<true>(vis, tir, taps, radius, &mut cols, &mut lanes, f, y0)
+                        } else {
+                            flight_u8_kernel::<false>(vis, tir, taps, radius, &mut cols, &mut lanes, f, y0)
+                        };
+                        (out, flags)
+                    };
+                    for y0 in [0, h / 2] {
+                        assert_eq!(
+                            run(true, y0),
+                            run(false, y0),
+                            "{w}x{h} pattern {pattern} n {mean_size} y0 {y0}"
                         );
                     }
                 }

@@ -23,6 +23,7 @@
 use fusion_nostd::fuse::round_away_sat_u8;
 use fusion_nostd::pipeline::{Method, Pipeline, RescalePolicy, fuse, fuse_raw};
 use fusion_nostd::rescale::{F32_MAX_MAGNITUDE, rescale_general_u8};
+use fusion_nostd::strips::{STRIP_BAND_BYTES, STRIP_WORK_WORDS, StripScratchMut, fuse_strips};
 use fusion_nostd::{
     AdfParams, Error, Filter, FrameMut, FrameRef, IfevipParams, ScratchMut, TsifsdParams, Variant, rescale,
 };
@@ -477,6 +478,50 @@ pub fn pipeline(data: &[u8]) {
                     assert_eq!(q, 0x1234_5678, "fuse_raw wrote outside the view at {i}");
                 }
             }
+        }
+    }
+
+    // The strip pipeline (dirty strip scratch, a strip height from the input): the same bytes
+    // and report where it runs, a documented refusal where it does not, never a write outside
+    // the view.
+    let max_rows = match seed % 4 {
+        0 => usize::MAX,
+        _ => 1 + usize::from(seed) % 40,
+    };
+    let mut work: Vec<i32> = (0..STRIP_WORK_WORDS).map(|i| dirt(seed, i)).collect();
+    let mut band: Vec<u8> = (0..STRIP_BAND_BYTES).map(|i| dirt(seed, i) as u8).collect();
+    let mut out: Vec<u8> = (0..go.len).map(|i| (i as u8) ^ 0x3C).collect();
+    let before = out.clone();
+    let r = match FrameMut::with_stride(&mut out, go.width, go.height, go.stride) {
+        Ok(o) => fuse_strips(v, t, o, &mut StripScratchMut::from_slices(&mut work, &mut band), &p, max_rows),
+        Err(e) => panic!("valid output view refused: {e:?}"),
+    };
+    let two_x = |a: (usize, usize), b: (usize, usize)| a == (2 * b.0, 2 * b.1);
+    let (src, filter_up) = match policy {
+        RescalePolicy::TirUp => ((tw, th), true),
+        _ => ((vw, vh), false),
+    };
+    let ratio_ok = (vw, vh) == (tw, th) || if filter_up { two_x(grid, src) } else { two_x(src, grid) };
+    match (&r, method) {
+        (Err(e), Method::Ifevip(_)) => assert_eq!(*e, Error::InvalidParameter { name: "method" }),
+        (Err(e), Method::Tsifsd(tp)) if tp.variant == Variant::Classic => {
+            assert_eq!(*e, Error::InvalidParameter { name: "variant" })
+        }
+        (Err(e), _) if !ratio_ok => assert_eq!(*e, Error::UnsupportedRatio, "{p:?} vis {gv:?} tir {gt:?}"),
+        // Many iterations (ADF) or a wide mean (TSIFSD) can outgrow the 512 KiB scratch.
+        (Err(Error::ScratchTooSmall { needed, capacity }), _) => assert!(needed > capacity),
+        (Err(e), _) => panic!("strips refused a supported pipeline: {e:?}, {p:?}, vis {gv:?}, tir {gt:?}"),
+        (Ok((report, _)), _) => {
+            assert_eq!(Ok(*report), first.result, "strip report, {p:?}");
+            assert!(
+                pixels_of(&go, &out) == pixels_of(&go, &first.out),
+                "strips differ from the whole frame, {p:?}, vis {gv:?}, tir {gt:?}, rows {max_rows}"
+            );
+        }
+    }
+    for (i, (a, z)) in out.iter().zip(&before).enumerate() {
+        if !go.is_pixel(i) || r.is_err() {
+            assert_eq!(a, z, "strips wrote outside the view (or before refusing) at {i}");
         }
     }
 }

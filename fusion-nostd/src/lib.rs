@@ -31,6 +31,7 @@
 //! | VIS, TIR and output sizes that do not fit the rescale policy (policy `None` with different sizes, an output that is not the fusion grid, a method called with frames of different sizes) | [`Error::SizeMismatch`] |
 //! | scratch planes (or the band plane, when the pipeline rescales) shorter than [`Pipeline::scratch_pixels`] | [`Error::ScratchTooSmall`] with both numbers |
 //! | a parameter outside its documented range | [`Error::InvalidParameter`] naming the field; [`pipeline::fuse_raw`] with IFEVIP (no pre-cast value): `name: "method"` |
+//! | [`strips::fuse_strips`] with what strips do not run (IFEVIP, TSIFSD classic, scene skipping, `max_rows` 0; a rescale that is not an exact 2× of the policy's filter; a strip scratch too small for one row and its halos) | [`Error::InvalidParameter`] naming it, [`Error::UnsupportedRatio`], [`Error::ScratchTooSmall`]; the output is untouched |
 //! | `f32` NaN, +∞, −∞ | [`Error::NonFinite`] (destination untouched) |
 //! | `f32` magnitude above [`rescale::F32_MAX_MAGNITUDE`] (2¹²⁰) | [`Error::ValueOutOfRange`]: the filter's overshoot could overflow to ±∞ |
 //! | `f32` denormals, ±0, the largest accepted magnitude | ordinary values; the output is finite |
@@ -48,7 +49,7 @@
 //! * **No panic path in the linked image**: `fw/` has an `exercise` function that calls every
 //!   public entry point (the rescaler for u8, u16 and f32, [`pipeline::fuse`],
 //!   [`pipeline::fuse_raw`], [`pipeline::fuse_method`], each method's u8 and pre-cast entry,
-//!   the stage functions, with sizes, strides and parameters hidden from the optimiser by
+//!   [`strips::fuse_strips`], the stage functions, with sizes, strides and parameters hidden from the optimiser by
 //!   `black_box`), and with `--features panic-check` its panic handler calls an undefined symbol:
 //!   the firmware links only if the optimiser removed every panic path (release, fat LTO,
 //!   Cortex-M7 and RV32). `fw/panic-sites.sh` lists the functions that still reach one. `.ci/run`

@@ -8,7 +8,7 @@
 //! * [`rescale`](mod@rescale) — bicubic and area rescalers with OpenCV conventions
 //!   (bit-exact with `cv2.resize` on u8 at factor 2).
 //! * [`scratch`] — caller-owned work planes ([`Scratch`], [`ScratchMut`]).
-//! * [`fuse`] — the fusion methods.
+//! * [`fuse`](mod@fuse) — the fusion methods.
 //! * [`filters`] — integer filters shared by the methods.
 //! * [`pipeline`] — the per-frame entry point: rescale one band onto the other's grid, fuse.
 //! * [`strips`] — the same pipeline strip by strip in a fixed 512 KiB working set

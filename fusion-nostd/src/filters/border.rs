@@ -145,7 +145,7 @@ pub fn column<T: Copy + Default>(rows: [Option<&[T]>; 3], x: isize, border: Bord
 }
 
 /// Calls `f(i, column)` for the `n + 2` columns `x0 − 1 ..= x0 + n` of the rows (see
-/// [`column`]), `i` counting from 0: the columns a 3×3 filter needs for the outputs
+/// [`column`](fn@column)), `i` counting from 0: the columns a 3×3 filter needs for the outputs
 /// `x0 .. x0 + n`. The interior is a plain zip; only columns outside the row go through the
 /// border rule.
 #[inline(always)]

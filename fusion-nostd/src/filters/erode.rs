@@ -19,7 +19,7 @@ const TILE: usize = if cfg!(target_arch = "x86_64") { 16 } else { 1 };
 /// For every row `y` of `src` and every `x`, `dst[x·H + y] = min(src[y][max(0, x−before) ..=
 /// min(W−1, x+after)])`, where `dst` is the `H × W` transposed plane (`H` = `src.height()`).
 /// `tmp` (at least `W` long) holds one row of suffix minima, and with `(TILE + 1)·W` the
-/// results of [`TILE`] rows before they are written transposed.
+/// results of `TILE` rows before they are written transposed.
 pub fn min_rows_transposed(
     src: FrameRef<'_, i32>,
     dst: &mut [i32],

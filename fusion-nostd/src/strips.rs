@@ -14,7 +14,7 @@
 //!
 //! | method | streaming form | halo (grid rows) | passes | work memory at width W |
 //! |---|---|---|---|---|
-//! | TSIFSD flight | the flight kernel started at the strip's first row: column sums of the 35×35 window and a ring of `2r + 3` rows of lane words | `r + 1` = 18 (mean radius + the Scharr row) | 1 | `(W + 2r + 1) + (2r + 3)·W` words (151 KiB at W = 1024) |
+//! | TSIFSD flight | the flight kernel started at the strip's first row: column sums of the 35×35 window and a ring of `2r + 3` rows of lane words | `max(r, 1)` = 17 (the mean's radius; the Scharr rows `y ± 1` lie inside it) | 1 | `(W + 2r + 1) + (2r + 3)·W` words (152.1 KiB at W = 1024) |
 //! | ADF (both variants) | both bands' diffusion row pipelines in lockstep (all iterations in one group) | `iterations` = 10 | 2: the covariance (global KL weights), then the output | `2·(iterations·3·(W + 2) + W)` words (248 KiB at W = 1024, 10 iterations) |
 //!
 //! ADF's weights come from the covariance of the whole frame's detail layers, which no strip
@@ -37,7 +37,7 @@
 //!
 //! Memory: [`StripScratch`] (`static` on the firmware): [`STRIP_WORK_WORDS`] `i32` words for the
 //! method and [`STRIP_BAND_BYTES`] bytes for the window of the rescaled band. The strip height
-//! is the largest the band holds (or `max_rows`, if smaller): at W = 1024 with TIR up, 210
+//! is the largest the band holds (or `max_rows`, if smaller): at W = 1024 with TIR up, 212
 //! rows (TSIFSD) and 226 rows (ADF), five strips per frame.
 
 use crate::fuse::adf::{Covariance, diffuse_pair_rows, stream_words};
@@ -117,8 +117,10 @@ pub struct StripReport {
     pub halo_rows: usize,
     /// Passes over the strips (1: TSIFSD; 2: ADF, covariance then output).
     pub passes: usize,
-    /// Grid rows the method processed over all passes, halos included (the whole-frame run
-    /// processes the grid's height once).
+    /// Grid rows of the windows the method read over all passes, halos included (the
+    /// whole-frame run reads the grid's height once). TSIFSD computes output rows for the
+    /// strip's rows only (its halo rows are read for the window sums); ADF diffuses its windows
+    /// down to the strip's last row.
     pub method_rows: usize,
     /// Rows of the rescaled band produced over all passes, halos and tap margins included
     /// (0 when the frames share a grid; the whole-frame run produces the grid's height once).
@@ -149,6 +151,12 @@ fn band_rows_for(src: (usize, usize), grid: (usize, usize), y0: usize, y1: usize
     }
 }
 
+/// The methods that run in strips, with their parameters.
+enum Streamed<'p> {
+    Tsifsd(&'p crate::TsifsdParams),
+    Adf(&'p crate::AdfParams),
+}
+
 /// The strips of one frame pair and how each window is brought onto the grid.
 struct Walk<'f> {
     vis: FrameRef<'f, u8>,
@@ -167,7 +175,7 @@ struct Walk<'f> {
 impl Walk<'_> {
     /// One pass: for each strip, top to bottom, its window `y0..y1` on the grid as two views
     /// (the rescaled one in `band`) and `f(vis window, tir window, y0, strip rows)`, which
-    /// returns the grid rows the method processed. Adds the rows to `report`.
+    /// returns the grid rows the method read. Adds the rows to `report`.
     fn run(
         &self,
         band: &mut [u8],
@@ -237,12 +245,15 @@ pub fn fuse_strips(
         return Err(Error::SizeMismatch { expected: grid, got: out.size() });
     }
     let (w, h) = grid;
-    let (halo, passes, words) = match &pipeline.method {
+    let (streamed, halo, passes, words) = match &pipeline.method {
         Method::Tsifsd(p) if p.variant == Variant::Flight => {
-            (usize::from(p.mean_size / 2) + 1, 1, flight_words(w, usize::from(p.mean_size / 2)))
+            // The kernel reads rows y − r … y + r for output row y (the Scharr rows y ± 1 lie
+            // inside for r ≥ 1): a halo of max(r, 1) rows keeps every output row exact.
+            let r = usize::from(p.mean_size / 2);
+            (Streamed::Tsifsd(p), r.max(1), 1, flight_words(w, r))
         }
         Method::Tsifsd(_) => return Err(Error::InvalidParameter { name: "variant" }),
-        Method::Adf(p) => (usize::from(p.iterations), 2, stream_words(w, p)),
+        Method::Adf(p) => (Streamed::Adf(p), usize::from(p.iterations), 2, stream_words(w, p)),
         Method::Ifevip(_) => return Err(Error::InvalidParameter { name: "method" }),
     };
     if scratch.work.len() < words {
@@ -266,7 +277,7 @@ pub fn fuse_strips(
     let margin = if up2 { 9 } else { 0 };
     let fit = window_rows.saturating_sub(margin + 2 * halo + usize::from(up2));
     if fit == 0 {
-        let needed = w * (margin + 2 * halo + 2);
+        let needed = w * (margin + 2 * halo + 1 + usize::from(up2));
         return Err(Error::ScratchTooSmall { needed, capacity: scratch.band.len() });
     }
     let strip_rows = fit.min(max_rows).min(h);
@@ -285,13 +296,13 @@ pub fn fuse_strips(
     let StripScratchMut { work, band } = scratch;
     let walk = Walk { vis, tir, grid, src, filter, rescaled, up2, halo, strip_rows };
     let mut guards = Guards::NONE;
-    match &pipeline.method {
-        Method::Tsifsd(p) => walk.run(band, &mut report, |vis_w, tir_w, y0, strip| {
+    match streamed {
+        Streamed::Tsifsd(p) => walk.run(band, &mut report, |vis_w, tir_w, y0, strip| {
             let rows = out.sub_rect_mut(0, strip.start, w, strip.len())?;
             guards |= fuse_tsifsd_flight_rows(vis_w, tir_w, rows, strip.start - y0, p, work)?;
-            Ok(strip.len()) // the kernel starts at the strip's first row
+            Ok(vis_w.height())
         })?,
-        Method::Adf(p) => {
+        Streamed::Adf(p) => {
             let mut cov = Covariance::new();
             walk.run(band, &mut report, |vis_w, tir_w, y0, strip| {
                 let keep = strip.start - y0..strip.end - y0;
@@ -300,7 +311,7 @@ pub fn fuse_strips(
                         cov.add_row(vis_w.row(y), tir_w.row(y), av, at);
                     }
                 })?;
-                Ok(keep.end) // the diffusion runs from the window's first row
+                Ok(vis_w.height())
             })?;
             let fusion = cov.weights(w * h, p.variant);
             guards |= fusion.guards;
@@ -313,13 +324,12 @@ pub fn fuse_strips(
                         saturated |= fusion.u8_row(iv, it, av, at, out.row_mut(y0 + y));
                     }
                 })?;
-                Ok(keep.end)
+                Ok(vis_w.height())
             })?;
             if saturated {
                 guards |= Guards::OUTPUT_SATURATED;
             }
         }
-        Method::Ifevip(_) => return Err(Error::InvalidParameter { name: "method" }),
     }
     let fuse =
         FuseReport { grid, rescaled, guards, skip: SkipReport::none(SkipPolicy::None, grid, rescaled) };

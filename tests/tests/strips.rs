@@ -218,7 +218,7 @@ fn what_strips_do_not_run_is_an_error() -> Result<()> {
     // 64×48 from 30×24: not a 2× ratio.
     let odd = textured(30, 24, 4);
     assert_eq!(run(&vis, &odd, &tsifsd, 8, grid, &mut work, &mut band)?, Some(Error::UnsupportedRatio));
-    // A band too small for one row plus the halos (TSIFSD: 2·18 + 9 margin + 2 rows of 64).
+    // A band too small for one row plus the halos (TSIFSD: 2·17 + 9 margin + 2 rows of 64).
     assert!(matches!(
         run(&vis, &tir, &tsifsd, 8, grid, &mut work, &mut band[..64 * 40])?,
         Some(Error::ScratchTooSmall { .. })
@@ -229,7 +229,7 @@ fn what_strips_do_not_run_is_an_error() -> Result<()> {
         Some(Error::ScratchTooSmall { needed: 64 + 35 + 37 * 64, capacity: 2000 })
     );
     // The smallest band that fits still gives the whole-frame bytes (one-row strips).
-    let min_band = 64 * (9 + 2 * 18 + 2);
+    let min_band = 64 * (9 + 2 * 17 + 2);
     assert!(matches!(
         run(&vis, &tir, &tsifsd, 8, grid, &mut work, &mut band[..min_band - 64])?,
         Some(Error::ScratchTooSmall { .. })

@@ -1031,8 +1031,9 @@ impl Covariance {
         }
     }
 
-    /// The KL weights of a frame of `pixels` pixels whose rows (all with non-zero detail)
-    /// were added.
+    /// The KL weights of a frame of `pixels` pixels, from the rows added so far: every pixel of
+    /// the frame not added must have zero detail (`fuse_adf_window` relies on that; the whole
+    /// frame and the strips add every pixel).
     pub(crate) fn weights(&self, pixels: usize, variant: Variant) -> Fusion {
         let [s1, s2, s11, s12, s22] = self.sums;
         let n = pixels as i128;

@@ -60,7 +60,7 @@
 //! row of column sums (`W + 2r + 1` entries) and a ring of `2r + 3` rows of lane words
 //! (frames shorter than the ring take the general path, with the same bytes). Its memory does
 //! not grow with the height and it can start at any row, which is what lets the strip
-//! pipeline ([`crate::strips`]) run it in 151 KiB at W = 1024.
+//! pipeline ([`crate::strips`]) run it in 152.1 KiB at W = 1024.
 
 use super::{Guards, Variant};
 use crate::filters::border::Border;
@@ -496,13 +496,15 @@ fn flight_fits(w: usize, radius: usize, cols: usize, lanes: usize) -> bool {
 /// window sums are of the difference `I_IR − I_VIS`: `cols` (at least `W + 2r + 1` entries)
 /// keeps each column's vertical window sum at `r + x`, summed over the window at the first
 /// row and then updated by one entering and one leaving row per output row ([`column_step`])
-/// and padded with `r + 1` copies of the edge columns on each side, so the horizontal running
-/// sum over it needs no border test. Then, chunk by chunk of the row, in short passes (few
+/// and padded with copies of the edge columns (`r` on the left, `r + 1` on the right), so the
+/// horizontal running sum over it needs no border test. Then, chunk by chunk of the row, in short passes (few
 /// live values each): the weight-free part of each pixel, packed as below; the Scharr columns
 /// of both bands ([`scharr_columns_pair`]); per pixel the weights ([`scharr_l1_pair`],
 /// `w_VIS + w_IR·2¹⁶`) and the output. Returns (some pixel had both gradients 0, some output
 /// saturated). The memory does not grow with the frame height, and any row range gives the
 /// rows of the whole-frame run: the strip pipeline ([`crate::strips`]) runs it on windows.
+/// The caller checks the memory ([`flight_fits`], [`flight_words`]): with short `cols` or
+/// `lanes` the kernel writes nothing and returns `(false, false)`.
 ///
 /// With `c = 2·taps`, `d = c·(a − 128) + r` (`a = ⌊(d + 128c)/c⌋ ∈ [0, 255]`,
 /// `0 ≤ r < c ≤ 7938`), `q_VIS = I_VIS + a ∈ [0, 510]`, `q_IR = I_IR − a + 255 ∈ [0, 510]`
@@ -529,7 +531,7 @@ fn flight_u8_kernel<const WIDE: bool>(
     const TWO: NonZeroU32 = NonZeroU32::MIN.saturating_add(1);
     let (w, h) = vis.size();
     let c = NonZeroU32::new(2 * taps).unwrap_or(TWO);
-    let by_c = ByC::new(c);
+    let by_c = ByC(c);
     let bias = 128 * c.get() as i32; // d + 128c > 0: |d| ≤ 255·taps
     // q = I_VIS + I_IR·2⁹ + dd·2¹⁸ + a·(1 − 2⁹ − c·2¹⁸) + 255·2⁹ + taps·2¹⁸ (wrapping; exact
     // in the end).
@@ -762,8 +764,8 @@ fn trunc_u32(x: f64) -> u32 {
     r - u32::from(f64::from(r as i32) > x)
 }
 
-/// One chunk in separate short passes without branches or integer divisions (`f64`, see
-/// [`div_c_f64`] and [`div_sigma`]), which the compiler vectorises (the AVX2 copy on x86-64).
+/// One chunk in separate short passes without branches or integer divisions ([`div_c_f64`] in
+/// `f64`, [`div_sigma_f32`] in `f32`), which the compiler vectorises (the AVX2 copy on x86-64).
 #[inline(always)]
 fn chunk_wide(
     ch: &FlightChunk<'_>,
@@ -822,59 +824,22 @@ crate::cpu::dispatch! {
     ) -> (bool, bool) => flight_u8_native
 }
 
-/// `⌊n / c⌋` for the frame's constant `c = 2·taps < 2¹³` and `n < 2²⁸` (the flight kernel's two
-/// divisions by `c`). On x86-64, where a 32-bit `div` costs ≈ 6 cycles of throughput, by a
-/// multiply with `m = ⌈2⁴¹/c⌉` and a shift: `m = (2⁴¹ + e)/c` with `0 ≤ e < c`, so
-/// `n·m/2⁴¹ = n/c + n·e/(c·2⁴¹)` and the added term is below `1/c` (`n·c < 2⁴¹`): the floor is
-/// exact. Elsewhere the plain division (one `udiv` on the flight targets).
+/// `⌊n / c⌋` for the frame's constant `c = 2·taps` (the portable chunk form: one `udiv` on the
+/// flight targets; the wide form uses [`div_c_f64`]).
 #[derive(Clone, Copy)]
-struct ByC {
-    #[cfg(not(target_arch = "x86_64"))]
-    c: NonZeroU32,
-    #[cfg(target_arch = "x86_64")]
-    magic: u128,
-}
+struct ByC(NonZeroU32);
 
 impl ByC {
-    #[cfg(target_arch = "x86_64")]
-    const SHIFT: u32 = 41;
-
-    fn new(c: NonZeroU32) -> Self {
-        Self {
-            #[cfg(not(target_arch = "x86_64"))]
-            c,
-            #[cfg(target_arch = "x86_64")]
-            magic: (1u128 << Self::SHIFT).div_ceil(u128::from(c.get())),
-        }
-    }
-
     #[inline(always)]
     fn div(self, n: u32) -> u32 {
-        #[cfg(target_arch = "x86_64")]
-        {
-            ((u128::from(n) * self.magic) >> Self::SHIFT) as u32
-        }
-        #[cfg(not(target_arch = "x86_64"))]
-        {
-            n / self.c
-        }
+        n / self.0
     }
 }
 
-/// `⌊n / σ⌋` for the flight kernel's last division (`n < 2²⁴`, `σ ≤ 16320`). On x86-64 in
-/// `f64`: both operands are exact, the quotient is correctly rounded and below 2¹⁰, and a
-/// non-integer `n/σ` is at least `1/σ` below the next integer, far more than the rounding
-/// (2⁻⁵³ relative), so truncating gives the floor. Elsewhere the integer division.
+/// `⌊n / σ⌋` of the portable chunk form (the wide form uses [`div_sigma_f32`]).
 #[inline(always)]
 fn div_sigma(n: u32, sigma: NonZeroU32) -> u32 {
-    #[cfg(target_arch = "x86_64")]
-    {
-        (f64::from(n) / f64::from(sigma.get())) as u32
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        n / sigma
-    }
+    n / sigma
 }
 
 /// The lane weights (−1, 1) and (1, −1) of [`column_step`] (low lane first).
@@ -1290,7 +1255,7 @@ mod tests {
     fn division_helpers_are_exact() {
         for side in (1u32..=63).step_by(2) {
             let c = 2 * side * side;
-            let by_c = ByC::new(NonZeroU32::new(c).unwrap());
+            let by_c = ByC(NonZeroU32::new(c).unwrap());
             let inv_c = 1.0 / f64::from(c);
             let check = |n: u32| {
                 assert_eq!(div_c_f64(n, inv_c), n / c, "n {n} c {c}");

@@ -50,10 +50,10 @@ unsafe fn xgetbv0() -> u64 {
 /// Defines `fn $name(args) -> ret` (`-> ()` when omitted) calling `$kernel(args)`, through
 /// an AVX2-compiled copy of the kernel on x86-64 CPUs that have AVX2.
 macro_rules! dispatch {
-    ($(#[$meta:meta])* $vis:vis fn $name:ident($($arg:ident: $ty:ty),* $(,)?) => $kernel:ident) => {
+    ($(#[$meta:meta])* $vis:vis fn $name:ident($($arg:ident: $ty:ty),* $(,)?) => $kernel:path) => {
         $crate::cpu::dispatch! { $(#[$meta])* $vis fn $name($($arg: $ty),*) -> () => $kernel }
     };
-    ($(#[$meta:meta])* $vis:vis fn $name:ident($($arg:ident: $ty:ty),* $(,)?) -> $ret:ty => $kernel:ident) => {
+    ($(#[$meta:meta])* $vis:vis fn $name:ident($($arg:ident: $ty:ty),* $(,)?) -> $ret:ty => $kernel:path) => {
         $(#[$meta])*
         $vis fn $name($($arg: $ty),*) -> $ret {
             #[cfg(target_arch = "x86_64")]

@@ -619,22 +619,6 @@ fn flight_u8_kernel<const WIDE: bool>(
 /// the same bytes (unit test `wide_and_portable_chunks_agree`).
 const WIDE_CHUNKS: bool = cfg!(target_arch = "x86_64");
 
-/// [`flight_u8_kernel`] in this target's chunk form.
-#[allow(clippy::too_many_arguments)]
-#[inline(always)]
-fn flight_u8_native(
-    vis: FrameRef<'_, u8>,
-    tir: FrameRef<'_, u8>,
-    taps: u32,
-    radius: usize,
-    cols: &mut [i32],
-    lanes: &mut [i32],
-    out: FrameMut<'_, u8>,
-    y0: usize,
-) -> (bool, bool) {
-    flight_u8_kernel::<WIDE_CHUNKS>(vis, tir, taps, radius, cols, lanes, out, y0)
-}
-
 /// The per-frame constants of the flight kernel's output (see [`flight_u8_kernel`]).
 struct Consts {
     c: NonZeroU32,
@@ -810,7 +794,8 @@ fn chunk_wide(
 }
 
 crate::cpu::dispatch! {
-    /// [`flight_u8_kernel`] (an AVX2-compiled copy on x86-64 CPUs that have AVX2).
+    /// [`flight_u8_kernel`] in this target's chunk form (an AVX2-compiled copy on x86-64 CPUs
+    /// that have AVX2).
     #[allow(clippy::too_many_arguments)]
     fn flight_u8(
         vis: FrameRef<'_, u8>,
@@ -821,7 +806,7 @@ crate::cpu::dispatch! {
         lanes: &mut [i32],
         out: FrameMut<'_, u8>,
         y0: usize,
-    ) -> (bool, bool) => flight_u8_native
+    ) -> (bool, bool) => flight_u8_kernel::<WIDE_CHUNKS>
 }
 
 /// `⌊n / c⌋` for the frame's constant `c = 2·taps` (the portable chunk form: one `udiv` on the

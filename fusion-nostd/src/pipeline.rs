@@ -453,49 +453,90 @@ fn plan(scene: &Scene, pipeline: &Pipeline, grid: (usize, usize), eclipse: bool)
     }
 }
 
+/// How a band's source frame relates to the fusion grid, for the rescale `filter`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum BandRatio {
+    /// Already on the grid: no rescale.
+    Same,
+    /// Exactly 2× up with the bicubic filter (the 2× kernel, window-exact).
+    CubicUp2,
+    /// Exactly 2× down with the area filter (the 2× kernel, window-exact).
+    AreaDown2,
+    /// Any other ratio or filter (the general path: the whole frame is rescaled).
+    Other,
+}
+
+/// The [`BandRatio`] of a `src`-sized frame rescaled onto `grid` with `filter`.
+pub(crate) fn band_ratio(src: (usize, usize), grid: (usize, usize), filter: Filter) -> BandRatio {
+    if src == grid {
+        BandRatio::Same
+    } else if grid == (2 * src.0, 2 * src.1) && filter == Filter::Cubic {
+        BandRatio::CubicUp2
+    } else if src == (2 * grid.0, 2 * grid.1) && filter == Filter::Area {
+        BandRatio::AreaDown2
+    } else {
+        BandRatio::Other
+    }
+}
+
+/// What [`band_window`] produced.
+pub(crate) struct BandWindow<'b> {
+    /// The grid window `win` of the band.
+    pub view: FrameRef<'b, u8>,
+    /// Whether only the window (not the whole frame) was rescaled.
+    pub window_only: bool,
+    /// Band rows rescaled (0 when the source is already on the grid).
+    pub rows: usize,
+}
+
 /// `src` brought onto the grid window `win`: a view of `src` itself when the sizes match, else
 /// the window rescaled into `band`. Exact 2× ratios rescale only the source pixels the window's
-/// taps read (plus the two-pixel bicubic margin) — the same bits as the whole-frame rescale,
-/// since the phase is the same and no tap crosses the cut; other ratios rescale the whole frame.
-/// Returns the view and whether only the window was rescaled.
+/// taps read (plus the two-pixel bicubic margin; for 2× up the window must start on even
+/// coordinates) — the same bits as the whole-frame rescale, since the phase is the same and no
+/// tap crosses the cut; other ratios rescale the whole frame.
 pub(crate) fn band_window<'b>(
     src: FrameRef<'b, u8>,
     grid: (usize, usize),
     win: Rect,
     filter: Filter,
     band: &'b mut [u8],
-) -> Result<(FrameRef<'b, u8>, bool), Error> {
+) -> Result<BandWindow<'b>, Error> {
     let (sw, sh) = src.size();
-    if (sw, sh) == grid {
-        return Ok((src.sub_rect(win.x0, win.y0, win.width(), win.height())?, false));
-    }
-    let up2 = grid == (2 * sw, 2 * sh)
-        && filter == Filter::Cubic
-        && win.x0.is_multiple_of(2)
-        && win.y0.is_multiple_of(2);
-    let down2 = (sw, sh) == (2 * grid.0, 2 * grid.1) && filter == Filter::Area;
-    if up2 {
-        let sx0 = (win.x0 / 2).saturating_sub(2);
-        let sy0 = (win.y0 / 2).saturating_sub(2);
-        let sx1 = (win.x1.div_ceil(2) + 2).min(sw);
-        let sy1 = (win.y1.div_ceil(2) + 2).min(sh);
-        let (cw, ch) = (2 * (sx1 - sx0), 2 * (sy1 - sy0));
-        let dst = band.get_mut(..cw * ch).ok_or(Error::ScratchTooSmall { needed: cw * ch, capacity: 0 })?;
-        rescale(src.sub_rect(sx0, sy0, sx1 - sx0, sy1 - sy0)?, FrameMut::new(dst, cw, ch)?, filter)?;
-        let view = FrameRef::new(&*dst, cw, ch)?;
-        return Ok((view.sub_rect(win.x0 - 2 * sx0, win.y0 - 2 * sy0, win.width(), win.height())?, true));
-    }
-    if down2 {
-        let (cw, ch) = (win.width(), win.height());
-        let dst = band.get_mut(..cw * ch).ok_or(Error::ScratchTooSmall { needed: cw * ch, capacity: 0 })?;
-        rescale(src.sub_rect(2 * win.x0, 2 * win.y0, 2 * cw, 2 * ch)?, FrameMut::new(dst, cw, ch)?, filter)?;
-        return Ok((FrameRef::new(&*dst, cw, ch)?, true));
-    }
-    let pixels = grid.0 * grid.1;
-    let dst = band.get_mut(..pixels).ok_or(Error::ScratchTooSmall { needed: pixels, capacity: 0 })?;
-    rescale(src, FrameMut::new(dst, grid.0, grid.1)?, filter)?;
-    let view = FrameRef::new(&*dst, grid.0, grid.1)?;
-    Ok((view.sub_rect(win.x0, win.y0, win.width(), win.height())?, false))
+    let even = win.x0.is_multiple_of(2) && win.y0.is_multiple_of(2);
+    let (view, window_only, rows) = match band_ratio((sw, sh), grid, filter) {
+        BandRatio::Same => (src.sub_rect(win.x0, win.y0, win.width(), win.height())?, false, 0),
+        BandRatio::CubicUp2 if even => {
+            let sx0 = (win.x0 / 2).saturating_sub(2);
+            let sy0 = (win.y0 / 2).saturating_sub(2);
+            let sx1 = (win.x1.div_ceil(2) + 2).min(sw);
+            let sy1 = (win.y1.div_ceil(2) + 2).min(sh);
+            let (cw, ch) = (2 * (sx1 - sx0), 2 * (sy1 - sy0));
+            let dst =
+                band.get_mut(..cw * ch).ok_or(Error::ScratchTooSmall { needed: cw * ch, capacity: 0 })?;
+            rescale(src.sub_rect(sx0, sy0, sx1 - sx0, sy1 - sy0)?, FrameMut::new(dst, cw, ch)?, filter)?;
+            let view = FrameRef::new(&*dst, cw, ch)?;
+            (view.sub_rect(win.x0 - 2 * sx0, win.y0 - 2 * sy0, win.width(), win.height())?, true, ch)
+        }
+        BandRatio::AreaDown2 => {
+            let (cw, ch) = (win.width(), win.height());
+            let dst =
+                band.get_mut(..cw * ch).ok_or(Error::ScratchTooSmall { needed: cw * ch, capacity: 0 })?;
+            rescale(
+                src.sub_rect(2 * win.x0, 2 * win.y0, 2 * cw, 2 * ch)?,
+                FrameMut::new(dst, cw, ch)?,
+                filter,
+            )?;
+            (FrameRef::new(&*dst, cw, ch)?, true, ch)
+        }
+        BandRatio::CubicUp2 | BandRatio::Other => {
+            let pixels = grid.0 * grid.1;
+            let dst = band.get_mut(..pixels).ok_or(Error::ScratchTooSmall { needed: pixels, capacity: 0 })?;
+            rescale(src, FrameMut::new(dst, grid.0, grid.1)?, filter)?;
+            let view = FrameRef::new(&*dst, grid.0, grid.1)?;
+            (view.sub_rect(win.x0, win.y0, win.width(), win.height())?, false, grid.1)
+        }
+    };
+    Ok(BandWindow { view, window_only, rows })
 }
 
 /// Writes `value` to every pixel of `out` outside `keep`.
@@ -575,11 +616,11 @@ fn fuse_skipping(
         (&mut no_band[..], ScratchMut::from_slices([a, b, c]))
     };
     let (vis_w, tir_w, window_rescale) = if vis_rescaled {
-        let (v, w) = band_window(vis, grid, computed, filter_vis_side, band)?;
-        (v, tir.sub_rect(computed.x0, computed.y0, cw, ch)?, w)
+        let b = band_window(vis, grid, computed, filter_vis_side, band)?;
+        (b.view, tir.sub_rect(computed.x0, computed.y0, cw, ch)?, b.window_only)
     } else {
-        let (t, w) = band_window(tir, grid, computed, filter_vis_side, band)?;
-        (vis.sub_rect(computed.x0, computed.y0, cw, ch)?, t, w)
+        let b = band_window(tir, grid, computed, filter_vis_side, band)?;
+        (vis.sub_rect(computed.x0, computed.y0, cw, ch)?, b.view, b.window_only)
     };
     let mut out_w = out.sub_rect_mut(computed.x0, computed.y0, cw, ch)?;
     let guards = match &pipeline.method {

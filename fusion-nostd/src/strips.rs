@@ -44,7 +44,8 @@ use crate::fuse::adf::{Covariance, diffuse_pair_rows, stream_words};
 use crate::fuse::tsifsd::{flight_words, fuse_tsifsd_flight_rows};
 use crate::fuse::{Guards, Variant};
 use crate::pipeline::{
-    FuseReport, Method, Pipeline, RescalePolicy, SkipPolicy, SkipReport, band_window, fusion_grid,
+    BandRatio, FuseReport, Method, Pipeline, RescalePolicy, SkipPolicy, SkipReport, band_ratio, band_window,
+    fusion_grid,
 };
 use crate::scene::Rect;
 use crate::{Error, Filter, FrameMut, FrameRef};
@@ -138,19 +139,6 @@ impl StripReport {
     }
 }
 
-/// Band rows of `src` rescaled for the grid window rows `y0..y1` (mirrors `band_window`).
-fn band_rows_for(src: (usize, usize), grid: (usize, usize), y0: usize, y1: usize) -> usize {
-    if src == grid {
-        0
-    } else if grid.1 == 2 * src.1 {
-        let sy0 = (y0 / 2).saturating_sub(2);
-        let sy1 = (y1.div_ceil(2) + 2).min(src.1);
-        2 * (sy1 - sy0)
-    } else {
-        y1 - y0
-    }
-}
-
 /// The methods that run in strips, with their parameters.
 enum Streamed<'p> {
     Tsifsd(&'p crate::TsifsdParams),
@@ -162,8 +150,7 @@ struct Walk<'f> {
     vis: FrameRef<'f, u8>,
     tir: FrameRef<'f, u8>,
     grid: (usize, usize),
-    /// Size of the band's source frame and the policy's filter.
-    src: (usize, usize),
+    /// The policy's filter.
     filter: Filter,
     /// Whether the sizes differ (a band is rescaled), and whether it is a 2× cubic up.
     rescaled: bool,
@@ -197,16 +184,15 @@ impl Walk<'_> {
             let y1 = (s1 + self.halo).min(h);
             let win = Rect { x0: 0, y0, x1: w, y1 };
             let (vis, tir) = (self.vis.sub_rect(0, y0, w, y1 - y0), self.tir.sub_rect(0, y0, w, y1 - y0));
-            let method_rows = if !self.rescaled {
-                f(vis?, tir?, y0, s0..s1)?
+            let (method_rows, band_rows) = if !self.rescaled {
+                (f(vis?, tir?, y0, s0..s1)?, 0)
             } else if self.filter == Filter::Cubic {
-                let (t, _) = band_window(self.tir, self.grid, win, self.filter, band)?;
-                f(vis?, t, y0, s0..s1)?
+                let b = band_window(self.tir, self.grid, win, self.filter, band)?;
+                (f(vis?, b.view, y0, s0..s1)?, b.rows)
             } else {
-                let (v, _) = band_window(self.vis, self.grid, win, self.filter, band)?;
-                f(v, tir?, y0, s0..s1)?
+                let b = band_window(self.vis, self.grid, win, self.filter, band)?;
+                (f(b.view, tir?, y0, s0..s1)?, b.rows)
             };
-            let band_rows = if self.rescaled { band_rows_for(self.src, self.grid, y0, y1) } else { 0 };
             report.band_rows += band_rows;
             report.band_bytes = report.band_bytes.max(band_rows * w);
             report.method_rows += method_rows;
@@ -266,11 +252,11 @@ pub fn fuse_strips(
         RescalePolicy::VisDown | RescalePolicy::None => (vis.size(), Filter::Area),
     };
     let rescaled = vis.size() != tir.size();
-    let up2 = grid == (2 * src.0, 2 * src.1) && filter == Filter::Cubic;
-    let down2 = src == (2 * w, 2 * h) && filter == Filter::Area;
-    if rescaled && !up2 && !down2 {
+    let ratio = band_ratio(src, grid, filter);
+    if ratio == BandRatio::Other {
         return Err(Error::UnsupportedRatio);
     }
+    let up2 = ratio == BandRatio::CubicUp2;
     // Window rows: the strip, its halo on both sides and (2× up) one row of alignment; the
     // band of a 2× up window holds up to 9 rows more (the taps' margins).
     let window_rows = if rescaled { scratch.band.len() / w.max(1) } else { usize::MAX };
@@ -294,7 +280,7 @@ pub fn fuse_strips(
     };
 
     let StripScratchMut { work, band } = scratch;
-    let walk = Walk { vis, tir, grid, src, filter, rescaled, up2, halo, strip_rows };
+    let walk = Walk { vis, tir, grid, filter, rescaled, up2, halo, strip_rows };
     let mut guards = Guards::NONE;
     match streamed {
         Streamed::Tsifsd(p) => walk.run(band, &mut report, |vis_w, tir_w, y0, strip| {

@@ -1339,14 +1339,12 @@ pub fn fuse_adf_window(
         let dst = out.row_mut(y).get_mut(ex0..ex1).unwrap_or(&mut []);
         saturated |= match iv {
             Some(iv) => fusion.u8_row(iv, it, av, at, dst),
+            // VIS is the constant level: the rows of `level_row`, a chunk at a time.
             None => {
-                let mut sat = false;
-                for (((o, &it), &av), &at) in dst.iter_mut().zip(it).zip(av).zip(at) {
-                    let v = fusion.value(vis_level, it, av, at);
-                    sat |= raw_saturates(v);
-                    *o = raw_to_u8(v);
-                }
-                sat
+                let parts = dst.chunks_mut(COV_CHUNK).zip(it.chunks(COV_CHUNK)).zip(av.chunks(COV_CHUNK));
+                parts.zip(at.chunks(COV_CHUNK)).fold(false, |sat, (((d, it), av), at)| {
+                    sat | fusion.u8_row(level_row.get(..d.len()).unwrap_or(&[]), it, av, at, d)
+                })
             }
         };
     }

@@ -14,6 +14,11 @@
  * region includes the tail of the `begin` block and all of the `end` block: a fixed overhead of
  * a few instructions, the same for every region (measure it with an empty region).
  *
+ * With `profile=PATH` it also counts the executions of every translation block (one more
+ * inline add per block) and writes, at exit, one line per block to PATH:
+ *   <start address hex> <instructions in the block> <executions>
+ * (a block translated twice appears twice; `scripts/arm-profile.sh` sums them per function).
+ *
  * Debian ships no qemu-plugin.h, so the few API functions used are declared here by hand, as
  * QEMU 7.2 defines them (plugin API version 1; QEMU 8+ changed signatures and wants version 2).
  */
@@ -58,6 +63,35 @@ static int depth;
 static uint64_t closed; /* regions reported */
 static int errors;
 
+/* Profile mode: one slot per translated block, allocated in chunks, never freed. */
+struct tb_slot {
+    uint64_t pc;
+    uint64_t insns;
+    uint64_t execs;
+};
+#define SLOTS_PER_CHUNK 4096
+struct slot_chunk {
+    struct tb_slot slots[SLOTS_PER_CHUNK];
+    size_t used;
+    struct slot_chunk *next;
+};
+static const char *profile_path;
+static struct slot_chunk *chunks;
+
+static struct tb_slot *new_slot(void)
+{
+    if (chunks == NULL || chunks->used == SLOTS_PER_CHUNK) {
+        struct slot_chunk *c = calloc(1, sizeof *c);
+        if (c == NULL) {
+            errors++;
+            return NULL;
+        }
+        c->next = chunks;
+        chunks = c;
+    }
+    return &chunks->slots[chunks->used++];
+}
+
 static void on_begin(unsigned int vcpu, void *udata)
 {
     (void)vcpu;
@@ -93,6 +127,14 @@ static void on_tb_trans(qemu_plugin_id_t id, struct qemu_plugin_tb *tb)
     size_t n = qemu_plugin_tb_n_insns(tb);
     (void)id;
     qemu_plugin_register_vcpu_tb_exec_inline(tb, QEMU_PLUGIN_INLINE_ADD_U64, &counter, n);
+    if (profile_path != NULL && n > 0) {
+        struct tb_slot *slot = new_slot();
+        if (slot != NULL) {
+            slot->pc = qemu_plugin_insn_vaddr(qemu_plugin_tb_get_insn(tb, 0));
+            slot->insns = n;
+            qemu_plugin_register_vcpu_tb_exec_inline(tb, QEMU_PLUGIN_INLINE_ADD_U64, &slot->execs, 1);
+        }
+    }
     for (size_t i = 0; i < n; i++) {
         struct qemu_plugin_insn *insn = qemu_plugin_tb_get_insn(tb, i);
         uint64_t pc = qemu_plugin_insn_vaddr(insn);
@@ -112,6 +154,22 @@ static void on_exit_cb(qemu_plugin_id_t id, void *udata)
     snprintf(line, sizeof line, "insn_count total %" PRIu64 " regions %" PRIu64 " open %d errors %d\n", counter,
              closed, depth, errors);
     qemu_plugin_outs(line);
+    if (profile_path != NULL) {
+        FILE *f = fopen(profile_path, "w");
+        if (f == NULL) {
+            qemu_plugin_outs("insn_count error: cannot write the profile\n");
+            return;
+        }
+        for (struct slot_chunk *c = chunks; c != NULL; c = c->next) {
+            for (size_t i = 0; i < c->used; i++) {
+                const struct tb_slot *t = &c->slots[i];
+                if (t->execs > 0) {
+                    fprintf(f, "%" PRIx64 " %" PRIu64 " %" PRIu64 "\n", t->pc, t->insns, t->execs);
+                }
+            }
+        }
+        fclose(f);
+    }
 }
 
 __attribute__((visibility("default"))) int qemu_plugin_install(qemu_plugin_id_t id, const qemu_info_t *info,
@@ -124,8 +182,10 @@ __attribute__((visibility("default"))) int qemu_plugin_install(qemu_plugin_id_t 
             begin_addr = strtoull(arg + 6, NULL, 0) & ~(uint64_t)1; /* drop the Thumb bit */
         } else if (strncmp(arg, "end=", 4) == 0) {
             end_addr = strtoull(arg + 4, NULL, 0) & ~(uint64_t)1;
+        } else if (strncmp(arg, "profile=", 8) == 0) {
+            profile_path = arg + 8;
         } else {
-            fprintf(stderr, "insn_count: unknown argument %s (want begin=ADDR,end=ADDR)\n", arg);
+            fprintf(stderr, "insn_count: unknown argument %s (want begin=ADDR,end=ADDR[,profile=PATH])\n", arg);
             return -1;
         }
     }

@@ -20,9 +20,33 @@ fn basis(n: i64, k: i64) -> [i64; 4] {
     [m * m * m, 3 * k * m * m, 3 * k * k * m, k * k * k]
 }
 
+/// Local (0-based) offsets of the control points of a leaf of side `n`, along both axes:
+/// `{0, n/2 − 1, 3n/4 − 1, n}` (the published 1-based `{1, n/2, 3n/4, n+1}`).
+pub fn control_offsets(n: usize) -> [usize; 4] {
+    [0, (n / 2).saturating_sub(1), (3 * n / 4).saturating_sub(1), n]
+}
+
+/// Marks in `rows` and `cols` (each at least `d` long) every grid row and column that holds a
+/// control point of some leaf, clamped into the `d×d` grid (the replicate pad): the minimum
+/// image is read only at the crossings of these lines.
+pub fn control_lines(leaves: &[Leaf], d: usize, rows: &mut [bool], cols: &mut [bool]) {
+    for leaf in leaves {
+        for off in control_offsets(usize::from(leaf.side)) {
+            let clamp = |p: usize| p.min(d.saturating_sub(1));
+            if let Some(r) = rows.get_mut(clamp(usize::from(leaf.row) + off)) {
+                *r = true;
+            }
+            if let Some(c) = cols.get_mut(clamp(usize::from(leaf.col) + off)) {
+                *c = true;
+            }
+        }
+    }
+}
+
 /// Writes every leaf's `(n+1)×(n+1)` patch into `bg` (Q20) in the given order, dropping what
 /// falls outside (the one-pixel pad). Control points come from `minimum` at the local offsets
-/// `{0, n/2 − 1, 3n/4 − 1, n}`, clamped into the grid (the replicate pad).
+/// [`control_offsets`], clamped into the grid (the replicate pad); nothing else of `minimum`
+/// is read (the crossings of [`control_lines`]).
 pub fn render(leaves: &[Leaf], minimum: FrameRef<'_, i32>, mut bg: FrameMut<'_, i32>) -> Result<(), Error> {
     let d = minimum.width();
     if minimum.size() != bg.size() || minimum.height() != d {
@@ -34,7 +58,7 @@ pub fn render(leaves: &[Leaf], minimum: FrameRef<'_, i32>, mut bg: FrameMut<'_, 
             return Err(Error::InvalidParameter { name: "quad_min_dim" });
         }
         let bits = 6 * n.trailing_zeros();
-        let offsets = [0, n / 2 - 1, 3 * n / 4 - 1, n];
+        let offsets = control_offsets(n);
         let mut p = [[0i64; 4]; 4];
         for (pa, &oa) in p.iter_mut().zip(&offsets) {
             let row = minimum.row((r0 + oa).min(d - 1));

@@ -8,7 +8,7 @@
 //! |---|---|---|---|
 //! | 1. IR → `D×D` (`D` = 512), MATLAB bicubic, `uint8` after each pass ([`imresize`]) | plane B | integers 0..=255 | weights Q30 (sum exactly 2³⁰), sums exact `i64`; differs from exact only within ≈ 2⁻²² of a .5 tie |
 //! | 2. quadtree (`max − min > 51`, sides 512…32) ([`quadtree`]) | stack, `heapless` | integers | exact |
-//! | 3. 32×32 erosion, van Herk/Gil–Werman ([`crate::filters::erode`]) | plane C | integers | exact |
+//! | 3. 32×32 erosion at the control points only ([`crate::filters::erode`]) | plane C | integers | exact |
 //! | 4. Bézier patches ([`bezier`]) | plane A | Q20 ([`BG_BITS`]) | exact numerator, one rounding: ≤ 2⁻²¹ |
 //! | 5. back to W×H, `double` bicubic | plane C | Q20 | ≤ 2⁻²¹ per pass + weight rounding (≈ 2⁻³¹ × local variation) |
 //! | 6. 9×9 Gaussian σ 4.5, zero padded ([`crate::filters::gauss`]) | plane B | Q20 | ≤ 2⁻²¹ per pass + 9·2⁻³¹·255 |
@@ -55,6 +55,9 @@ use super::{Guards, Variant};
 use crate::filters::{erode, gauss};
 use crate::{Error, FrameMut, FrameRef, ScratchMut};
 use imresize::Output;
+
+/// Largest `quad_norm_dim`.
+const MAX_NORM_DIM: usize = 1024;
 
 /// Fractional bits of the background planes (steps 4–6).
 pub const BG_BITS: u32 = 20;
@@ -107,7 +110,7 @@ impl IfevipParams {
     pub fn validate(&self) -> Result<(), Error> {
         let norm = self.quad_norm_dim;
         let min = self.quad_min_dim;
-        if !norm.is_power_of_two() || !(8..=1024).contains(&norm) {
+        if !norm.is_power_of_two() || !(8..=MAX_NORM_DIM as u16).contains(&norm) {
             return Err(Error::InvalidParameter { name: "quad_norm_dim" });
         }
         if !min.is_power_of_two() || min < 4 || min > norm || norm / min > 16 {
@@ -244,12 +247,13 @@ pub fn background(
         usize::from(params.quad_min_dim),
         i32::from(params.split_threshold),
     )?;
-    // 3. Local minimum in C (two transposing row passes through A).
+    // 3. Local minimum in C, at the control points only (A holds one row of column minima).
     let size = usize::from(params.erode_size);
     let origin = size.div_ceil(2).max(1);
     let (before, after) = (origin - 1, size - origin);
-    erode::min_rows_transposed(view(b, d, d)?, a, c, before, after)?;
-    erode::min_rows_transposed(view(a, d, d)?, c, b, before, after)?;
+    let (mut rows, mut cols) = ([false; MAX_NORM_DIM], [false; MAX_NORM_DIM]);
+    bezier::control_lines(&leaves, d, &mut rows, &mut cols);
+    erode::min_at_crossings(view(b, d, d)?, &rows, &cols, before, after, a, view_mut(c, d, d)?)?;
     // 4. Bézier background in A (Q20).
     bezier::render(&leaves, view(c, d, d)?, view_mut(a, d, d)?)?;
     // 5 + 6. Back to W×H and the Gaussian, as one operator per axis: A → B (D×H) → C (W×H).

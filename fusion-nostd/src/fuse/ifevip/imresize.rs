@@ -80,13 +80,26 @@ fn max_taps(in_len: usize, out_len: usize) -> usize {
     p.min(in_len)
 }
 
-/// The exact kernel numerators of output sample `x` (1-based): calls `f(index, K)` for every
-/// tap with a non-zero kernel (index reflected into `0..in`), returns `Σ K`.
-fn for_taps(x: i64, n_in: i64, n_out: i64, mut f: impl FnMut(i64, i64)) -> i128 {
+/// The taps of output sample `x` (1-based) before reflection: `(A, D, left, P)` — the
+/// kernel argument numerator `A`, the denominator `D`, the first input index `left`
+/// (1-based, possibly outside `1..=n_in`) and the tap count `P`.
+fn tap_window(x: i64, n_in: i64, n_out: i64) -> (i64, i64, i64, i64) {
     let d = 2 * n_in.max(n_out);
     let p = (4 * n_in.max(n_out) + n_out - 1) / n_out + 2;
     let a = 2 * x * n_in + n_out - n_in;
-    let left = floor_div(a - 2 * d, 2 * n_out);
+    (a, d, floor_div(a - 2 * d, 2 * n_out), p)
+}
+
+/// Whether every tap of output sample `x` (1-based) lies inside the input (no reflection).
+fn interior(x: i64, n_in: i64, n_out: i64) -> bool {
+    let (_, _, left, p) = tap_window(x, n_in, n_out);
+    left >= 1 && left + p - 1 <= n_in
+}
+
+/// The exact kernel numerators of output sample `x` (1-based): calls `f(index, K)` for every
+/// tap with a non-zero kernel (index reflected into `0..in`), returns `Σ K`.
+fn for_taps(x: i64, n_in: i64, n_out: i64, mut f: impl FnMut(i64, i64)) -> i128 {
+    let (a, d, left, p) = tap_window(x, n_in, n_out);
     let mut total: i128 = 0;
     for j in left..left + p {
         let k = kernel_num(a - 2 * j * n_out, d);
@@ -98,10 +111,26 @@ fn for_taps(x: i64, n_in: i64, n_out: i64, mut f: impl FnMut(i64, i64)) -> i128 
     total
 }
 
+fn gcd(mut a: i64, mut b: i64) -> i64 {
+    while b != 0 {
+        (a, b) = (b, a % b);
+    }
+    a
+}
+
 /// Builds the taps of a resize from `in_len` to `out_len` samples into `buf`. Every output
 /// reads the same number of consecutive input samples (the widest merged run; runs at the
 /// ends are shifted inward and padded with zero weights).
+///
+/// The kernel is periodic: output `x + P` (`P = out / gcd(in, out)`) sees the same kernel
+/// arguments as `x`, `in / gcd(in, out)` samples further on. Where both rows' taps lie inside
+/// the input (no reflection, no inward shift) the row is a copy of row `x − P` — the exact
+/// divisions are done only for the first period and the ends (2 of 512 rows at 2:1).
 pub fn build(in_len: usize, out_len: usize, buf: &mut [i32]) -> Result<Taps<'_>, Error> {
+    build_with(in_len, out_len, buf, true)
+}
+
+fn build_with(in_len: usize, out_len: usize, buf: &mut [i32], reuse: bool) -> Result<Taps<'_>, Error> {
     if in_len == 0 || out_len == 0 {
         return Err(Error::ZeroDimension);
     }
@@ -125,13 +154,37 @@ pub fn build(in_len: usize, out_len: usize, buf: &mut [i32]) -> Result<Taps<'_>,
     let needed = out_len.saturating_mul(stride);
     let capacity = buf.len();
     let table = buf.get_mut(..needed).ok_or(Error::ScratchTooSmall { needed, capacity })?;
-    for (x, row) in (1..=n_out).zip(table.chunks_exact_mut(stride)) {
+    let g = gcd(n_in, n_out);
+    let (period, shift) = (n_out / g, n_in / g);
+    for x in 1..=n_out {
+        let at = (x - 1) as usize * stride;
+        let (done, rest) = table.split_at_mut(at);
+        let Some(row) = rest.get_mut(..stride) else { break };
         let mut lo = i64::MAX;
         let total = for_taps(x, n_in, n_out, |idx, _| lo = lo.min(idx));
         if total <= 0 || lo == i64::MAX {
             return Err(Error::InvalidParameter { name: "resize" });
         }
         let start = lo.min(n_in - taps as i64).max(0);
+        // The same row one period back, when both are plain interior rows.
+        let earlier = (x - period - 1) as usize * stride;
+        let source = done.get(earlier..earlier + stride).filter(|prev| {
+            reuse
+                && x > period
+                && start == lo
+                && interior(x, n_in, n_out)
+                && interior(x - period, n_in, n_out)
+                && prev.first().map(|&s| i64::from(s)) == Some(lo - shift)
+        });
+        if let Some(prev) = source {
+            for (o, &p) in row.iter_mut().zip(prev) {
+                *o = p;
+            }
+            if let Some(s) = row.first_mut() {
+                *s = start as i32;
+            }
+            continue;
+        }
         row.fill(0);
         let Some((head, ws)) = row.split_at_mut_checked(2) else { continue };
         if let [s, c] = head {
@@ -414,6 +467,7 @@ pub fn pass_cols<T: Sample>(src: FrameRef<'_, T>, taps: &Taps<'_>, dst: FrameMut
 #[cfg(test)]
 mod tests {
     use super::*;
+    extern crate std;
 
     #[test]
     fn weights_sum_to_one_and_identity_at_scale_one() -> Result<(), Error> {
@@ -438,6 +492,30 @@ mod tests {
             assert_eq!(ones, 1);
             let pos = ws.iter().position(|&w| w == 1 << WEIGHT_BITS).unwrap_or(usize::MAX);
             assert_eq!(start + pos, x);
+        }
+        Ok(())
+    }
+
+    /// The period reuse gives the table of the row-by-row exact computation.
+    #[test]
+    fn periodic_rows_equal_computed_rows() -> Result<(), Error> {
+        let mut a = std::vec![0i32; 1 << 16];
+        let mut b = std::vec![0i32; 1 << 16];
+        for (n_in, n_out) in [
+            (1024usize, 512usize),
+            (512, 1024),
+            (512, 512),
+            (301, 512),
+            (512, 232),
+            (7, 3),
+            (3, 7),
+            (1, 9),
+            (640, 480),
+        ] {
+            let reused = build_with(n_in, n_out, &mut a, true)?;
+            let (s1, t1) = (reused.stride, reused.table.to_vec());
+            let exact = build_with(n_in, n_out, &mut b, false)?;
+            assert_eq!((s1, t1), (exact.stride, exact.table.to_vec()), "{n_in} -> {n_out}");
         }
         Ok(())
     }

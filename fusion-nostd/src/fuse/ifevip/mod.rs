@@ -14,8 +14,8 @@
 //! | 6. 9×9 Gaussian σ 4.5, zero padded ([`crate::filters::gauss`]) | plane B | Q20 | ≤ 2⁻²¹ per pass + 9·2⁻³¹·255 |
 //! | 7. `R = IR ⊖ uint8(bg)` | plane B | integers | flips only where bg is within ≈ 10⁻⁶ of a .5 tie |
 //! | 8. `r_H = H(IR)/H(VIS)` ([`entropy`]) | — | Q32 (keys use Q24) | `H` within 2⁻²⁹ bits |
-//! | 9. keys `max(Feat, 0) + VIS` = `VIS·2²⁴ + max(R·2²⁴ + (IR−VIS)·r_H,24, 0)` | recomputed | `i64` Q24 ([`peak::KEY_BITS`]) | ≤ 255·2⁻²⁵ from `r_H`'s Q24 |
-//! | 10. `m·k` = exact sum of the top `k` keys by histogram selection ([`peak`]) | planes A, C | `i128` Q24 | exact given the keys |
+//! | 9. keys `max(Feat, 0) + VIS` = `VIS·2²⁴ + max(R·2²⁴ + (IR−VIS)·r_H,24, 0)`: counted per key class `(v + R, IR − VIS)` or `v` ([`peak::Classes`]) | plane A (counts) | `i64` Q24 ([`peak::KEY_BITS`]) | ≤ 255·2⁻²⁵ from `r_H`'s Q24 |
+//! | 10. `m·k` = exact sum of the top `k` keys by histogram selection over the classes ([`peak`]) | plane B (candidates) | `i128` Q24 | exact given the keys |
 //! | 11. `g = min(255/m, 0.8)` as `G = g·2⁴⁰`, `B = g·r_H·2⁴⁰` (B saturated at 2⁵²) | — | Q40 | ≤ 2⁻⁴¹ |
 //! | 12. `F = VIS ⊕ uint8(R·G + (IR−VIS)·B)` | out (frames ≥ 8·256·511 px: the added value tabulated per `(R, IR−VIS)` in plane A) | `i64` Q40, round half away, saturate | ≤ 2⁻³² before rounding |
 //!
@@ -39,11 +39,11 @@
 //!
 //! # Scratch
 //!
-//! Three `i32` planes of [`scratch_pixels`] each: `max(W·H, D²)` plus the resizes'
-//! intermediate frames and tap tables (`D` × the shorter side, ≤ 4·max(W,H)+2·D entries);
-//! at most `W·H` for frames from 512² up to 1024² — even a 1×1 frame needs `D²`.
-//! No other memory except stack for the histograms and the quadtree: ≈ 12 KiB on the flight
-//! targets, ≈ 30 KiB on x86-64 (four interleaved partial histograms each).
+//! Three `i32` planes of [`scratch_pixels`] each: `max(W·H, D², 261 377)` (the last: the key
+//! classes of step 9, [`peak::CLASSES`]) plus the resizes' intermediate frames and tap tables
+//! (`D` × the shorter side, ≤ 4·max(W,H)+2·D entries); at most `W·H` for frames from 512² up
+//! to 1024² — even a 1×1 frame needs `D²`. No other memory except stack for the histograms
+//! and the quadtree: ≈ 12 KiB on the flight targets, ≈ 30 KiB on x86-64.
 
 pub mod bezier;
 pub mod entropy;
@@ -135,7 +135,8 @@ impl IfevipParams {
 /// Pixels each of the three scratch planes must hold for a `width × height` frame.
 pub fn scratch_pixels(width: usize, height: usize, params: &IfevipParams) -> usize {
     let d = usize::from(params.quad_norm_dim);
-    let mut need = (width * height).max(d * d);
+    // Steps 9-10: the key class counts and the candidate classes.
+    let mut need = (width * height).max(d * d).max(peak::CLASSES);
     // Step 1: IR → D×D (the wider side's pass first), tables for both axes.
     if width != d && height != d {
         need = need.max(if width > height { d * height } else { width * d });
@@ -272,23 +273,6 @@ fn bg_u8(bg: i32) -> i32 {
     (bg.max(0).saturating_add(1 << (BG_BITS - 1)) >> BG_BITS).min(255)
 }
 
-/// The step-9 key `VIS·2²⁴ + max(R·2²⁴ + (IR − VIS)·r_H, 0)` (Q24), saturating.
-#[inline(always)]
-fn key_general(t: u8, v: u8, feat_r: i32, ratio_q24: i64) -> i64 {
-    let feat = (i64::from(feat_r) << peak::KEY_BITS)
-        .saturating_add((i64::from(t) - i64::from(v)).saturating_mul(ratio_q24));
-    (i64::from(v) << peak::KEY_BITS).saturating_add(feat.max(0))
-}
-
-/// [`key_general`] for `r_H < 2⁷` (`ratio_q24` fits `i32`) and `R ≤ 255`: every term is below
-/// 2⁴⁰, nothing saturates, so plain `i64` arithmetic gives the same key.
-#[inline(always)]
-fn key_small(t: u8, v: u8, feat_r: i32, ratio_q24: i32) -> i64 {
-    let feat =
-        (i64::from(feat_r) << peak::KEY_BITS) + i64::from(i32::from(t) - i32::from(v)) * i64::from(ratio_q24);
-    (i64::from(v) << peak::KEY_BITS) + feat.max(0)
-}
-
 /// Entries of the step-12 table: one per `(R, IR − VIS)`, `R` in `0..=255`, `IR − VIS` in
 /// `−255..=255`.
 const ADD_TABLE_LEN: usize = 256 * 511;
@@ -396,59 +380,21 @@ pub fn fuse_ifevip(
     background(tir, params, scratch)?;
     let [a, b, c] = scratch.planes(needed)?;
 
-    // 7 + 9. R = IR ⊖ uint8(bg) in place in C; keys max(Feat, 0) + VIS (Q24) into A (low
-    // 32 bits) and B (high 32 bits), counted into the coarse histogram of step 10 on the way.
-    // Interleaved partial histograms (see `PARTS`).
-    let mut coarse_parts = [[0u32; peak::BINS]; PARTS];
-    let rows = c
-        .chunks_exact_mut(w.max(1))
-        .zip(tir.rows())
-        .zip(vis.rows())
-        // Zipped one after the other, not as a pair: a zip of two exact-chunk iterators takes
-        // the random-access path, whose length division keeps a panic site in the image.
-        .zip(a.chunks_exact_mut(w.max(1)))
-        .zip(b.chunks_exact_mut(w.max(1)));
-    let small_ratio = i32::try_from(ratio_q24).ok();
-    for ((((rr, ir), vv), ka), kb) in rows {
-        let pixels = rr.iter_mut().zip(ir).zip(vv).zip(ka.iter_mut()).zip(kb.iter_mut()).enumerate();
-        match small_ratio {
-            // r_H < 128: |(IR − VIS)·r_H| < 2³⁹, so nothing below saturates and plain i64
-            // arithmetic gives the same keys (< 2⁴¹).
-            Some(ratio) => {
-                for (i, ((((r, &t), &v), ka), kb)) in pixels {
-                    let feat_r = (i32::from(t) - bg_u8(*r)).max(0);
-                    *r = feat_r;
-                    let key = key_small(t, v, feat_r, ratio);
-                    peak::store(key, ka, kb);
-                    if let Some(h) =
-                        coarse_parts.get_mut(part(i)).and_then(|p| p.get_mut(peak::coarse_bin(key)))
-                    {
-                        *h += 1;
-                    }
-                }
-            }
-            None => {
-                for (i, ((((r, &t), &v), ka), kb)) in pixels {
-                    let feat_r = (i32::from(t) - bg_u8(*r)).max(0);
-                    *r = feat_r;
-                    let key = key_general(t, v, feat_r, ratio_q24);
-                    peak::store(key, ka, kb);
-                    if let Some(h) =
-                        coarse_parts.get_mut(part(i)).and_then(|p| p.get_mut(peak::coarse_bin(key)))
-                    {
-                        *h += 1;
-                    }
-                }
+    // 7 + 9. R = IR ⊖ uint8(bg) in place in C; each pixel's key class counted in A.
+    let classes = peak::Classes::new(ratio_q24);
+    let counts = a.get_mut(..peak::CLASSES).unwrap_or(&mut []);
+    counts.fill(0);
+    let rows = c.chunks_exact_mut(w.max(1)).zip(tir.rows()).zip(vis.rows());
+    for ((rr, ir), vv) in rows {
+        for ((r, &t), &v) in rr.iter_mut().zip(ir).zip(vv) {
+            let feat_r = (i32::from(t) - bg_u8(*r)).max(0);
+            *r = feat_r;
+            if let Some(n) = counts.get_mut(classes.class(v, t, feat_r)) {
+                *n += 1;
             }
         }
     }
     let r_plane: &[i32] = c;
-    let mut coarse = [0u32; peak::BINS];
-    for part in &coarse_parts {
-        for (h, &n) in coarse.iter_mut().zip(part) {
-            *h += n;
-        }
-    }
 
     // 10. Peak m·k: sum of the top k keys.
     let ppm = u64::from(params.top_ppm);
@@ -459,7 +405,7 @@ pub fn fuse_ifevip(
     if flight {
         k = k.max(1);
     }
-    let top = peak::top_k_sum_with(a, b, w * h, k, &coarse);
+    let top = peak::top_k_sum(counts, &classes, k, b);
 
     // 11. Gains in Q40.
     let cap = u128::from(params.gain_cap_percent);
@@ -495,22 +441,6 @@ pub fn fuse_ifevip(
 mod tests {
     extern crate std;
     use super::*;
-
-    #[test]
-    fn small_keys_equal_general_keys() {
-        for ratio in [0i32, 1, 1 << 23, (1 << 24) + 12345, i32::MAX] {
-            for t in 0..=255u8 {
-                for v in 0..=255u8 {
-                    for feat_r in [0i32, 1, 17, 128, 254, 255] {
-                        assert_eq!(
-                            key_small(t, v, feat_r, ratio),
-                            key_general(t, v, feat_r, i64::from(ratio))
-                        );
-                    }
-                }
-            }
-        }
-    }
 
     /// The tabulated step 12 against the per-pixel one, saturating gains included.
     #[test]

@@ -1,169 +1,226 @@
-//! Exact sum of the `k` largest keys without sorting: histogram selection.
+//! Exact sum of the `k` largest step-9 keys from a histogram of pixel classes.
 //!
-//! The keys sit in two caller planes (low and high 32 bits, [`store`]). Pass 1 histograms
-//! their integer grey level (`key >> 24`, the top bin open-ended) and finds the bin holding the
-//! k-th largest key. Pass 2 adds up every key above that bin (`i128`) and compacts the keys
-//! inside it to the front of the planes. The candidates are then refined with 1024-bin histograms over their own range — each round
-//! adds the keys above the selected bin and keeps the ones in it — until the bin holds one
-//! value `T`; the sum is `Σ above + (k − #above)·T`. Two passes over the keys, then a few
-//! over the candidates (usually a few hundred); no sort, exact for any key distribution.
-//! IFEVIP counts pass 1 while it stores the keys ([`top_k_sum_with`]), so only pass 2 reads
-//! them back.
-
-/// Bins per histogram.
-pub const BINS: usize = 1024;
+//! The key of a pixel, `VIS·2²⁴ + max(R·2²⁴ + (IR − VIS)·r_H, 0)` (Q24, [`KEY_BITS`]), depends
+//! on the pixel's `(v, R, d = IR − VIS)` only through its *class*:
+//! * where `R·2²⁴ + d·r_H > 0` — equivalently `R ≥ r_min(d)`, tabulated per `d` — the key is
+//!   `s·2²⁴ + d·r_H` with `s = v + R`: one class per `(s, d)`, 511 × 511 of them;
+//! * elsewhere the key is `v·2²⁴`: one class per `v`, 256 more.
+//!
+//! So IFEVIP counts classes while it computes `R` (one increment per pixel, [`Classes::class`])
+//! and never stores a per-pixel key; [`top_k_sum`] then works on the [`CLASSES`] counts: it
+//! lists the occupied classes, histograms their keys (weighted by the counts) in 1024 bins over
+//! the keys' range, adds up the classes above the bin holding the `k`-th largest key and keeps
+//! the ones inside it, and repeats on those until the bin holds one key value `T`; the sum is
+//! `Σ above + (k − #above)·T`. Exact for any key distribution, no sort; each round shrinks the
+//! key range 1024-fold, so there are at most six rounds over at most [`CLASSES`] entries.
+//!
+//! The keys saturate at `i64::MAX` exactly where the per-pixel formula with saturating
+//! arithmetic does (only for `r_H` beyond any entropy ratio of a real frame).
 
 /// Fractional bits of the keys.
 pub const KEY_BITS: u32 = 24;
 
-#[inline]
-fn pack(key: i64) -> (i32, i32) {
-    (key as u32 as i32, (key >> 32) as i32)
+/// Values of `s = v + R` and of `d = IR − VIS` (each `0..=510` after the offset of `d`).
+const SPAN: usize = 511;
+
+/// Classes with a key `s·2²⁴ + d·r_H`: index `s·511 + (d + 255)`.
+const PAIRS: usize = SPAN * SPAN;
+
+/// Number of classes: the `(s, d)` pairs, then one per `v` (key `v·2²⁴`).
+pub const CLASSES: usize = PAIRS + 256;
+
+/// Bins of each selection histogram.
+const BINS: usize = 1024;
+
+/// The class map of one frame (its entropy ratio `r_H` in Q24).
+#[derive(Debug, Clone)]
+pub struct Classes {
+    /// `r_min(d)` at index `d + 255`: the least `R` (0..=256) with `R·2²⁴ + d·r_H > 0`.
+    r_min: [u16; SPAN],
+    ratio_q24: i64,
 }
 
-#[inline]
-fn unpack(lo: i32, hi: i32) -> i64 {
-    (i64::from(hi) << 32) | i64::from(lo as u32)
+impl Classes {
+    /// The class map for the ratio `r_H = ratio_q24 / 2²⁴` (`ratio_q24 ≥ 0`).
+    pub fn new(ratio_q24: i64) -> Self {
+        let ratio_q24 = ratio_q24.max(0);
+        let mut r_min = [0u16; SPAN];
+        for (di, r) in r_min.iter_mut().enumerate() {
+            let d = di as i64 - 255;
+            // Least R with R·2²⁴ > −d·r_H: 0 when d·r_H > 0, else ⌊−d·r_H / 2²⁴⌋ + 1.
+            let deficit = d.saturating_mul(ratio_q24).saturating_neg();
+            *r = if deficit < 0 { 0 } else { ((deficit >> KEY_BITS) + 1).min(256) as u16 };
+        }
+        Self { r_min, ratio_q24 }
+    }
+
+    /// The class of a pixel with visible value `v`, IR value `t` and feature `r` (`0..=255`).
+    #[inline(always)]
+    pub fn class(&self, v: u8, t: u8, r: i32) -> usize {
+        let di = usize::from(t) + 255 - usize::from(v);
+        let least = self.r_min.get(di).copied().unwrap_or(u16::MAX);
+        if r >= i32::from(least) { (usize::from(v) + r as usize) * SPAN + di } else { PAIRS + usize::from(v) }
+    }
+
+    /// The key (Q24) of every pixel of class `c`.
+    #[inline]
+    pub fn key(&self, c: usize) -> i64 {
+        if c >= PAIRS {
+            ((c - PAIRS) as i64) << KEY_BITS
+        } else {
+            let (s, di) = (c / SPAN, c % SPAN);
+            ((s as i64) << KEY_BITS).saturating_add((di as i64 - 255).saturating_mul(self.ratio_q24))
+        }
+    }
 }
 
 /// The bin (from the top) where the cumulative count reaches `need`, and the count above it.
-fn select(hist: &[u32; BINS], need: u64) -> (usize, u64) {
+fn select(hist: &[u64; BINS], need: u64) -> (usize, u64) {
     let mut above = 0u64;
     for (b, &c) in hist.iter().enumerate().rev() {
-        if above + u64::from(c) >= need {
+        if above + c >= need {
             return (b, above);
         }
-        above += u64::from(c);
+        above += c;
     }
     (0, above)
 }
 
-/// Stores a key as two `i32` plane elements (low and high 32 bits).
-#[inline(always)]
-pub fn store(key: i64, lo: &mut i32, hi: &mut i32) {
-    let (l, h) = pack(key);
-    *lo = l;
-    *hi = h;
-}
-
-/// The coarse histogram of pass 1: one bin per integer grey level of the key (`key >> 24`),
-/// the top bin open-ended.
-pub type Coarse = [u32; BINS];
-
-/// The coarse bin of a key (see [`Coarse`]).
-#[inline(always)]
-pub fn coarse_bin(key: i64) -> usize {
-    ((key.max(0) >> KEY_BITS) as u64).min(BINS as u64 - 1) as usize
-}
-
-/// Sum of the `k` largest of the `n` non-negative keys held in `lo_plane`/`hi_plane` (see
-/// [`store`]); the planes are reordered. `k = 0` gives 0; `k ≥ n` sums all keys.
-pub fn top_k_sum(lo_plane: &mut [i32], hi_plane: &mut [i32], n: usize, k: u64) -> i128 {
-    let n = n.min(lo_plane.len()).min(hi_plane.len());
-    let mut hist = [0u32; BINS];
-    for (&l, &h) in lo_plane.iter().zip(hi_plane.iter()).take(n) {
-        if let Some(c) = hist.get_mut(coarse_bin(unpack(l, h))) {
-            *c = c.wrapping_add(1);
+/// Sum (Q24) of the `k` largest keys of the pixels counted in `counts` (one count per class,
+/// [`CLASSES`] of them; see [`Classes`]). `work` (at least as long as the number of occupied
+/// classes, at most [`CLASSES`]) holds the candidate classes. `k = 0` gives 0; `k` above the
+/// number of pixels sums all keys.
+pub fn top_k_sum(counts: &[i32], classes: &Classes, k: u64, work: &mut [i32]) -> i128 {
+    // Occupied classes into `work`, with the key range and the pixel count.
+    let mut n = 0usize;
+    let mut total = 0u64;
+    let (mut lo, mut hi) = (i64::MAX, i64::MIN);
+    for (c, &count) in counts.iter().enumerate().take(CLASSES) {
+        if count > 0 {
+            let Some(slot) = work.get_mut(n) else { break };
+            *slot = c as i32;
+            n += 1;
+            total += count as u64;
+            let key = classes.key(c);
+            lo = lo.min(key);
+            hi = hi.max(key);
         }
     }
-    top_k_sum_with(lo_plane, hi_plane, n, k, &hist)
-}
-
-/// [`top_k_sum`] with pass 1 done by the caller: `hist` is the [`Coarse`] histogram of the
-/// `n` keys (e.g. counted while storing them).
-pub fn top_k_sum_with(lo_plane: &mut [i32], hi_plane: &mut [i32], n: usize, k: u64, hist: &Coarse) -> i128 {
-    let n = n.min(lo_plane.len()).min(hi_plane.len());
-    let k = k.min(n as u64);
-    if k == 0 {
-        return 0;
-    }
-    let (t, above) = select(hist, k);
-    let mut need = k - above;
+    let mut need = k.min(total);
     let mut sum: i128 = 0;
-    // The selected bin is [lo, lo + 2^shift), open-ended when it is the top coarse bin.
-    let mut lo = (t as i64) << KEY_BITS;
-    let mut shift = KEY_BITS;
-    let mut open = t == BINS - 1;
-    let mut n = n;
-    loop {
-        // Add the keys above the bin, keep (compacted to the front) the ones in it.
-        let mut kept = 0usize;
-        let mut hi = i64::MIN;
-        for i in 0..n {
-            let key = match (lo_plane.get(i), hi_plane.get(i)) {
-                (Some(&l), Some(&h)) => unpack(l, h),
-                _ => break,
-            };
-            if key < lo {
-                continue;
+    let count_of = |c: usize| counts.get(c).map_or(0, |&x| x.max(0) as u64);
+    while need > 0 && n > 0 {
+        if hi <= lo {
+            return sum + i128::from(need) * i128::from(lo);
+        }
+        // 1024 bins of width 2^shift over [lo, hi].
+        let span = (hi - lo) as u64;
+        let shift = (64 - span.leading_zeros()).saturating_sub(BINS.trailing_zeros());
+        let bin = |key: i64| ((key - lo) as u64 >> shift) as usize;
+        let mut hist = [0u64; BINS];
+        for &c in work.iter().take(n) {
+            let c = c as usize;
+            if let Some(h) = hist.get_mut(bin(classes.key(c))) {
+                *h += count_of(c);
             }
-            if !open && ((key - lo) as u64) >> shift > 0 {
-                sum += i128::from(key);
-            } else {
-                if let (Some(pl), Some(ph)) = (lo_plane.get_mut(kept), hi_plane.get_mut(kept)) {
-                    store(key, pl, ph);
+        }
+        let (t, above) = select(&hist, need);
+        need -= above;
+        // Add the classes above bin t, keep the ones in it (compacted to the front).
+        let (mut kept, mut new_lo, mut new_hi) = (0usize, i64::MAX, i64::MIN);
+        for i in 0..n {
+            let Some(&c) = work.get(i) else { break };
+            let key = classes.key(c as usize);
+            let b = bin(key);
+            if b > t {
+                sum += i128::from(count_of(c as usize)) * i128::from(key);
+            } else if b == t {
+                if let Some(slot) = work.get_mut(kept) {
+                    *slot = c;
                 }
                 kept += 1;
-                hi = hi.max(key);
+                new_lo = new_lo.min(key);
+                new_hi = new_hi.max(key);
             }
         }
-        n = kept;
-        if n == 0 || hi <= lo {
-            break;
-        }
-        // Refine: at most 1024 bins over [lo, hi].
-        let span = (hi - lo) as u64;
-        shift = (64 - span.leading_zeros()).saturating_sub(BINS.trailing_zeros());
-        let mut hist = [0u32; BINS];
-        for (&l, &h) in lo_plane.iter().zip(hi_plane.iter()).take(n) {
-            let bin = ((unpack(l, h) - lo) as u64 >> shift) as usize;
-            if let Some(c) = hist.get_mut(bin) {
-                *c += 1;
-            }
-        }
-        let (t2, above2) = select(&hist, need);
-        need -= above2;
-        lo += (t2 as i64) << shift;
-        open = false;
+        (n, lo, hi) = (kept, new_lo, new_hi);
     }
-    sum + i128::from(need) * i128::from(lo)
+    sum
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    extern crate std;
+    use std::vec::Vec;
 
-    fn brute(keys: &[i64], k: usize) -> i128 {
-        let mut v = [0i64; 64];
-        let n = keys.len();
-        v[..n].copy_from_slice(keys);
-        v[..n].sort_unstable_by(|a, b| b.cmp(a));
-        v[..k.min(n)].iter().map(|&x| i128::from(x)).sum()
+    /// The published per-pixel key with saturating arithmetic.
+    fn pixel_key(v: u8, t: u8, r: i32, ratio_q24: i64) -> i64 {
+        let feat = (i64::from(r) << KEY_BITS)
+            .saturating_add((i64::from(t) - i64::from(v)).saturating_mul(ratio_q24));
+        (i64::from(v) << KEY_BITS).saturating_add(feat.max(0))
     }
 
     #[test]
-    fn matches_sorting() {
-        let mut seed = 99u64;
-        let mut lo = [0i32; 64];
-        let mut hi = [0i32; 64];
-        for round in 0..200 {
-            let n = 1 + round % 64;
-            let mut keys = [0i64; 64];
-            for k in keys.iter_mut().take(n) {
-                seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-                *k = match round % 4 {
-                    0 => (seed >> 30) as i64 & ((1 << 34) - 1),
-                    1 => (((seed >> 40) % 3) as i64) << 24, // many ties
-                    2 => (seed >> 8) as i64 & ((1 << 55) - 1), // huge keys
-                    _ => 7,
-                };
-            }
-            for k in [0usize, 1, 2, n / 2, n, n + 3] {
-                for (i, &key) in keys.iter().enumerate().take(n) {
-                    store(key, &mut lo[i], &mut hi[i]);
+    fn class_keys_equal_pixel_keys() {
+        for ratio in [0i64, 1, 1 << 23, (1 << 24) + 12345, 3 << 25, i64::from(i32::MAX), 1 << 50, i64::MAX] {
+            let classes = Classes::new(ratio);
+            for t in (0..=255u8).step_by(3) {
+                for v in 0..=255u8 {
+                    for r in [0i32, 1, 17, 128, 254, 255] {
+                        let c = classes.class(v, t, r);
+                        assert!(c < CLASSES);
+                        assert_eq!(
+                            classes.key(c),
+                            pixel_key(v, t, r, ratio),
+                            "ratio {ratio} v {v} t {t} r {r}"
+                        );
+                    }
                 }
-                let got = top_k_sum(&mut lo, &mut hi, n, k as u64);
-                assert_eq!(got, brute(&keys[..n], k), "round {round} n {n} k {k}");
+            }
+        }
+    }
+
+    /// The histogram selection against sorting the per-pixel keys.
+    #[test]
+    fn top_k_sum_matches_sorting() {
+        let mut seed = 99u64;
+        let mut next = || {
+            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (seed >> 33) as u32
+        };
+        let mut counts = std::vec![0i32; CLASSES];
+        let mut work = std::vec![0i32; CLASSES];
+        for round in 0..60 {
+            let ratio = match round % 5 {
+                0 => 0,
+                1 => 1 << 24,
+                2 => i64::from(next() % (1 << 26)),
+                3 => 1 << 44,
+                _ => i64::MAX,
+            };
+            let classes = Classes::new(ratio);
+            let n = 1 + (next() as usize % 3000);
+            counts.fill(0);
+            let mut keys = Vec::new();
+            for _ in 0..n {
+                // Many ties (a few grey levels) in half the rounds.
+                let (v, t, r) = if round % 2 == 0 {
+                    ((next() % 256) as u8, (next() % 256) as u8, (next() % 256) as i32)
+                } else {
+                    ((next() % 3) as u8 * 100, (next() % 2) as u8 * 200, (next() % 2) as i32 * 50)
+                };
+                counts[classes.class(v, t, r)] += 1;
+                keys.push(pixel_key(v, t, r, ratio));
+            }
+            keys.sort_unstable_by(|a, b| b.cmp(a));
+            for k in [0usize, 1, 2, n / 1000 + 1, n / 2, n, n + 3] {
+                let want: i128 = keys.iter().take(k).map(|&x| i128::from(x)).sum();
+                assert_eq!(
+                    top_k_sum(&counts, &classes, k as u64, &mut work),
+                    want,
+                    "round {round} n {n} k {k}"
+                );
             }
         }
     }

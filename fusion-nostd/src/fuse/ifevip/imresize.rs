@@ -292,49 +292,85 @@ pub enum Output {
     Same,
 }
 
+/// The Q30 sum to the pass's output. `Same` needs no clamp: its inputs are backgrounds in
+/// `[0, 255]·2²⁰` (the Bézier surface stays in the hull of its control points, 0..=255) and
+/// each pass multiplies the range by at most `Σ|w| < 1.2`, so results stay below 2²⁹.
+/// (`U8`: [`Output::U8`], else [`Output::Same`]; a constant, so the kernels have no branch.)
 #[inline(always)]
-fn finish(acc: i64, out: Output) -> i32 {
+fn finish<const U8: bool>(acc: i64) -> i32 {
     let r = (acc + (1 << (WEIGHT_BITS - 1))) >> WEIGHT_BITS;
-    match out {
-        Output::U8 => r.clamp(0, 255) as i32,
-        Output::Same => r.clamp(i64::from(i32::MIN), i64::from(i32::MAX)) as i32,
-    }
+    if U8 { r.clamp(0, 255) as i32 } else { r as i32 }
+}
+
+/// `Σ v·w` of `N` samples and weights.
+#[inline(always)]
+fn dot<T: Copy + Into<i64>, const N: usize>(seg: &[T; N], ws: &[i32; N]) -> i64 {
+    seg.iter().zip(ws).fold(0, |acc, (&v, &w)| acc + v.into() * i64::from(w))
+}
+
+/// `(start, weights)` of one table row when it has `N` weights.
+#[inline(always)]
+fn row_n<const N: usize>(row: &[i32]) -> Option<(usize, &[i32; N])> {
+    let ([start, _count], ws) = row.split_first_chunk::<2>()?;
+    Some((*start as usize, ws.first_chunk::<N>()?))
 }
 
 #[inline(always)]
-fn rows_n<T: Copy + Into<i64>, const N: usize>(
+fn rows_n<T: Copy + Into<i64>, const N: usize, const U8: bool>(
     src: FrameRef<'_, T>,
     taps: &Taps<'_>,
     mut dst: FrameMut<'_, i32>,
-    out: Output,
 ) {
     for (s, d) in src.rows().zip(dst.rows_mut()) {
-        for (o, (start, ws)) in d.iter_mut().zip(taps.iter()) {
-            let seg = s.get(start..start + N).and_then(|v| <&[T; N]>::try_from(v).ok());
-            let ws = <&[i32; N]>::try_from(ws).ok();
-            let acc = match (seg, ws) {
-                (Some(seg), Some(ws)) => seg.iter().zip(ws).map(|(&v, &w)| v.into() * i64::from(w)).sum(),
-                _ => 0,
-            };
-            *o = finish(acc, out);
+        for (o, row) in d.iter_mut().zip(taps.table.chunks_exact(taps.stride.max(1))) {
+            let acc = row_n::<N>(row)
+                .and_then(|(start, ws)| Some(dot(s.get(start..)?.first_chunk::<N>()?, ws)))
+                .unwrap_or(0);
+            *o = finish::<U8>(acc);
         }
     }
 }
 
 #[inline(always)]
-fn rows_any<T: Copy + Into<i64>>(
+fn rows_any<T: Copy + Into<i64>, const U8: bool>(
     src: FrameRef<'_, T>,
     taps: &Taps<'_>,
     mut dst: FrameMut<'_, i32>,
-    out: Output,
 ) {
     for (s, d) in src.rows().zip(dst.rows_mut()) {
         for (o, (start, ws)) in d.iter_mut().zip(taps.iter()) {
             let seg = s.get(start..).unwrap_or(&[]);
             let acc: i64 = seg.iter().zip(ws).map(|(&v, &w)| v.into() * i64::from(w)).sum();
-            *o = finish(acc, out);
+            *o = finish::<U8>(acc);
         }
     }
+}
+
+/// Taps counts with a kernel of their own (the rest take the general loop).
+macro_rules! by_taps {
+    ($n:expr, $out:expr, $kernel:ident, $any:ident, $($arg:expr),*) => {
+        match $out {
+            Output::U8 => by_taps!(@n $n, true, $kernel, $any, $($arg),*),
+            Output::Same => by_taps!(@n $n, false, $kernel, $any, $($arg),*),
+        }
+    };
+    (@n $n:expr, $u8:literal, $kernel:ident, $any:ident, $($arg:expr),*) => {
+        match $n {
+            4 => $kernel::<_, 4, $u8>($($arg),*),
+            5 => $kernel::<_, 5, $u8>($($arg),*),
+            6 => $kernel::<_, 6, $u8>($($arg),*),
+            7 => $kernel::<_, 7, $u8>($($arg),*),
+            8 => $kernel::<_, 8, $u8>($($arg),*),
+            9 => $kernel::<_, 9, $u8>($($arg),*),
+            10 => $kernel::<_, 10, $u8>($($arg),*),
+            11 => $kernel::<_, 11, $u8>($($arg),*),
+            12 => $kernel::<_, 12, $u8>($($arg),*),
+            13 => $kernel::<_, 13, $u8>($($arg),*),
+            14 => $kernel::<_, 14, $u8>($($arg),*),
+            16 => $kernel::<_, 16, $u8>($($arg),*),
+            _ => $any::<_, $u8>($($arg),*),
+        }
+    };
 }
 
 #[inline(always)]
@@ -344,21 +380,7 @@ fn rows_kernel<T: Copy + Into<i64>>(
     dst: FrameMut<'_, i32>,
     out: Output,
 ) {
-    match taps.stride - 2 {
-        4 => rows_n::<T, 4>(src, taps, dst, out),
-        5 => rows_n::<T, 5>(src, taps, dst, out),
-        6 => rows_n::<T, 6>(src, taps, dst, out),
-        7 => rows_n::<T, 7>(src, taps, dst, out),
-        8 => rows_n::<T, 8>(src, taps, dst, out),
-        9 => rows_n::<T, 9>(src, taps, dst, out),
-        10 => rows_n::<T, 10>(src, taps, dst, out),
-        11 => rows_n::<T, 11>(src, taps, dst, out),
-        12 => rows_n::<T, 12>(src, taps, dst, out),
-        13 => rows_n::<T, 13>(src, taps, dst, out),
-        14 => rows_n::<T, 14>(src, taps, dst, out),
-        16 => rows_n::<T, 16>(src, taps, dst, out),
-        _ => rows_any(src, taps, dst, out),
-    }
+    by_taps!(taps.stride - 2, out, rows_n, rows_any, src, taps, dst)
 }
 
 #[inline(always)]
@@ -410,35 +432,75 @@ pub fn pass_rows<T: Sample>(src: FrameRef<'_, T>, taps: &Taps<'_>, dst: FrameMut
     T::pass_rows(src, taps, dst, out)
 }
 
-/// Strip width of the column pass's accumulators.
-const STRIP: usize = 64;
+/// Columns per block of the column pass: each output row is computed `COLS` columns at a
+/// time from `N` fixed-size row segments, so the inner loops index constant-size arrays (no
+/// bounds checks) and keep one accumulator in registers.
+const COLS: usize = 32;
 
 #[inline(always)]
-fn cols_kernel<T: Copy + Into<i64>>(
+fn cols_n<T: Copy + Into<i64> + Default, const N: usize, const U8: bool>(
     src: FrameRef<'_, T>,
     taps: &Taps<'_>,
     mut dst: FrameMut<'_, i32>,
-    out: Output,
 ) {
-    for (d, (start, ws)) in dst.rows_mut().zip(taps.iter()) {
-        for (strip, dchunk) in d.chunks_mut(STRIP).enumerate() {
-            let x0 = strip * STRIP;
-            let mut acc = [0i64; STRIP];
-            for (t, &w) in ws.iter().enumerate() {
-                if w == 0 {
-                    continue;
-                }
-                let row = src.row(start + t);
-                let seg = row.get(x0..).unwrap_or(&[]);
-                for (a, &v) in acc.iter_mut().zip(seg.iter().take(STRIP)) {
-                    *a += v.into() * i64::from(w);
-                }
-            }
-            for (o, &a) in dchunk.iter_mut().zip(&acc) {
-                *o = finish(a, out);
+    let zero = [T::default(); COLS];
+    for (d, row) in dst.rows_mut().zip(taps.table.chunks_exact(taps.stride.max(1))) {
+        let Some((start, ws)) = row_n::<N>(row) else {
+            d.fill(0);
+            continue;
+        };
+        let rows: [&[T]; N] =
+            core::array::from_fn(|t| if start + t < src.height() { src.row(start + t) } else { &[] });
+        let (blocks, tail) = d.as_chunks_mut::<COLS>();
+        for (b, block) in blocks.iter_mut().enumerate() {
+            let segs: [&[T; COLS]; N] = core::array::from_fn(|t| {
+                rows.get(t)
+                    .and_then(|r| r.get(b * COLS..))
+                    .and_then(|r| r.first_chunk::<COLS>())
+                    .unwrap_or(&zero)
+            });
+            for (k, o) in block.iter_mut().enumerate() {
+                let acc = segs.iter().zip(ws).fold(0i64, |acc, (seg, &w)| {
+                    acc + seg.get(k).copied().unwrap_or_default().into() * i64::from(w)
+                });
+                *o = finish::<U8>(acc);
             }
         }
+        let x0 = blocks.len() * COLS;
+        for (k, o) in tail.iter_mut().enumerate() {
+            let acc = rows.iter().zip(ws).fold(0i64, |acc, (r, &w)| {
+                acc + r.get(x0 + k).copied().unwrap_or_default().into() * i64::from(w)
+            });
+            *o = finish::<U8>(acc);
+        }
     }
+}
+
+#[inline(always)]
+fn cols_any<T: Copy + Into<i64> + Default, const U8: bool>(
+    src: FrameRef<'_, T>,
+    taps: &Taps<'_>,
+    mut dst: FrameMut<'_, i32>,
+) {
+    for (d, (start, ws)) in dst.rows_mut().zip(taps.iter()) {
+        for (x, o) in d.iter_mut().enumerate() {
+            let acc = ws.iter().enumerate().fold(0i64, |acc, (t, &w)| {
+                let v = if start + t < src.height() { src.row(start + t).get(x).copied() } else { None };
+                acc + v.unwrap_or_default().into() * i64::from(w)
+            });
+            *o = finish::<U8>(acc);
+        }
+    }
+}
+
+#[inline(always)]
+fn cols_kernel<T: Copy + Into<i64> + Default>(
+    src: FrameRef<'_, T>,
+    taps: &Taps<'_>,
+    dst: FrameMut<'_, i32>,
+    out: Output,
+) {
+    by_taps!(taps.stride - 2, out, cols_n, cols_any, src, taps, dst)
 }
 
 #[inline(always)]

@@ -380,17 +380,43 @@ pub fn fuse_ifevip(
     background(tir, params, scratch)?;
     let [a, b, c] = scratch.planes(needed)?;
 
-    // 7 + 9. R = IR ⊖ uint8(bg) in place in C; each pixel's key class counted in A.
+    // 7 + 9. R = IR ⊖ uint8(bg) in place in C; each pixel's key class counted in A (on
+    // x86-64 odd pixels in B, added to A afterwards: two independent chains of increments).
     let classes = peak::Classes::new(ratio_q24);
-    let counts = a.get_mut(..peak::CLASSES).unwrap_or(&mut []);
+    let (counts, odd) = (a.get_mut(..peak::CLASSES).unwrap_or(&mut []), b.get_mut(..peak::CLASSES));
     counts.fill(0);
+    let odd = odd.filter(|_| PARTS > 1).map(|o| {
+        o.fill(0);
+        o
+    });
     let rows = c.chunks_exact_mut(w.max(1)).zip(tir.rows()).zip(vis.rows());
-    for ((rr, ir), vv) in rows {
-        for ((r, &t), &v) in rr.iter_mut().zip(ir).zip(vv) {
-            let feat_r = (i32::from(t) - bg_u8(*r)).max(0);
-            *r = feat_r;
-            if let Some(n) = counts.get_mut(classes.class(v, t, feat_r)) {
-                *n += 1;
+    let mut i = 0usize;
+    match odd {
+        Some(odd) => {
+            for ((rr, ir), vv) in rows {
+                for ((r, &t), &v) in rr.iter_mut().zip(ir).zip(vv) {
+                    let feat_r = (i32::from(t) - bg_u8(*r)).max(0);
+                    *r = feat_r;
+                    let table = if i & 1 == 0 { &mut *counts } else { &mut *odd };
+                    if let Some(n) = table.get_mut(classes.class(v, t, feat_r)) {
+                        *n += 1;
+                    }
+                    i += 1;
+                }
+            }
+            for (n, &o) in counts.iter_mut().zip(odd.iter()) {
+                *n += o;
+            }
+        }
+        None => {
+            for ((rr, ir), vv) in rows {
+                for ((r, &t), &v) in rr.iter_mut().zip(ir).zip(vv) {
+                    let feat_r = (i32::from(t) - bg_u8(*r)).max(0);
+                    *r = feat_r;
+                    if let Some(n) = counts.get_mut(classes.class(v, t, feat_r)) {
+                        *n += 1;
+                    }
+                }
             }
         }
     }

@@ -59,7 +59,11 @@ impl Classes {
     pub fn class(&self, v: u8, t: u8, r: i32) -> usize {
         let di = usize::from(t) + 255 - usize::from(v);
         let least = self.r_min.get(di).copied().unwrap_or(u16::MAX);
-        if r >= i32::from(least) { (usize::from(v) + r as usize) * SPAN + di } else { PAIRS + usize::from(v) }
+        // Branch-free select (the condition follows the image, a branch would mispredict).
+        let pair = (usize::from(v) + r as usize) * SPAN + di;
+        let single = PAIRS + usize::from(v);
+        let mask = usize::from(r >= i32::from(least)).wrapping_neg();
+        (pair & mask) | (single & !mask)
     }
 
     /// The key (Q24) of every pixel of class `c`.

@@ -385,10 +385,10 @@ pub fn fuse_ifevip(
     let classes = peak::Classes::new(ratio_q24);
     let (counts, odd) = (a.get_mut(..peak::CLASSES).unwrap_or(&mut []), b.get_mut(..peak::CLASSES));
     counts.fill(0);
-    let odd = odd.filter(|_| PARTS > 1).map(|o| {
+    let mut odd = odd.filter(|_| PARTS > 1);
+    if let Some(o) = odd.as_deref_mut() {
         o.fill(0);
-        o
-    });
+    }
     let rows = c.chunks_exact_mut(w.max(1)).zip(tir.rows()).zip(vis.rows());
     let mut i = 0usize;
     match odd {

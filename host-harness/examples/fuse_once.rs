@@ -7,7 +7,7 @@
 //! ```
 //!
 //! Arguments: `adf|tsifsd|ifevip`, `classic|flight`, the side `n` (frames are `n × n`),
-//! optionally `--repeat R` (fuse R times) and `--write DIR` (also write the synthetic pair as
+//! optionally `--repeat R` (fuse R times; prints the minimum and median time per fusion) and `--write DIR` (also write the synthetic pair as
 //! `DIR/synth<n>_VIS.png`, `DIR/synth<n>_IR.png`, and raw 8-bit `.gray` twins for the firmware). Only [`fuse_region`] does the fusion, so
 //! `--toggle-collect` on it counts the fusion alone (frame synthesis excluded). The frames are
 //! the ones of the criterion benches (`benches/fuse_adf_tsifsd.rs`).
@@ -85,10 +85,18 @@ fn main() -> Result<()> {
     let mut scratch = CoreScratch::new(pixels);
     let mut out = vec![0u8; n * n];
     let mut guards = Guards::NONE;
+    let mut times = Vec::with_capacity(repeat);
     for _ in 0..repeat {
+        let start = std::time::Instant::now();
         guards = fuse_region(&vis, &tir, &mut out, n, &method, &mut scratch);
+        times.push(start.elapsed().as_secs_f64() * 1e3);
     }
+    times.sort_by(f64::total_cmp);
     let checksum = out.iter().fold(0u64, |h, &v| h.wrapping_mul(1_000_003).wrapping_add(u64::from(v)));
     println!("guards {:#x} checksum {checksum:016x}", guards.0);
+    // Minimum and median per fusion: on a shared machine the minimum is the steadiest figure.
+    if let (Some(min), Some(median)) = (times.first(), times.get(times.len() / 2)) {
+        println!("ms per fusion over {repeat} runs: min {min:.3} median {median:.3}");
+    }
     Ok(())
 }

@@ -267,10 +267,12 @@ pub fn background(
     Ok(())
 }
 
-/// `uint8(bg)` of a Q20 background value (round half away; the value is never a negative tie).
+/// `uint8(bg)` of a Q20 background value (round half away; the value is never a negative
+/// tie). Backgrounds stay below 2²⁹ in magnitude (see `imresize::finish`), so the rounding
+/// add cannot overflow; the clamp is one `usat` on the Cortex-M.
 #[inline(always)]
 fn bg_u8(bg: i32) -> i32 {
-    (bg.max(0).saturating_add(1 << (BG_BITS - 1)) >> BG_BITS).min(255)
+    (bg.wrapping_add(1 << (BG_BITS - 1)) >> BG_BITS).clamp(0, 255)
 }
 
 /// Entries of the step-12 table: one per `(R, IR − VIS)`, `R` in `0..=255`, `IR − VIS` in
@@ -301,21 +303,22 @@ fn output_pass(
     let mut put = |o: &mut u8, v: u8, add: i32| {
         let sum = i32::from(v) + add;
         saturated |= sum > 255;
-        *o = sum.min(255) as u8;
+        *o = sum.clamp(0, 255) as u8;
     };
     let rows = out.rows_mut().zip(vis.rows()).zip(tir.rows()).zip(r_plane.chunks_exact(w.max(1)));
-    match table {
+    match table.and_then(|t| t.first_chunk_mut::<ADD_TABLE_LEN>()) {
         Some(table) => {
             for (r, row) in table.chunks_exact_mut(511).enumerate() {
                 for (d, slot) in row.iter_mut().enumerate() {
                     *slot = add(r as i32, d as i32 - 255);
                 }
             }
-            let table: &[i32] = table;
+            // A fixed-size table: every index below is provably in range (no check per pixel).
+            let table: &[i32; ADD_TABLE_LEN] = table;
             for (((o, v), t), rr) in rows {
                 for (((o, &v), &t), &r) in o.iter_mut().zip(v).zip(t).zip(rr) {
-                    // R = max(IR − uint8(bg), 0) ∈ 0..=255.
-                    let idx = (r as usize) * 511 + (usize::from(t) + 255 - usize::from(v));
+                    // R = max(IR − uint8(bg), 0) ∈ 0..=255 (the cast keeps it).
+                    let idx = usize::from(r as u8) * 511 + (usize::from(t) + 255 - usize::from(v));
                     put(o, v, table.get(idx).copied().unwrap_or(0));
                 }
             }
@@ -467,6 +470,19 @@ pub fn fuse_ifevip(
 mod tests {
     extern crate std;
     use super::*;
+
+    /// `bg_u8` against the saturating form over the background range (|bg| < 2²⁹).
+    #[test]
+    fn bg_u8_rounds_half_up_and_clamps() {
+        let slow = |bg: i32| (bg.max(0).saturating_add(1 << (BG_BITS - 1)) >> BG_BITS).min(255);
+        let mut bg = -(1i32 << 29);
+        while bg < 1 << 29 {
+            for d in [-1, 0, 1, (1 << 19) - 1, 1 << 19] {
+                assert_eq!(bg_u8(bg + d), slow(bg + d), "{}", bg + d);
+            }
+            bg += 65_537;
+        }
+    }
 
     /// The tabulated step 12 against the per-pixel one, saturating gains included.
     #[test]

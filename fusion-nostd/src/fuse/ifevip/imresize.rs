@@ -37,6 +37,9 @@ pub fn kernel_num(sigma: i64, d: i64) -> i64 {
 /// 0-based index of the 0-based, possibly out-of-range, position `j` in `0..n`: symmetric
 /// reflection with the end sample repeated.
 fn reflect(j: i64, n: i64) -> i64 {
+    if (0..n).contains(&j) {
+        return j; // the common case, without a 64-bit division
+    }
     let m = j.rem_euclid(2 * n);
     if m < n { m } else { 2 * n - 1 - m }
 }
@@ -135,9 +138,14 @@ fn build_with(in_len: usize, out_len: usize, buf: &mut [i32], reuse: bool) -> Re
         return Err(Error::ZeroDimension);
     }
     let (n_in, n_out) = (in_len as i64, out_len as i64);
-    // The widest merged run.
+    let g = gcd(n_in, n_out);
+    let (period, shift) = (n_out / g, n_in / g);
+    // The widest merged run (an interior row has the run of the row one period back).
     let mut taps = 1usize;
     for x in 1..=n_out {
+        if reuse && x > period && interior(x, n_in, n_out) && interior(x - period, n_in, n_out) {
+            continue;
+        }
         let (mut lo, mut hi) = (i64::MAX, i64::MIN);
         for_taps(x, n_in, n_out, |idx, _| {
             lo = lo.min(idx);
@@ -154,8 +162,6 @@ fn build_with(in_len: usize, out_len: usize, buf: &mut [i32], reuse: bool) -> Re
     let needed = out_len.saturating_mul(stride);
     let capacity = buf.len();
     let table = buf.get_mut(..needed).ok_or(Error::ScratchTooSmall { needed, capacity })?;
-    let g = gcd(n_in, n_out);
-    let (period, shift) = (n_out / g, n_in / g);
     for x in 1..=n_out {
         let at = (x - 1) as usize * stride;
         let (done, rest) = table.split_at_mut(at);

@@ -325,7 +325,18 @@ fn row_n<const N: usize>(row: &[i32]) -> Option<(usize, &[i32; N])> {
 fn rows_n<T: Copy + Into<i64>, const N: usize, const U8: bool>(
     src: FrameRef<'_, T>,
     taps: &Taps<'_>,
+    dst: FrameMut<'_, i32>,
+) {
+    rows_with::<T, N, U8>(src, taps, dst, dot)
+}
+
+/// The row pass with `N` taps and the dot product `dot`.
+#[inline(always)]
+fn rows_with<T: Copy + Into<i64>, const N: usize, const U8: bool>(
+    src: FrameRef<'_, T>,
+    taps: &Taps<'_>,
     mut dst: FrameMut<'_, i32>,
+    dot: impl Fn(&[T; N], &[i32; N]) -> i64,
 ) {
     for (s, d) in src.rows().zip(dst.rows_mut()) {
         for (o, row) in d.iter_mut().zip(taps.table.chunks_exact(taps.stride.max(1))) {
@@ -335,6 +346,47 @@ fn rows_n<T: Copy + Into<i64>, const N: usize, const U8: bool>(
             *o = finish::<U8>(acc);
         }
     }
+}
+
+/// The 8-tap dot product of `i32` samples on the Cortex-M4/M7: four `ldrd` pairs and eight
+/// `smull`/`smlal` (LLVM's schedule of the portable [`dot`] spills to the stack). The same
+/// exact `i64` sum.
+#[cfg(fusion_arm_dsp)]
+#[inline(always)]
+fn dot8_arm(seg: &[i32; 8], ws: &[i32; 8]) -> i64 {
+    let (lo, hi): (u32, u32);
+    // SAFETY: reads the 32 bytes of each array (word-aligned `i32` arrays, as `ldrd` needs on
+    // the Cortex-M); registers only otherwise, no stack, flags untouched.
+    unsafe {
+        core::arch::asm!(
+            "ldrd {a}, {b}, [{s}]",
+            "ldrd {c}, {d}, [{w}]",
+            "smull {lo}, {hi}, {a}, {c}",
+            "smlal {lo}, {hi}, {b}, {d}",
+            "ldrd {a}, {b}, [{s}, #8]",
+            "ldrd {c}, {d}, [{w}, #8]",
+            "smlal {lo}, {hi}, {a}, {c}",
+            "smlal {lo}, {hi}, {b}, {d}",
+            "ldrd {a}, {b}, [{s}, #16]",
+            "ldrd {c}, {d}, [{w}, #16]",
+            "smlal {lo}, {hi}, {a}, {c}",
+            "smlal {lo}, {hi}, {b}, {d}",
+            "ldrd {a}, {b}, [{s}, #24]",
+            "ldrd {c}, {d}, [{w}, #24]",
+            "smlal {lo}, {hi}, {a}, {c}",
+            "smlal {lo}, {hi}, {b}, {d}",
+            s = in(reg) seg.as_ptr(),
+            w = in(reg) ws.as_ptr(),
+            a = out(reg) _,
+            b = out(reg) _,
+            c = out(reg) _,
+            d = out(reg) _,
+            lo = out(reg) lo,
+            hi = out(reg) hi,
+            options(pure, readonly, nostack, preserves_flags),
+        );
+    }
+    ((u64::from(hi) << 32) | u64::from(lo)) as i64
 }
 
 #[inline(always)]
@@ -425,6 +477,14 @@ impl Sample for u8 {
 
 impl Sample for i32 {
     fn pass_rows(src: FrameRef<'_, i32>, taps: &Taps<'_>, dst: FrameMut<'_, i32>, out: Output) {
+        #[cfg(fusion_arm_dsp)]
+        if taps.stride == 8 + 2 {
+            match out {
+                Output::U8 => rows_with::<i32, 8, true>(src, taps, dst, dot8_arm),
+                Output::Same => rows_with::<i32, 8, false>(src, taps, dst, dot8_arm),
+            }
+            return;
+        }
         #[cfg(target_arch = "x86_64")]
         if taps.stride == 8 + 2 && crate::cpu::has_avx2() {
             // SAFETY: the CPU has AVX2 (checked at run time).

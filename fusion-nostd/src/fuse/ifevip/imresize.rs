@@ -164,7 +164,7 @@ fn build_with(in_len: usize, out_len: usize, buf: &mut [i32], reuse: bool) -> Re
     let table = buf.get_mut(..needed).ok_or(Error::ScratchTooSmall { needed, capacity })?;
     for x in 1..=n_out {
         let at = (x - 1) as usize * stride;
-        let (done, rest) = table.split_at_mut(at);
+        let Some((done, rest)) = table.split_at_mut_checked(at) else { break };
         let Some(row) = rest.get_mut(..stride) else { break };
         let mut lo = i64::MAX;
         let total = for_taps(x, n_in, n_out, |idx, _| lo = lo.min(idx));
@@ -173,7 +173,7 @@ fn build_with(in_len: usize, out_len: usize, buf: &mut [i32], reuse: bool) -> Re
         }
         let start = lo.min(n_in - taps as i64).max(0);
         // The same row one period back, when both are plain interior rows.
-        let earlier = (x - period - 1) as usize * stride;
+        let earlier = (x - period - 1).max(0) as usize * stride;
         let source = done.get(earlier..earlier + stride).filter(|prev| {
             reuse
                 && x > period

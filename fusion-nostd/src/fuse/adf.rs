@@ -231,64 +231,64 @@ const fn max_entry() -> i32 {
     max as i32
 }
 
+/// `⌊(x·k + 2³¹) / 2³²⌋`: the rounded high word of the 64-bit product (one `smmulr` on
+/// Armv7E-M). The diffusion's two multiplies — the table index and the update — are both this.
+#[inline(always)]
+fn mul_hi_round(x: i32, k: i32) -> i32 {
+    #[cfg(fusion_arm_dsp)]
+    {
+        let hi: i32;
+        // SAFETY: one register-only ALU instruction (Armv7E-M DSP): no memory, no flags.
+        unsafe {
+            core::arch::asm!(
+                "smmulr {h}, {x}, {k}",
+                h = out(reg) hi,
+                x = in(reg) x,
+                k = in(reg) k,
+                options(pure, nomem, nostack, preserves_flags),
+            );
+        }
+        hi
+    }
+    #[cfg(not(fusion_arm_dsp))]
+    {
+        ((i64::from(x) * i64::from(k) + (1 << 31)) >> 32) as i32
+    }
+}
+
+/// Bits the per-pixel sum is shifted up before the update multiply: `|Σ| ≤ 12·28107 < 2¹⁹`,
+/// so `Σ << 12` fits `i32`, and `STEP_UP + 4 = 16` bits of the Q16 scale go to `step_mul`.
+const STEP_UP: u32 = 12;
+const _: () = assert!((12 * MAX_FLUX as i64) << STEP_UP <= i32::MAX as i64, "Σ << STEP_UP fits i32");
+
 /// Per-call constants of the diffusion.
 #[derive(Debug, Clone, Copy)]
 struct Diffusion {
-    /// `∇` (Q16, signed) is shifted right arithmetically by `shift` = 1 + bit length of κ …
-    shift: u32,
-    /// … and multiplied by `recip = round(2^(11+shift)/κ)` (4096 ≤ recip < 8192): the signed
-    /// table index is `⌊((∇ >> shift)·recip + 2¹⁵) / 2¹⁶⌋` ≈ `2048·∇/κ`, computed as the
-    /// rounded high word of `(∇ >> shift) · (recip·2¹⁶)` (no overflow for any `∇`; one
-    /// `smmulr` on Arm) and clamped to `−LUT_LEN..=LUT_LAST` (one `ssat #14`).
-    /// `recip_q16` is `recip·2¹⁶ < 2²⁹`.
-    recip_q16: i32,
-    /// The update `round(κΔt/2 · Σ)` (Q16 · Q16 → Q16, half up) as `(Σ·step_mul + step_round)
-    /// >> step_shift`, with `κΔt/2 = step_mul·2^(16−step_shift)` (the power of two taken out
-    /// of the Q16 scale, so the product usually fits `i32`)…
+    /// The signed table index of `∇` (Q16) is `mul_hi_round(∇, index_mul)`,
+    /// `index_mul = round(2²⁷/κ)`, i.e. `2048·∇/(2¹⁶·κ)` rounded half up, clamped to
+    /// `−LUT_LEN..=LUT_LAST` (one `ssat #14` on Arm). `2¹⁹ ≤ index_mul·κ·… ≤ 2²⁷`: no
+    /// overflow for any `∇`, relative error of the multiplier ≤ 2⁻²⁰.
+    index_mul: i32,
+    /// The update `round(κΔt/2 · Σ)` (Q16 · Q16 → Q16, half up) is
+    /// `mul_hi_round(Σ << STEP_UP, step_mul)`, `step_mul = (κΔt/2 in Q16) << 4 < 2²⁶`:
+    /// `⌊(Σ·scale + 2¹⁵)/2¹⁶⌋` exactly, for every parameter set.
     step_mul: i32,
-    step_round: i32,
-    step_shift: u32,
-    /// … in `i32` unless `12·MAX_FLUX·step_mul + step_round` could overflow it (then `i64`).
-    wide_step: bool,
-    /// Use the AVX2 row loop (x86-64 with AVX2, `i32` step only).
+    /// Use the AVX2 row loop (x86-64 with AVX2).
     #[cfg(target_arch = "x86_64")]
     avx2: bool,
-    /// `recip` and the clamp `±a_max`, `a_max = ((4κ + 1)·2¹⁶) >> shift`, of `∇ >> shift`
-    /// (the index arithmetic in `i32`, used by the AVX2 loop: `a_max·recip < 2³⁰`).
-    #[cfg(target_arch = "x86_64")]
-    recip: u32,
-    #[cfg(target_arch = "x86_64")]
-    a_max: u32,
     border: Border,
 }
 
 impl Diffusion {
     fn new(params: &AdfParams) -> Self {
-        let kappa = u32::from(params.kappa.max(1));
-        let shift = 1 + (32 - kappa.leading_zeros());
-        let recip = ((1u32 << (11 + shift)) + kappa / 2) / kappa;
+        let kappa = i64::from(params.kappa.max(1));
         // κ·Δt/2 = κ·dt_milli/2000, in Q16, rounded; ≤ 255·250·2¹⁶/2000 < 2²².
-        let scale = (((i64::from(params.kappa) * i64::from(params.dt_milli)) << 16) + 1000) / 2000;
-        let scale = scale.max(1) as i32;
-        let twos = scale.trailing_zeros().min(16);
-        let step_mul = scale >> twos;
-        let step_shift = 16 - twos;
-        let step_round = (1i32 << 15) >> twos;
-        let wide_step =
-            i64::from(12 * MAX_FLUX) * i64::from(step_mul) + i64::from(step_round) > i64::from(i32::MAX);
+        let scale = (((kappa * i64::from(params.dt_milli)) << 16) + 1000) / 2000;
         Self {
-            shift,
-            recip_q16: (recip << 16) as i32,
-            step_mul,
-            step_round,
-            step_shift,
-            wide_step,
+            index_mul: (((1i64 << 27) + kappa / 2) / kappa) as i32,
+            step_mul: (scale.max(1) << (16 - STEP_UP)) as i32,
             #[cfg(target_arch = "x86_64")]
-            avx2: !wide_step && crate::cpu::has_avx2(),
-            #[cfg(target_arch = "x86_64")]
-            recip,
-            #[cfg(target_arch = "x86_64")]
-            a_max: ((4 * kappa + 1) << 16) >> shift,
+            avx2: crate::cpu::has_avx2(),
             border: params.border(),
         }
     }
@@ -304,42 +304,17 @@ impl Diffusion {
         SIGNED_FLUX.get(k as usize).map_or(0, |&g| i32::from(g))
     }
 
-    /// The signed table index of `∇`: `clamp(⌊((∇ >> shift)·recip_q16 + 2³¹) / 2³²⌋,
-    /// −LUT_LEN, LUT_LAST)`. Entries from ±7404 on are 0, so the clamp changes no value.
+    /// The signed table index of `∇`: `clamp(mul_hi_round(∇, index_mul), −LUT_LEN,
+    /// LUT_LAST)`. Entries from ±7404 on are 0, so the clamp changes no value.
     #[inline(always)]
     fn index(&self, d: i32) -> i32 {
-        let a = d >> self.shift; // |a| ≤ 2²⁹: shift ≥ 2
-        #[cfg(fusion_arm_dsp)]
-        let idx = {
-            // `smmulr`: the rounded high word in one instruction. The clamp below becomes
-            // `ssat #14`.
-            let idx: i32;
-            // SAFETY: one register-only ALU instruction (Armv7E-M DSP): no memory, no flags.
-            unsafe {
-                core::arch::asm!(
-                    "smmulr {i}, {a}, {r}",
-                    i = out(reg) idx,
-                    a = in(reg) a,
-                    r = in(reg) self.recip_q16,
-                    options(pure, nomem, nostack, preserves_flags),
-                );
-            }
-            idx
-        };
-        #[cfg(not(fusion_arm_dsp))]
-        let idx = ((i64::from(a) * i64::from(self.recip_q16) + (1 << 31)) >> 32) as i32;
-        idx.clamp(-(LUT_LEN as i32), LUT_LAST as i32)
+        mul_hi_round(d, self.index_mul).clamp(-(LUT_LEN as i32), LUT_LAST as i32)
     }
 
     /// `round(κΔt/2 · acc)` in Q16 for the per-pixel sum `acc` (|acc| ≤ 12·[`MAX_FLUX`]).
     #[inline(always)]
-    fn step<const WIDE: bool>(&self, acc: i32) -> i32 {
-        if WIDE {
-            ((i64::from(acc) * i64::from(self.step_mul) + i64::from(self.step_round)) >> self.step_shift)
-                as i32
-        } else {
-            (acc * self.step_mul + self.step_round) >> self.step_shift
-        }
+    fn step(&self, acc: i32) -> i32 {
+        mul_hi_round(acc << STEP_UP, self.step_mul)
     }
 
     /// The next iterate of one pixel from its 3×3 neighbourhood (all eight fluxes; the path
@@ -355,8 +330,7 @@ impl Diffusion {
         let axial = later(c[2]) + later(r[1]) - earlier(c[0]) - earlier(l[1]);
         let diagonal = later(l[2]) + later(r[2]) - earlier(l[0]) - earlier(r[0]);
         let acc = 2 * axial + diagonal; // |acc| ≤ 12·28107 < 2¹⁹
-        let step = if self.wide_step { self.step::<true>(acc) } else { self.step::<false>(acc) };
-        centre.saturating_add(step)
+        centre.saturating_add(self.step(acc))
     }
 
     /// One Jacobi iteration of the packed `w`-wide plane `src` into `dst`.
@@ -373,43 +347,47 @@ impl Diffusion {
         }
     }
 
-    /// The north contributions `−(2·flux(C − N) + flux(C − NW) + flux(C − NE))` of the top
-    /// pad row `top` to every pixel of the first row `q` (both padded, `w + 2` long), into
-    /// `north[1..=w]` (pairs in the `flux(later − earlier)` orientation).
+    /// The north fluxes `2·flux(C − N) + flux(C − NW) + flux(C − NE)` of the top pad row
+    /// `top` with every pixel of the first row `q` (both padded, `w + 2` long), into
+    /// `north[1..=w]` (pairs in the `flux(later − earlier)` orientation; a pixel subtracts
+    /// them).
     fn top_north(&self, top: &[i32], q: &[i32], north: &mut [i32]) {
         let f = |a: i32, b: i32| self.flux(b.wrapping_sub(a));
         let pixels = top.windows(3).zip(q.iter().skip(1)).zip(north.iter_mut().skip(1));
         for ((t, &c), n) in pixels {
             if let &[nw, n0, ne] = t {
-                *n = -(2 * f(n0, c) + f(nw, c) + f(ne, c));
+                *n = 2 * f(n0, c) + f(nw, c) + f(ne, c);
             }
         }
     }
 
     /// One output row of a Jacobi iteration by pair fluxes. `p` is the row being updated and
     /// `q` the row below, both padded by one column on each side (`w + 2`); `north[i]` holds
-    /// the north contributions to pixel `i` of `p` (`2·flux(N − C) + flux(NW − C) +
-    /// flux(NE − C)`, from the row above) and is replaced by those of `p` to `q`. Per pixel
-    /// four table reads: the pairs east (`h`), south (`v`), south-east (`dr`) and south-west
-    /// (`dl`). Each enters this pixel's sum and, negated (`flux` is odd), its partner's: the
-    /// west flux is `−h` of the previous pixel, and the pairs to `q` become `q`'s north
-    /// contributions `−(2·v(i) + dr(i−1) + dl(i+1))`. The same sum, hence the same bits, as
-    /// [`Self::update`] with its eight table reads. The next iterate goes to `out` (`w`).
+    /// the fluxes of the pairs of pixel `i` of `p` with the row above (`2·flux(C − N) +
+    /// flux(C − NW) + flux(C − NE)`, which the pixel subtracts) and is replaced by those of
+    /// `q` with `p`. Per pixel four table reads: the pairs east (`h`), south (`v`), south-east
+    /// (`dr`) and south-west (`dl`), each `flux(later − earlier)`. Each enters this pixel's
+    /// sum and, subtracted, its partner's: the west flux is `−h` of the previous pixel, and
+    /// the pairs to `q` become `q`'s north fluxes `2·v(i) + dr(i−1) + dl(i+1)`. The same sum,
+    /// hence the same bits, as [`Self::update`] with its eight table reads. The next iterate
+    /// goes to `out` (`w`).
     #[inline(never)]
-    fn row<const WIDE: bool>(&self, p: &[i32], q: &[i32], north: &mut [i32], out: &mut [i32]) {
+    fn row(&self, p: &[i32], q: &[i32], north: &mut [i32], out: &mut [i32]) {
         let f = |a: i32, b: i32| self.flux(b.wrapping_sub(a));
         let (Some(&p0), Some(&p1), Some(&q1)) = (p.first(), p.get(1), q.get(1)) else { return };
         // The left pad's pairs: p[0]–p[1] (the first west flux) and p[0]–q[1].
-        #[cfg_attr(not(target_arch = "x86_64"), allow(unused_mut))]
+        #[cfg_attr(not(any(target_arch = "x86_64", fusion_arm_dsp)), allow(unused_mut))]
         let mut carry = RowCarry { h_prev: f(p0, p1), dr_prev: f(p0, q1), partial: 0 };
         #[cfg(target_arch = "x86_64")]
-        let done = if !WIDE && self.avx2 {
+        let done = if self.avx2 {
             // SAFETY: `avx2` is set only when the CPU has AVX2 (checked at run time).
             unsafe { avx2::row_blocks(self, p, q, north, out, &mut carry) }
         } else {
             0
         };
-        #[cfg(not(target_arch = "x86_64"))]
+        #[cfg(fusion_arm_dsp)]
+        let done = arm::row_pixels(self, p, q, north, out, &mut carry);
+        #[cfg(not(any(target_arch = "x86_64", fusion_arm_dsp)))]
         let done = 0;
         let RowCarry { mut h_prev, mut dr_prev, mut partial } = carry;
         let north = core::cell::Cell::from_mut(north).as_slice_of_cells();
@@ -426,25 +404,25 @@ impl Diffusion {
             let v = f(pc, qc);
             let dr = f(pc, qr);
             let dl = f(pc, ql);
-            let acc = 2 * (h - h_prev + v) + dr + dl + n_here.get();
-            *o = pc.saturating_add(self.step::<WIDE>(acc));
-            n_prev.set(partial - dl);
-            partial = -2 * v - dr_prev;
+            let acc = 2 * (h - h_prev + v) + dr + dl - n_here.get();
+            *o = pc.saturating_add(self.step(acc));
+            n_prev.set(partial + dl);
+            partial = 2 * v + dr_prev;
             dr_prev = dr;
             h_prev = h;
         }
-        // The right pad's pair p[w+1]–q[w] completes q's last north contribution.
+        // The right pad's pair p[w+1]–q[w] completes q's last north fluxes.
         let n = p.len();
         if let (Some(last), Some(&pr), Some(&ql)) =
             (north.get(n.wrapping_sub(2)), p.get(n.wrapping_sub(1)), q.get(n.wrapping_sub(2)))
         {
-            last.set(partial - f(pr, ql));
+            last.set(partial + f(pr, ql));
         }
     }
 }
 
 /// What [`Diffusion::row`] carries from one pixel to the next: the previous east flux (this
-/// pixel's west, negated), the previous south-east flux, and `−(2·v(i−1) + dr(i−2))`.
+/// pixel's west, negated), the previous south-east flux, and `2·v(i−1) + dr(i−2)`.
 #[derive(Debug, Clone, Copy)]
 struct RowCarry {
     h_prev: i32,
@@ -452,12 +430,108 @@ struct RowCarry {
     partial: i32,
 }
 
+/// The Armv7E-M copy of the row loop (Cortex-M4/M7): the portable loop's operations in
+/// assembly, one pixel per pass, the flux as `sub`, `smmulr`, `ssat #14`, `ldrsh` (LLVM's
+/// schedule of the same loop kept the table base out of the address and spilled the carried
+/// values: ≈ 60 instructions per pixel; this one is 38). The same bits as the portable loop
+/// (the firmware's bit-exactness jobs compare the target's frames with the host's).
+#[cfg(fusion_arm_dsp)]
+mod arm {
+    use super::{Diffusion, LUT_LEN, RowCarry, SIGNED_FLUX, STEP_UP};
+
+    /// Runs the row loop of [`Diffusion::row`] on every pixel of `out`, updating `carry`;
+    /// returns the pixels done (0 when a slice is too short, and the portable loop runs).
+    pub(super) fn row_pixels(
+        d: &Diffusion,
+        p: &[i32],
+        q: &[i32],
+        north: &mut [i32],
+        out: &mut [i32],
+        carry: &mut RowCarry,
+    ) -> usize {
+        let w = out.len();
+        if w == 0 || p.len() < w + 2 || q.len() < w + 2 || north.len() < w + 2 {
+            return 0;
+        }
+        const { assert!(STEP_UP == 12, "the loop shifts the sum by #12") };
+        let centre = SIGNED_FLUX.as_ptr().wrapping_add(LUT_LEN);
+        let end = out.as_mut_ptr().wrapping_add(w);
+        let RowCarry { mut h_prev, mut dr_prev, mut partial } = *carry;
+        // SAFETY: pixel i (0 ≤ i < w) reads p[i + 1], p[i + 2], q[i], q[i + 1], q[i + 2],
+        // north[i + 1], writes north[i] and out[i]: all inside the slices, whose lengths are
+        // checked above (p, q, north ≥ w + 2). The table reads are at `centre + 2·k`,
+        // k in −8192..=8191 (`ssat #14`), inside the 2·8192 + 1 entries. The loop runs while
+        // the output pointer has not reached `end` (w ≥ 1 passes). The two words pushed are
+        // popped before the end; every register written is declared.
+        unsafe {
+            core::arch::asm!(
+                "push {{r11, r12}}",          // [sp] = end, [sp + 4] = step_mul
+                "2:",
+                "ldrd r11, r12, [r0], #4",    // pc, pr
+                "ldr lr, [r1], #4",           // ql
+                "sub lr, lr, r11",
+                "smmulr lr, lr, r5",
+                "ssat lr, #14, lr",
+                "ldrsh lr, [r4, lr, lsl #1]", // dl
+                "add r10, r10, lr",           // north fluxes of q's pixel i − 1
+                "str r10, [r2], #4",
+                "ldr r10, [r2]",              // this pixel's north fluxes
+                "sub lr, lr, r10",            // dl − north
+                "sub r12, r12, r11",
+                "smmulr r12, r12, r5",
+                "ssat r12, #14, r12",
+                "ldrsh r12, [r4, r12, lsl #1]", // h
+                "sub r10, r12, r8",           // h − h_prev
+                "mov r8, r12",
+                "ldr r12, [r1]",              // qc
+                "sub r12, r12, r11",
+                "smmulr r12, r12, r5",
+                "ssat r12, #14, r12",
+                "ldrsh r12, [r4, r12, lsl #1]", // v
+                "add r10, r10, r12",          // h − h_prev + v
+                "add lr, lr, r10, lsl #1",
+                "add r10, r9, r12, lsl #1",   // partial = dr_prev + 2·v
+                "ldr r12, [r1, #4]",          // qr
+                "sub r12, r12, r11",
+                "smmulr r12, r12, r5",
+                "ssat r12, #14, r12",
+                "ldrsh r12, [r4, r12, lsl #1]", // dr
+                "add lr, lr, r12",            // the sum
+                "mov r9, r12",
+                "lsl lr, lr, #12",
+                "ldr r12, [sp, #4]",
+                "smmulr lr, lr, r12",         // the update
+                "qadd lr, r11, lr",           // pc + update, saturated
+                "str lr, [r3], #4",
+                "ldr r12, [sp]",
+                "cmp r3, r12",
+                "bne 2b",
+                "add sp, sp, #8",
+                inout("r0") p.as_ptr().wrapping_add(1) => _,
+                inout("r1") q.as_ptr() => _,
+                inout("r2") north.as_mut_ptr() => _,
+                inout("r3") out.as_mut_ptr() => _,
+                in("r4") centre,
+                in("r5") d.index_mul,
+                inout("r8") h_prev,
+                inout("r9") dr_prev,
+                inout("r10") partial,
+                inout("r11") end => _,
+                inout("r12") d.step_mul => _,
+                out("lr") _,
+            );
+        }
+        *carry = RowCarry { h_prev, dr_prev, partial };
+        w
+    }
+}
+
 /// The AVX2 copy of the row loop (x86-64 hosts): eight pixels at a time, the table read by
 /// `vpgatherdd`. The same integer values as the portable loop, so the same bits
 /// (checked by `avx2_rows_equal_the_portable_rows`).
 #[cfg(target_arch = "x86_64")]
 mod avx2 {
-    use super::{Diffusion, LUT_LAST, LUT_LEN, RowCarry, SIGNED_FLUX};
+    use super::{Diffusion, LUT_LAST, LUT_LEN, RowCarry, SIGNED_FLUX, STEP_UP};
     use core::arch::x86_64::*;
 
     /// Eight `i32` at `s[at..at + 8]`.
@@ -487,46 +561,46 @@ mod avx2 {
         _mm256_alignr_epi8::<BYTES>(cur, _mm256_permute2x128_si256::<0x21>(prev, cur))
     }
 
-    /// The constants of [`Diffusion::flux`], broadcast.
+    /// [`super::mul_hi_round`] on eight lanes: `⌊(x·k + 2³¹)/2³²⌋` from the two 64-bit
+    /// products of the even and the odd lanes (`k` broadcast, `half` = 2³¹ per 64-bit lane).
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    fn mul_hi_round(x: __m256i, k: __m256i, half: __m256i) -> __m256i {
+        let even = _mm256_add_epi64(_mm256_mul_epi32(x, k), half);
+        let odd = _mm256_add_epi64(_mm256_mul_epi32(_mm256_srli_epi64::<32>(x), k), half);
+        _mm256_blend_epi32::<0b1010_1010>(_mm256_srli_epi64::<32>(even), odd)
+    }
+
+    /// The constants of [`Diffusion::flux`] and [`Diffusion::step`], broadcast.
     struct Flux {
-        shift: __m128i,
-        a_max: __m256i,
-        a_min: __m256i,
-        recip: __m256i,
+        index_mul: __m256i,
+        step_mul: __m256i,
         half: __m256i,
         first: __m256i,
         last: __m256i,
     }
 
     impl Flux {
-        /// The constants of `d`, broadcast.
         #[target_feature(enable = "avx2")]
         #[inline]
         fn new(d: &Diffusion) -> Self {
             Flux {
-                shift: _mm_cvtsi32_si128(d.shift as i32),
-                a_max: _mm256_set1_epi32(d.a_max as i32),
-                a_min: _mm256_set1_epi32(-(d.a_max as i32)),
-                recip: _mm256_set1_epi32(d.recip as i32),
-                half: _mm256_set1_epi32(1 << 15),
+                index_mul: _mm256_set1_epi32(d.index_mul),
+                step_mul: _mm256_set1_epi32(d.step_mul),
+                half: _mm256_set1_epi64x(1 << 31),
                 first: _mm256_set1_epi32(-(LUT_LEN as i32)),
                 last: _mm256_set1_epi32(LUT_LAST as i32),
             }
         }
 
-        /// `flux(d)` on eight lanes: `clamp(d >> shift, −a_max, a_max)·recip` rounded down
-        /// to the signed table index — `⌊(a·recip + 2¹⁵)/2¹⁶⌋` is the rounded high word of
-        /// `a·recip·2¹⁶`, the scalar index, and `a_max·recip < 2³⁰` keeps the product in
-        /// `i32` (past `±a_max` both indices lie beyond the table's nonzero entries) — clamped
-        /// to `−LUT_LEN..=LUT_LAST`, the entry by a 32-bit gather at byte offset `2·idx` from
-        /// the table's centre (entries `idx` and `idx + 1`, both inside the table), its low
-        /// half sign-extended.
+        /// `flux(d)` on eight lanes: the signed index `mul_hi_round(d, index_mul)` clamped to
+        /// `−LUT_LEN..=LUT_LAST`, the entry by a 32-bit gather at byte offset `2·idx` from the
+        /// table's centre (entries `idx` and `idx + 1`, both inside the table), its low half
+        /// sign-extended.
         #[target_feature(enable = "avx2")]
         #[inline]
         fn apply(&self, d: __m256i) -> __m256i {
-            let a = _mm256_sra_epi32(d, self.shift);
-            let a = _mm256_max_epi32(_mm256_min_epi32(a, self.a_max), self.a_min);
-            let idx = _mm256_srai_epi32::<16>(_mm256_add_epi32(_mm256_mullo_epi32(a, self.recip), self.half));
+            let idx = mul_hi_round(d, self.index_mul, self.half);
             let idx = _mm256_max_epi32(_mm256_min_epi32(idx, self.last), self.first);
             let centre = SIGNED_FLUX.as_ptr().wrapping_add(LUT_LEN);
             // SAFETY: every index is in −LUT_LEN..=LUT_LAST, so the 4 bytes read at `2·idx`
@@ -534,24 +608,32 @@ mod avx2 {
             let g = unsafe { _mm256_i32gather_epi32::<2>(centre.cast(), idx) };
             _mm256_srai_epi32::<16>(_mm256_slli_epi32::<16>(g))
         }
+
+        /// `step(acc)` on eight lanes.
+        #[target_feature(enable = "avx2")]
+        #[inline]
+        fn step(&self, acc: __m256i) -> __m256i {
+            mul_hi_round(_mm256_slli_epi32::<{ STEP_UP as i32 }>(acc), self.step_mul, self.half)
+        }
     }
 
-    /// [`Flux::apply`] on eight values (for the tests).
+    /// [`Flux::apply`] and [`Flux::step`] on eight values (for the tests).
     ///
     /// # Safety
     /// The CPU must support AVX2.
     #[cfg(test)]
     #[target_feature(enable = "avx2")]
-    pub(super) unsafe fn flux8(d: &Diffusion, x: [i32; 8]) -> [i32; 8] {
+    pub(super) unsafe fn flux8(d: &Diffusion, x: [i32; 8]) -> ([i32; 8], [i32; 8]) {
         let flux = Flux::new(d);
-        // SAFETY: reads the 32 bytes of `x`, writes the 32 bytes of `out`.
+        // SAFETY: reads the 32 bytes of `x`, writes the 32 bytes of each output.
         let v = unsafe { _mm256_loadu_si256(x.as_ptr().cast()) };
-        let mut out = [0i32; 8];
-        unsafe { _mm256_storeu_si256(out.as_mut_ptr().cast(), flux.apply(v)) };
-        out
+        let (mut f, mut s) = ([0i32; 8], [0i32; 8]);
+        unsafe { _mm256_storeu_si256(f.as_mut_ptr().cast(), flux.apply(v)) };
+        unsafe { _mm256_storeu_si256(s.as_mut_ptr().cast(), flux.step(v)) };
+        (f, s)
     }
 
-    /// Runs the row loop of [`Diffusion::row`] (`WIDE = false`) on whole blocks of eight
+    /// Runs the row loop of [`Diffusion::row`] on whole blocks of eight
     /// pixels from the start of the row, updating `carry`; returns the pixels done.
     ///
     /// # Safety
@@ -566,8 +648,6 @@ mod avx2 {
         carry: &mut RowCarry,
     ) -> usize {
         let flux = Flux::new(d);
-        let (mul, round) = (_mm256_set1_epi32(d.step_mul), _mm256_set1_epi32(d.step_round));
-        let step_shift = _mm_cvtsi32_si128(d.step_shift as i32);
         let max = _mm256_set1_epi32(i32::MAX);
         let mut h_prev = _mm256_set_epi32(carry.h_prev, 0, 0, 0, 0, 0, 0, 0);
         let mut v_prev = _mm256_setzero_si256();
@@ -593,11 +673,11 @@ mod avx2 {
             let dl = flux.apply(_mm256_sub_epi32(ql, pc));
             let west = shift_in::<12>(h_prev, h);
             let axial = _mm256_add_epi32(_mm256_sub_epi32(h, west), v);
-            let acc = _mm256_add_epi32(
+            let acc = _mm256_sub_epi32(
                 _mm256_add_epi32(_mm256_add_epi32(axial, axial), _mm256_add_epi32(dr, dl)),
                 n_here,
             );
-            let step = _mm256_sra_epi32(_mm256_add_epi32(_mm256_mullo_epi32(acc, mul), round), step_shift);
+            let step = flux.step(acc);
             // pc + step, saturated to the i32 range.
             let sum = _mm256_add_epi32(pc, step);
             let overflow = _mm256_and_si256(_mm256_xor_si256(pc, sum), _mm256_xor_si256(step, sum));
@@ -607,14 +687,11 @@ mod avx2 {
                 _mm256_castsi256_ps(limit),
                 _mm256_castsi256_ps(overflow),
             ));
-            // The north contributions to the row below at x − 1 .. x + 6 (pixel indices
-            // 0-based): −(2·v(k) + dr(k − 1) + dl(k + 1)).
+            // The north fluxes of the row below at x − 1 .. x + 6 (pixel indices 0-based):
+            // 2·v(k) + dr(k − 1) + dl(k + 1).
             let v_up = shift_in::<12>(v_prev, v);
             let dr_up = shift_in::<8>(dr_prev, dr);
-            let below = _mm256_sub_epi32(
-                _mm256_setzero_si256(),
-                _mm256_add_epi32(_mm256_add_epi32(v_up, v_up), _mm256_add_epi32(dr_up, dl)),
-            );
+            let below = _mm256_add_epi32(_mm256_add_epi32(v_up, v_up), _mm256_add_epi32(dr_up, dl));
             if store(out, x, next).is_none() || store(north, x, below).is_none() {
                 break;
             }
@@ -629,7 +706,7 @@ mod avx2 {
                 l.get(i).copied().unwrap_or(0)
             };
             *carry =
-                RowCarry { h_prev: lane(h, 7), dr_prev: lane(dr, 7), partial: -2 * lane(v, 7) - lane(dr, 6) };
+                RowCarry { h_prev: lane(h, 7), dr_prev: lane(dr, 7), partial: 2 * lane(v, 7) + lane(dr, 6) };
         }
         x
     }
@@ -715,7 +792,7 @@ impl Diffusion {
     /// straight into stage `s + 1` (the last stage writes `state`). All the work rows live in
     /// `mem` (`stages · STAGE_ROWS · (w + 2)` values), so the frame is read and written once
     /// per group of iterations and the working set stays in cache.
-    fn run_group<const WIDE: bool>(
+    fn run_group(
         &self,
         input: Input<'_>,
         state: &mut [i32],
@@ -727,7 +804,7 @@ impl Diffusion {
         mem.fill(0);
         let mut out = Output::Plane(state);
         for t in 0..h + stages {
-            self.pipeline_step::<WIDE>(t, input, &mut out, mem, (w, h), stages);
+            self.pipeline_step(t, input, &mut out, mem, (w, h), stages);
         }
     }
 
@@ -735,7 +812,7 @@ impl Diffusion {
     /// every stage passes on the row it can now finish; the last stage writes row
     /// `t − stages` (when `t ≥ stages`) to `out`. `mem` holds the group's zeroed work rows
     /// (`stages · STAGE_ROWS · (w + 2)` values) and is carried from step to step.
-    fn pipeline_step<const WIDE: bool>(
+    fn pipeline_step(
         &self,
         t: usize,
         input: Input<'_>,
@@ -805,10 +882,10 @@ impl Diffusion {
                     match next.as_deref_mut().and_then(|m| stage_rows(m, stride)) {
                         Some([n0, n1, _]) => {
                             let slot = if y % 2 == 0 { n0 } else { n1 };
-                            self.row::<WIDE>(p, q, north, slot.get_mut(1..=w).unwrap_or(&mut []));
+                            self.row(p, q, north, slot.get_mut(1..=w).unwrap_or(&mut []));
                             set_pads(slot, self.border);
                         }
-                        None => self.row::<WIDE>(p, q, north, state.row(y, w)),
+                        None => self.row(p, q, north, state.row(y, w)),
                     }
                 }
             }
@@ -849,11 +926,7 @@ pub fn diffuse(
     let mut input = Input::Frame(src);
     while done < usize::from(params.iterations) {
         let stages = group.min(usize::from(params.iterations) - done);
-        if diffusion.wide_step {
-            diffusion.run_group::<true>(input, state, tmp, (w, h), stages);
-        } else {
-            diffusion.run_group::<false>(input, state, tmp, (w, h), stages);
-        }
+        diffusion.run_group(input, state, tmp, (w, h), stages);
         input = Input::State;
         done += stages;
     }
@@ -1215,13 +1288,8 @@ pub(crate) fn diffuse_pair_rows(
     let diffusion = Diffusion::new(params);
     let (mut out_v, mut out_t) = (Output::Row(row_v), Output::Row(row_t));
     for t in 0..until.min(h) + stages {
-        if diffusion.wide_step {
-            diffusion.pipeline_step::<true>(t, Input::Frame(vis), &mut out_v, mem_v, (w, h), stages);
-            diffusion.pipeline_step::<true>(t, Input::Frame(tir), &mut out_t, mem_t, (w, h), stages);
-        } else {
-            diffusion.pipeline_step::<false>(t, Input::Frame(vis), &mut out_v, mem_v, (w, h), stages);
-            diffusion.pipeline_step::<false>(t, Input::Frame(tir), &mut out_t, mem_t, (w, h), stages);
-        }
+        diffusion.pipeline_step(t, Input::Frame(vis), &mut out_v, mem_v, (w, h), stages);
+        diffusion.pipeline_step(t, Input::Frame(tir), &mut out_t, mem_t, (w, h), stages);
         if let Some(y) = t.checked_sub(stages) {
             sink(y, out_v.row(y, w), out_t.row(y, w));
         }
@@ -1431,33 +1499,33 @@ mod tests {
         assert!(max_err > 1e-5, "the bound should be nearly reached: {max_err:e}");
     }
 
-    /// The flux written out in `i64` (floor shift, floor of the rounded product, clamp, the
-    /// unsigned table with the index's sign): the fast forms must give the same value.
+    /// The flux written out in `i64` (the rounded product's floor, the clamp, the unsigned
+    /// table with the index's sign): the fast forms must give the same value.
     fn flux_first_form(kappa: u16, d: i32) -> i32 {
         let kappa = i64::from(kappa);
-        let shift = 1 + (32 - (kappa as u32).leading_zeros());
-        let recip = ((1i64 << (11 + shift)) + kappa / 2) / kappa;
-        let a = i64::from(d) >> shift;
-        let idx = (a * recip + (1 << 15)).div_euclid(1 << 16).clamp(-(LUT_LEN as i64), i64::from(LUT_LAST));
+        let m = ((1i64 << 27) + kappa / 2) / kappa;
+        let idx =
+            (i64::from(d) * m + (1 << 31)).div_euclid(1 << 32).clamp(-(LUT_LEN as i64), i64::from(LUT_LAST));
         let g = EXP_FLUX.get(idx.unsigned_abs() as usize).map_or(0, |&g| i32::from(g));
         if idx < 0 { -g } else { g }
     }
 
-    /// Every κ, every `∇ >> shift` up to past the clamp on both sides (the flux depends on
-    /// nothing else), the extremes; on x86-64 also the AVX2 flux, lane by lane.
+    /// Every κ, both sides of every index step (the first `∇` of each index and its
+    /// neighbours, up to past the clamp on both sides — the flux is constant between them),
+    /// the extremes; on x86-64 also the AVX2 flux, lane by lane.
     #[test]
     fn fast_flux_equals_the_first_form_exhaustively() {
         for kappa in 1..=255u16 {
             let d = Diffusion::new(&AdfParams { kappa, ..AdfParams::default() });
-            let top = (((4 * i32::from(kappa) + 3) << 16) >> d.shift) + 2;
-            let mut values = std::vec::Vec::new();
-            for a in (-top..=top).chain([top << 3, -(top << 3), i32::MAX >> d.shift, i32::MIN >> d.shift]) {
-                for low in [0i32, (1 << d.shift) - 1] {
-                    let m = i64::from(a) * (1 << d.shift) + i64::from(low);
-                    values.push(m.clamp(i64::from(i32::MIN), i64::from(i32::MAX)) as i32);
+            let m = i64::from(d.index_mul);
+            let mut values = std::vec![i32::MIN, i32::MIN + 1, i32::MAX, 0, -1, 1];
+            for k in -(LUT_LEN as i64) - 2..=LUT_LEN as i64 + 2 {
+                // The smallest ∇ with index ≥ k: ⌈(k·2³² − 2³¹)/m⌉.
+                let first = ((k << 32) - (1 << 31) + m - 1).div_euclid(m);
+                for x in [first - 1, first, first + 1] {
+                    values.push(x.clamp(i64::from(i32::MIN), i64::from(i32::MAX)) as i32);
                 }
             }
-            values.extend([i32::MIN, i32::MAX, 0, -1, 1]);
             for &x in &values {
                 assert_eq!(d.flux(x), flux_first_form(kappa, x), "kappa {kappa} d {x}");
             }
@@ -1467,9 +1535,35 @@ mod tests {
                     let mut lanes = [0i32; 8];
                     lanes.iter_mut().zip(block).for_each(|(l, &v)| *l = v);
                     // SAFETY: the CPU has AVX2 (checked above).
-                    let got = unsafe { avx2::flux8(&d, lanes) };
+                    let (got, _) = unsafe { avx2::flux8(&d, lanes) };
                     let want = lanes.map(|x| d.flux(x));
                     assert_eq!(got, want, "kappa {kappa} lanes {lanes:?}");
+                }
+            }
+        }
+    }
+
+    /// The update is `⌊(Σ·scale + 2¹⁵)/2¹⁶⌋` (κΔt/2 in Q16, rounded half up) for every
+    /// reachable sum and the extreme parameters; on x86-64 the AVX2 step too.
+    #[test]
+    fn step_is_the_rounded_product_for_every_sum() {
+        for (kappa, dt_milli) in [(30u16, 150u16), (1, 1), (255, 250), (255, 249), (7, 133), (200, 100)] {
+            let d = Diffusion::new(&AdfParams { kappa, dt_milli, ..AdfParams::default() });
+            let scale = ((i64::from(kappa) * i64::from(dt_milli) << 16) + 1000) / 2000;
+            let bound = 12 * MAX_FLUX;
+            let sums: std::vec::Vec<i32> =
+                (-bound..=bound).step_by(7).chain([bound, -bound, 0, 1, -1]).collect();
+            for &acc in &sums {
+                let want = ((i64::from(acc) * scale + (1 << 15)) >> 16) as i32;
+                assert_eq!(d.step(acc), want, "kappa {kappa} dt {dt_milli} acc {acc}");
+            }
+            #[cfg(target_arch = "x86_64")]
+            if crate::cpu::has_avx2() {
+                for block in sums.chunks_exact(8) {
+                    let lanes: [i32; 8] = block.try_into().unwrap_or([0; 8]);
+                    // SAFETY: the CPU has AVX2 (checked above).
+                    let (_, got) = unsafe { avx2::flux8(&d, lanes) };
+                    assert_eq!(got, lanes.map(|a| d.step(a)), "kappa {kappa} dt {dt_milli}");
                 }
             }
         }
@@ -1547,9 +1641,6 @@ mod tests {
             for dt_milli in [1u16, 150, 250] {
                 let params = AdfParams { kappa, dt_milli, ..AdfParams::default() };
                 let mut d = Diffusion::new(&params);
-                if d.wide_step {
-                    continue;
-                }
                 for w in [1usize, 7, 8, 9, 16, 23, 64] {
                     for scale in [0u32, 1, 2] {
                         let mut value = || match scale {
@@ -1565,7 +1656,7 @@ mod tests {
                         for (avx2, r) in [false, true].into_iter().zip(results.iter_mut()) {
                             d.avx2 = avx2;
                             let (mut n, mut o) = (north.clone(), std::vec![0i32; w]);
-                            d.row::<false>(&p, &q, &mut n, &mut o);
+                            d.row(&p, &q, &mut n, &mut o);
                             *r = (n, o);
                         }
                         assert_eq!(results[0], results[1], "kappa {kappa} dt {dt_milli} w {w} scale {scale}");
@@ -1631,12 +1722,6 @@ mod tests {
             };
             assert_eq!(fused_small(p, iv, it, av, at), fused_general(i64::from(p), iv, it, av, at));
         }
-    }
-
-    #[test]
-    fn wide_step_is_used_for_large_scales() {
-        assert!(!Diffusion::new(&AdfParams::default()).wide_step);
-        assert!(Diffusion::new(&AdfParams { kappa: 255, dt_milli: 249, ..AdfParams::default() }).wide_step);
     }
 
     /// Nearly odd: `flux(−∇)` is at most one table step from `−flux(∇)` (the orientation

@@ -1549,7 +1549,7 @@ mod tests {
     fn step_is_the_rounded_product_for_every_sum() {
         for (kappa, dt_milli) in [(30u16, 150u16), (1, 1), (255, 250), (255, 249), (7, 133), (200, 100)] {
             let d = Diffusion::new(&AdfParams { kappa, dt_milli, ..AdfParams::default() });
-            let scale = ((i64::from(kappa) * i64::from(dt_milli) << 16) + 1000) / 2000;
+            let scale = (((i64::from(kappa) * i64::from(dt_milli)) << 16) + 1000) / 2000;
             let bound = 12 * MAX_FLUX;
             let sums: std::vec::Vec<i32> =
                 (-bound..=bound).step_by(7).chain([bound, -bound, 0, 1, -1]).collect();

@@ -433,7 +433,7 @@ struct RowCarry {
 /// The Armv7E-M copy of the row loop (Cortex-M4/M7): the portable loop's operations in
 /// assembly, one pixel per pass, the flux as `sub`, `smmulr`, `ssat #14`, `ldrsh` (LLVM's
 /// schedule of the same loop kept the table base out of the address and spilled the carried
-/// values: ≈ 60 instructions per pixel; this one is 38). The same bits as the portable loop
+/// values: ≈ 60 instructions per pixel; this one is 36). The same bits as the portable loop
 /// (the firmware's bit-exactness jobs compare the target's frames with the host's).
 #[cfg(fusion_arm_dsp)]
 mod arm {
@@ -461,11 +461,15 @@ mod arm {
         // north[i + 1], writes north[i] and out[i]: all inside the slices, whose lengths are
         // checked above (p, q, north ≥ w + 2). The table reads are at `centre + 2·k`,
         // k in −8192..=8191 (`ssat #14`), inside the 2·8192 + 1 entries. The loop runs while
-        // the output pointer has not reached `end` (w ≥ 1 passes). The two words pushed are
-        // popped before the end; every register written is declared.
+        // the output pointer has not reached `end` (w ≥ 1 passes). r6 and r7 are pushed and
+        // popped around the loop; every other register written is declared.
         unsafe {
             core::arch::asm!(
-                "push {{r11, r12}}",          // [sp] = end, [sp + 4] = step_mul
+                // r6 and r7 (LLVM's base and frame pointers, not available as operands) are
+                // saved and hold the end pointer and the update multiplier inside the loop.
+                "push {{r6, r7}}",
+                "mov r6, r12",
+                "mov r7, r11",
                 "2:",
                 "ldrd r11, r12, [r0], #4",    // pc, pr
                 "ldr lr, [r1], #4",           // ql
@@ -499,14 +503,12 @@ mod arm {
                 "add lr, lr, r12",            // the sum
                 "mov r9, r12",
                 "lsl lr, lr, #12",
-                "ldr r12, [sp, #4]",
-                "smmulr lr, lr, r12",         // the update
+                "smmulr lr, lr, r6",          // the update
                 "qadd lr, r11, lr",           // pc + update, saturated
                 "str lr, [r3], #4",
-                "ldr r12, [sp]",
-                "cmp r3, r12",
+                "cmp r3, r7",
                 "bne 2b",
-                "add sp, sp, #8",
+                "pop {{r6, r7}}",
                 inout("r0") p.as_ptr().wrapping_add(1) => _,
                 inout("r1") q.as_ptr() => _,
                 inout("r2") north.as_mut_ptr() => _,

@@ -23,12 +23,14 @@ import argparse
 import bisect
 import collections
 import glob
+import shutil
 import subprocess
 
 
 def functions(elf):
     sysroot = subprocess.check_output(["rustc", "--print", "sysroot"], text=True).strip()
-    nm = sorted(glob.glob(f"{sysroot}/lib/rustlib/*/bin/llvm-nm"))[0]
+    # rustup's llvm-tools, else the system's llvm-nm.
+    nm = (sorted(glob.glob(f"{sysroot}/lib/rustlib/*/bin/llvm-nm")) + [shutil.which("llvm-nm") or "llvm-nm"])[0]
     out = subprocess.check_output([nm, "--numeric-sort", "--print-size", "--demangle", elf], text=True)
     syms = []
     for line in out.splitlines():

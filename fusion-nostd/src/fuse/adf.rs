@@ -266,8 +266,9 @@ const _: () = assert!((12 * MAX_FLUX as i64) << STEP_UP <= i32::MAX as i64, "Σ 
 struct Diffusion {
     /// The signed table index of `∇` (Q16) is `mul_hi_round(∇, index_mul)`,
     /// `index_mul = round(2²⁷/κ)`, i.e. `2048·∇/(2¹⁶·κ)` rounded half up, clamped to
-    /// `−LUT_LEN..=LUT_LAST` (one `ssat #14` on Arm). `2¹⁹ ≤ index_mul·κ·… ≤ 2²⁷`: no
-    /// overflow for any `∇`, relative error of the multiplier ≤ 2⁻²⁰.
+    /// `−LUT_LEN..=LUT_LAST` (one `ssat #14` on Arm). `2¹⁹ < index_mul ≤ 2²⁷` (κ in
+    /// 1..=255): the 64-bit product never overflows, and the multiplier's rounding moves the
+    /// index by less than `2⁻²⁰` of itself (< 0.01 of a table step).
     index_mul: i32,
     /// The update `round(κΔt/2 · Σ)` (Q16 · Q16 → Q16, half up) is
     /// `mul_hi_round(Σ << STEP_UP, step_mul)`, `step_mul = (κΔt/2 in Q16) << 4 < 2²⁶`:

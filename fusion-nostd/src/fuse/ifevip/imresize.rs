@@ -216,6 +216,14 @@ fn build_with(in_len: usize, out_len: usize, buf: &mut [i32], reuse: bool) -> Re
 }
 
 impl Taps<'_> {
+    /// The same table copied into `buf` (the second axis of a square frame: no rebuild).
+    pub fn copy_into<'b>(&self, buf: &'b mut [i32]) -> Result<Taps<'b>, Error> {
+        let (needed, capacity) = (self.table.len(), buf.len());
+        let table = buf.get_mut(..needed).ok_or(Error::ScratchTooSmall { needed, capacity })?;
+        table.copy_from_slice(self.table);
+        Ok(Taps { table, stride: self.stride })
+    }
+
     /// `(start, weights)` of output sample `x`.
     fn get(&self, x: usize) -> Option<(usize, &[i32])> {
         let row = self.table.get(x * self.stride..(x + 1) * self.stride)?;

@@ -192,8 +192,13 @@ fn resize_ir(
         (false, false) => {
             let taps = imresize::build(h, d, table)?;
             imresize::pass_cols(tir, &taps, view_mut(tmp, w, d)?, Output::U8);
-            let taps = imresize::build(w, d, table)?;
-            imresize::pass_rows(view(tmp, w, d)?, &taps, view_mut(dst, d, d)?, Output::U8);
+            if w == h {
+                // A square frame: the rows take the same table.
+                imresize::pass_rows(view(tmp, w, d)?, &taps, view_mut(dst, d, d)?, Output::U8);
+            } else {
+                let taps = imresize::build(w, d, table)?;
+                imresize::pass_rows(view(tmp, w, d)?, &taps, view_mut(dst, d, d)?, Output::U8);
+            }
         }
     }
     Ok(())
@@ -262,7 +267,8 @@ pub fn background(
     let weights = weights.get(..n).unwrap_or(&[]);
     let taps = imresize::build_smoothed(d, h, weights, c)?;
     imresize::pass_cols(view(a, d, d)?, &taps, view_mut(b, d, h)?, Output::Same);
-    let taps = imresize::build_smoothed(d, w, weights, a)?;
+    // The row table in A (free now): a copy of the column table when the frame is square.
+    let taps = if w == h { taps.copy_into(a)? } else { imresize::build_smoothed(d, w, weights, a)? };
     imresize::pass_rows(view(b, d, h)?, &taps, view_mut(c, w, h)?, Output::Same);
     Ok(())
 }

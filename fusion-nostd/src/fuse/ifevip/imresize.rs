@@ -496,7 +496,7 @@ impl Sample for i32 {
             match out {
                 Output::U8 => rows_with::<i32, 8, true>(src, taps, dst, dot8_arm),
                 Output::Same => {
-                    if !arm_cols::rows8(src, taps, dst.reborrow()) {
+                    if !arm_cols::rows8::<false>(src, taps, dst.reborrow()) {
                         rows_with::<i32, 8, false>(src, taps, dst, dot8_arm);
                     }
                 }
@@ -889,66 +889,83 @@ mod arm_cols {
         }
     }
 
-    /// The 8-tap row pass of an `i32` plane into [`super::Output::Same`] (the background onto
-    /// the frame's width), one output per loop pass in assembly: the table row's start and
-    /// weights read in place, four `ldrd` sample pairs, four `ldrd` weight pairs, eight
-    /// `smull`/`smlal`, the low 32 bits of the rounded sum as `finish` keeps them — ≈ 26
-    /// instructions per output where the Rust loop around [`super::dot8_arm`] took ≈ 36.
+    /// The 8-tap row pass of an `i32` plane, one output per loop pass in assembly: the table
+    /// row's start and weights read in place, four `ldrd` sample pairs, four `ldrd` weight
+    /// pairs, eight `smull`/`smlal`, the low 32 bits of the rounded sum as `finish` keeps them
+    /// for [`super::Output::Same`] (`CLAMP` false), or that value through `usat #8` for
+    /// [`super::Output::U8`] (`CLAMP` true; equal to `finish` when the rounded sum fits `i32`,
+    /// which the callers guarantee) — ≈ 26 instructions per output where the Rust loop around
+    /// [`super::dot8_arm`] took ≈ 36.
     ///
     /// # Safety
     /// `table` holds `outputs` rows of 10 words `[start, count, w₀ … w₇]`, each with
     /// `0 ≤ start` and `start + 8 ≤` the length of the row at `src`; `out` has `outputs`
     /// writable `i32`; `outputs ≥ 1`.
-    unsafe fn row8(src: *const i32, table: *const i32, out: *mut i32, outputs: usize) {
-        // SAFETY: the caller's contract; every register written is declared.
-        unsafe {
-            core::arch::asm!(
-                "2:",
-                "ldr r5, [r1]",
-                "add r5, r0, r5, lsl #2",
-                "ldrd r8, r9, [r5]",
-                "ldrd r10, r11, [r1, #8]",
-                "smull r12, lr, r8, r10",
-                "smlal r12, lr, r9, r11",
-                "ldrd r8, r9, [r5, #8]",
-                "ldrd r10, r11, [r1, #16]",
-                "smlal r12, lr, r8, r10",
-                "smlal r12, lr, r9, r11",
-                "ldrd r8, r9, [r5, #16]",
-                "ldrd r10, r11, [r1, #24]",
-                "smlal r12, lr, r8, r10",
-                "smlal r12, lr, r9, r11",
-                "ldrd r8, r9, [r5, #24]",
-                "ldrd r10, r11, [r1, #32]",
-                "smlal r12, lr, r8, r10",
-                "smlal r12, lr, r9, r11",
-                "adds r12, r12, #0x20000000",
-                "adc lr, lr, #0",
-                "lsr r12, r12, #30",
-                "orr r12, r12, lr, lsl #2",
-                "str r12, [r2], #4",
-                "add r1, r1, #40",
-                "subs r3, r3, #1",
-                "bne 2b",
-                in("r0") src,
-                inout("r1") table => _,
-                inout("r2") out => _,
-                inout("r3") outputs => _,
-                out("r5") _,
-                out("r8") _,
-                out("r9") _,
-                out("r10") _,
-                out("r11") _,
-                out("r12") _,
-                out("lr") _,
-                options(nostack),
-            );
+    unsafe fn row8<const CLAMP: bool>(src: *const i32, table: *const i32, out: *mut i32, outputs: usize) {
+        macro_rules! row8_asm {
+            ($($clamp:literal)?) => {
+                // SAFETY: the caller's contract; every register written is declared.
+                unsafe {
+                    core::arch::asm!(
+                        "2:",
+                        "ldr r5, [r1]",
+                        "add r5, r0, r5, lsl #2",
+                        "ldrd r8, r9, [r5]",
+                        "ldrd r10, r11, [r1, #8]",
+                        "smull r12, lr, r8, r10",
+                        "smlal r12, lr, r9, r11",
+                        "ldrd r8, r9, [r5, #8]",
+                        "ldrd r10, r11, [r1, #16]",
+                        "smlal r12, lr, r8, r10",
+                        "smlal r12, lr, r9, r11",
+                        "ldrd r8, r9, [r5, #16]",
+                        "ldrd r10, r11, [r1, #24]",
+                        "smlal r12, lr, r8, r10",
+                        "smlal r12, lr, r9, r11",
+                        "ldrd r8, r9, [r5, #24]",
+                        "ldrd r10, r11, [r1, #32]",
+                        "smlal r12, lr, r8, r10",
+                        "smlal r12, lr, r9, r11",
+                        "adds r12, r12, #0x20000000",
+                        "adc lr, lr, #0",
+                        "lsr r12, r12, #30",
+                        "orr r12, r12, lr, lsl #2",
+                        $($clamp,)?
+                        "str r12, [r2], #4",
+                        "add r1, r1, #40",
+                        "subs r3, r3, #1",
+                        "bne 2b",
+                        in("r0") src,
+                        inout("r1") table => _,
+                        inout("r2") out => _,
+                        inout("r3") outputs => _,
+                        out("r5") _,
+                        out("r8") _,
+                        out("r9") _,
+                        out("r10") _,
+                        out("r11") _,
+                        out("r12") _,
+                        out("lr") _,
+                        options(nostack),
+                    );
+                }
+            };
+        }
+        if CLAMP {
+            row8_asm!("usat r12, #8, r12");
+        } else {
+            row8_asm!();
         }
     }
 
-    /// The `Same` row pass with [`row8`] when every table row's eight samples lie inside the
-    /// source rows; returns false (nothing written) otherwise.
-    pub(super) fn rows8(src: FrameRef<'_, i32>, taps: &Taps<'_>, mut dst: FrameMut<'_, i32>) -> bool {
+    /// The row pass with [`row8`] when every table row's eight samples lie inside the source
+    /// rows; returns false (nothing written) otherwise. `CLAMP` ([`super::Output::U8`]) only
+    /// for sources in `0..=255` (then `|Σ| < 2³⁹` and the rounded sum fits `i32`).
+    pub(super) fn rows8<const CLAMP: bool>(
+        src: FrameRef<'_, i32>,
+        taps: &Taps<'_>,
+        mut dst: FrameMut<'_, i32>,
+    ) -> bool {
         let (sw, w) = (src.width(), dst.width());
         let rows = taps.table.chunks_exact(10);
         let inside = taps.stride == 10
@@ -963,7 +980,7 @@ mod arm_cols {
                 // SAFETY: the table has ≥ w rows of 10 words, each with 0 ≤ start and
                 // start + 8 ≤ sw ≤ the length of `s` (checked above); `d` holds ≥ w `i32`;
                 // w ≥ 1.
-                unsafe { row8(s.as_ptr(), taps.table.as_ptr(), d.as_mut_ptr(), w) };
+                unsafe { row8::<CLAMP>(s.as_ptr(), taps.table.as_ptr(), d.as_mut_ptr(), w) };
             }
         }
         true
@@ -1009,6 +1026,17 @@ mod arm_cols {
             }
         }
     }
+}
+
+/// [`pass_rows`] into [`Output::U8`] of a source whose samples all lie in `0..=255` (the
+/// output of a `U8` pass), which lets the Cortex-M kernel round in 32 bits; the same bytes as
+/// [`pass_rows`] (which it runs on other targets, or when a table row reaches outside).
+pub(crate) fn pass_rows_u8_range(src: FrameRef<'_, i32>, taps: &Taps<'_>, mut dst: FrameMut<'_, i32>) {
+    #[cfg(fusion_arm_dsp)]
+    if arm_cols::rows8::<true>(src, taps, dst.reborrow()) {
+        return;
+    }
+    pass_rows(src, taps, dst.reborrow(), Output::U8)
 }
 
 /// Resizes every column (along the height) with `taps`: `dst` must be as wide as `src` and

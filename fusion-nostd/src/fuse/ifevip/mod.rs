@@ -192,12 +192,13 @@ fn resize_ir(
         (false, false) => {
             let taps = imresize::build(h, d, table)?;
             imresize::pass_cols(tir, &taps, view_mut(tmp, w, d)?, Output::U8);
+            // `tmp` holds a U8 pass's output (0..=255).
             if w == h {
                 // A square frame: the rows take the same table.
-                imresize::pass_rows(view(tmp, w, d)?, &taps, view_mut(dst, d, d)?, Output::U8);
+                imresize::pass_rows_u8_range(view(tmp, w, d)?, &taps, view_mut(dst, d, d)?);
             } else {
                 let taps = imresize::build(w, d, table)?;
-                imresize::pass_rows(view(tmp, w, d)?, &taps, view_mut(dst, d, d)?, Output::U8);
+                imresize::pass_rows_u8_range(view(tmp, w, d)?, &taps, view_mut(dst, d, d)?);
             }
         }
     }

@@ -710,87 +710,55 @@ mod arm_cols {
     pub(super) type Kernel<T> =
         unsafe fn(src: *const T, step: usize, ws: &[i32; 8], out: *mut i32, pairs: usize);
 
-    /// `u8` samples, [`super::Output::U8`].
-    ///
-    /// # Safety
-    /// For every `t < 8` and `x < 2·pairs` the sample address lies in one readable row, and
-    /// `out` has `2·pairs` writable, word-aligned `i32`; `pairs ≥ 1`.
-    pub(super) unsafe fn u8_to_u8(src: *const u8, step: usize, ws: &[i32; 8], out: *mut i32, pairs: usize) {
-        // SAFETY: the caller's contract; r6/r7 are pushed and popped, every other register
-        // written is declared.
-        unsafe {
+    /// The two-column loop: `$load` reads tap `t`'s two samples (at `r5`) into r9 and r10,
+    /// `$advance` is the byte step to the next column pair, `$clamp` the optional `usat`.
+    /// r6/r7 are pushed and popped, every other register written is declared.
+    macro_rules! cols8_asm {
+        ($src:expr, $step:expr, $ws:expr, $out:expr, $pairs:expr,
+         [$($load:literal),+], $advance:literal, [$($clamp:literal),*]) => {
             core::arch::asm!(
                 "push {{r6, r7}}",
                 "2:",
                 "mov r5, r0",
                 "ldr r8, [r2]",
-                "ldrb r9, [r5]",
-                "ldrb r10, [r5, #1]",
+                $($load,)+
                 "smull r11, r12, r9, r8",
                 "smull lr, r6, r10, r8",
-                "add r5, r5, r1",
-                "ldr r8, [r2, #4]",
-                "ldrb r9, [r5]",
-                "ldrb r10, [r5, #1]",
-                "smlal r11, r12, r9, r8",
-                "smlal lr, r6, r10, r8",
-                "add r5, r5, r1",
-                "ldr r8, [r2, #8]",
-                "ldrb r9, [r5]",
-                "ldrb r10, [r5, #1]",
-                "smlal r11, r12, r9, r8",
-                "smlal lr, r6, r10, r8",
-                "add r5, r5, r1",
-                "ldr r8, [r2, #12]",
-                "ldrb r9, [r5]",
-                "ldrb r10, [r5, #1]",
-                "smlal r11, r12, r9, r8",
-                "smlal lr, r6, r10, r8",
-                "add r5, r5, r1",
-                "ldr r8, [r2, #16]",
-                "ldrb r9, [r5]",
-                "ldrb r10, [r5, #1]",
-                "smlal r11, r12, r9, r8",
-                "smlal lr, r6, r10, r8",
-                "add r5, r5, r1",
-                "ldr r8, [r2, #20]",
-                "ldrb r9, [r5]",
-                "ldrb r10, [r5, #1]",
-                "smlal r11, r12, r9, r8",
-                "smlal lr, r6, r10, r8",
-                "add r5, r5, r1",
-                "ldr r8, [r2, #24]",
-                "ldrb r9, [r5]",
-                "ldrb r10, [r5, #1]",
-                "smlal r11, r12, r9, r8",
-                "smlal lr, r6, r10, r8",
-                "add r5, r5, r1",
-                "ldr r8, [r2, #28]",
-                "ldrb r9, [r5]",
-                "ldrb r10, [r5, #1]",
-                "smlal r11, r12, r9, r8",
-                "smlal lr, r6, r10, r8",
-                // (Σ + 2²⁹) >> 30 in 32 bits, then the u8 clamp.
+                "add r5, r5, r1", "ldr r8, [r2, #4]", $($load,)+
+                "smlal r11, r12, r9, r8", "smlal lr, r6, r10, r8",
+                "add r5, r5, r1", "ldr r8, [r2, #8]", $($load,)+
+                "smlal r11, r12, r9, r8", "smlal lr, r6, r10, r8",
+                "add r5, r5, r1", "ldr r8, [r2, #12]", $($load,)+
+                "smlal r11, r12, r9, r8", "smlal lr, r6, r10, r8",
+                "add r5, r5, r1", "ldr r8, [r2, #16]", $($load,)+
+                "smlal r11, r12, r9, r8", "smlal lr, r6, r10, r8",
+                "add r5, r5, r1", "ldr r8, [r2, #20]", $($load,)+
+                "smlal r11, r12, r9, r8", "smlal lr, r6, r10, r8",
+                "add r5, r5, r1", "ldr r8, [r2, #24]", $($load,)+
+                "smlal r11, r12, r9, r8", "smlal lr, r6, r10, r8",
+                "add r5, r5, r1", "ldr r8, [r2, #28]", $($load,)+
+                "smlal r11, r12, r9, r8", "smlal lr, r6, r10, r8",
+                // The low 32 bits of (Σ + 2²⁹) >> 30 per column, then the optional clamp.
                 "adds r11, r11, #0x20000000",
                 "adc r12, r12, #0",
                 "lsr r11, r11, #30",
                 "orr r11, r11, r12, lsl #2",
-                "usat r11, #8, r11",
+                $(concat!($clamp, " r11, #8, r11"),)*
                 "adds lr, lr, #0x20000000",
                 "adc r6, r6, #0",
                 "lsr lr, lr, #30",
                 "orr lr, lr, r6, lsl #2",
-                "usat lr, #8, lr",
+                $(concat!($clamp, " lr, #8, lr"),)*
                 "strd r11, lr, [r3], #8",
-                "add r0, r0, #2",
+                concat!("add r0, r0, #", $advance),
                 "subs r4, r4, #1",
                 "bne 2b",
                 "pop {{r6, r7}}",
-                inout("r0") src => _,
-                in("r1") step,
-                in("r2") ws.as_ptr(),
-                inout("r3") out => _,
-                inout("r4") pairs => _,
+                inout("r0") $src => _,
+                in("r1") $step,
+                in("r2") $ws.as_ptr(),
+                inout("r3") $out => _,
+                inout("r4") $pairs => _,
                 out("r5") _,
                 out("r8") _,
                 out("r9") _,
@@ -798,8 +766,18 @@ mod arm_cols {
                 out("r11") _,
                 out("r12") _,
                 out("lr") _,
-            );
-        }
+            )
+        };
+    }
+
+    /// `u8` samples, [`super::Output::U8`].
+    ///
+    /// # Safety
+    /// For every `t < 8` and `x < 2·pairs` the sample address lies in one readable row, and
+    /// `out` has `2·pairs` writable, word-aligned `i32`; `pairs ≥ 1`.
+    pub(super) unsafe fn u8_to_u8(src: *const u8, step: usize, ws: &[i32; 8], out: *mut i32, pairs: usize) {
+        // SAFETY: the caller's contract.
+        unsafe { cols8_asm!(src, step, ws, out, pairs, ["ldrb r9, [r5]", "ldrb r10, [r5, #1]"], 2, ["usat"]) }
     }
 
     /// `i32` samples, [`super::Output::Same`] (the low 32 bits of the rounded sum).
@@ -813,80 +791,8 @@ mod arm_cols {
         out: *mut i32,
         pairs: usize,
     ) {
-        // SAFETY: the caller's contract; r6/r7 are pushed and popped, every other register
-        // written is declared.
-        unsafe {
-            core::arch::asm!(
-                "push {{r6, r7}}",
-                "2:",
-                "mov r5, r0",
-                "ldr r8, [r2]",
-                "ldrd r9, r10, [r5]",
-                "smull r11, r12, r9, r8",
-                "smull lr, r6, r10, r8",
-                "add r5, r5, r1",
-                "ldr r8, [r2, #4]",
-                "ldrd r9, r10, [r5]",
-                "smlal r11, r12, r9, r8",
-                "smlal lr, r6, r10, r8",
-                "add r5, r5, r1",
-                "ldr r8, [r2, #8]",
-                "ldrd r9, r10, [r5]",
-                "smlal r11, r12, r9, r8",
-                "smlal lr, r6, r10, r8",
-                "add r5, r5, r1",
-                "ldr r8, [r2, #12]",
-                "ldrd r9, r10, [r5]",
-                "smlal r11, r12, r9, r8",
-                "smlal lr, r6, r10, r8",
-                "add r5, r5, r1",
-                "ldr r8, [r2, #16]",
-                "ldrd r9, r10, [r5]",
-                "smlal r11, r12, r9, r8",
-                "smlal lr, r6, r10, r8",
-                "add r5, r5, r1",
-                "ldr r8, [r2, #20]",
-                "ldrd r9, r10, [r5]",
-                "smlal r11, r12, r9, r8",
-                "smlal lr, r6, r10, r8",
-                "add r5, r5, r1",
-                "ldr r8, [r2, #24]",
-                "ldrd r9, r10, [r5]",
-                "smlal r11, r12, r9, r8",
-                "smlal lr, r6, r10, r8",
-                "add r5, r5, r1",
-                "ldr r8, [r2, #28]",
-                "ldrd r9, r10, [r5]",
-                "smlal r11, r12, r9, r8",
-                "smlal lr, r6, r10, r8",
-                // The low 32 bits of (Σ + 2²⁹) >> 30.
-                "adds r11, r11, #0x20000000",
-                "adc r12, r12, #0",
-                "lsr r11, r11, #30",
-                "orr r11, r11, r12, lsl #2",
-                "adds lr, lr, #0x20000000",
-                "adc r6, r6, #0",
-                "lsr lr, lr, #30",
-                "orr lr, lr, r6, lsl #2",
-                "strd r11, lr, [r3], #8",
-                "add r0, r0, #8",
-                "subs r4, r4, #1",
-                "bne 2b",
-                "pop {{r6, r7}}",
-                inout("r0") src => _,
-                in("r1") step,
-                in("r2") ws.as_ptr(),
-                inout("r3") out => _,
-                inout("r4") pairs => _,
-                out("r5") _,
-                out("r8") _,
-                out("r9") _,
-                out("r10") _,
-                out("r11") _,
-                out("r12") _,
-                out("lr") _,
-            );
-        }
+        // SAFETY: the caller's contract.
+        unsafe { cols8_asm!(src, step, ws, out, pairs, ["ldrd r9, r10, [r5]"], 8, []) }
     }
 
     /// The 8-tap row pass of an `i32` plane, one output per loop pass in assembly: the table

@@ -9,8 +9,8 @@
 //! | neighbour difference `∇` | `i32` | Q16 | \|∇\| < 2²⁵ |
 //! | normalised flux `g = c·∇/κ = t·exp(−t²)`, `t = ∇/κ` | `i16` → `i32` | Q16, from [`EXP_FLUX`] with its sign | \|g\| ≤ 28107 |
 //! | per-pixel sum `Σ = 2·Σ_axial g + Σ_diag g` | `i32` | Q16 | \|Σ\| ≤ 12·28107 < 2¹⁹ |
-//! | `κ·Δt/2 = m·2^(16−s)` (`m` odd, or `s = 0`) | `i32` | Q16 | < 2²² |
-//! | update `round(Σ·κΔt/2) = (Σ·m + 2^(s−1)) >> s` | `i32` (`i64` when `12·28107·m` could overflow) | Q16 | state add saturates at the `i32` range (unreachable for sane parameters) |
+//! | `κ·Δt/2` (`scale`) | `i32` | Q16 | < 2²² |
+//! | update `round(Σ·κΔt/2)` = `mul_hi_round(Σ << 12, scale << 4)` = `⌊(Σ·scale + 2¹⁵)/2¹⁶⌋` | `i32` (the product in 64 bits: one `smmulr` on Arm) | Q16 | exact for every parameter set (`Σ << 12 < 2³¹`); the state add saturates at the `i32` range (unreachable for sane parameters) |
 //! | detail layer `D_k = 2¹⁶·I_k − A_k` | `i32` (`i64` beyond 2²⁶) | Q16 | \|D\| < 2²⁵ for sane states |
 //! | covariance sums | `i64` per 2¹¹-pixel chunk (when every \|D\| < 2²⁶), then `i128` | Q32 | exact |
 //! | KL weight `p_IR` (`p_VIS = 1 − p_IR`) | `i64` | Q30 | classic: saturated to ±128; flight: [0, 1] |
@@ -21,11 +21,11 @@
 //! `t = ∇/κ`, is read from a static table: [`EXP_FLUX`] (8193 `u16` entries, step 1/2048 in
 //! `t`, built at compile time by a `const fn` exp) stored with its sign for `t` in `(−4, 4)`
 //! (16 385 `i16`, 32 KiB of flash); beyond `|t| = 4` (g < 5·10⁻⁷) the flux is 0. The signed
-//! index is `≈ 2048·∇/κ`: an arithmetic shift of `∇` and one multiply by a reciprocal
-//! computed once per call, rounded (`asr`, `smmulr`, `ssat`, `ldrsh` on Arm, see `Diffusion`).
-//! Error of `g` against `t·exp(−t²)`: ≤ 2.4·10⁻⁴ (index rounding: slope ≤ 1 · half a step) +
-//! 7.6·10⁻⁶ (Q16 entries) + the shift's truncation (≤ 4·2⁻¹⁶/κ·2048 steps), measured
-//! 2.6·10⁻⁴, i.e. ≤ 0.008 grey levels per neighbour flux at κ = 30 (unit test
+//! index is `2048·∇/κ` rounded half up: one multiply of `∇` by `round(2²⁷/κ)`, computed once
+//! per call, keeping the rounded high word (`smmulr`, then `ssat #14` and `ldrsh` on Arm, see
+//! `Diffusion`). Error of `g` against `t·exp(−t²)`: ≤ 2.4·10⁻⁴ (index rounding: slope ≤ 1 ·
+//! half a step) + 7.6·10⁻⁶ (Q16 entries) + the multiplier's rounding (< 0.01 of a step),
+//! measured 2.5·10⁻⁴, i.e. ≤ 0.0075 grey levels per neighbour flux at κ = 30 (unit test
 //! `flux_table_error_is_within_its_bound`, both signs).
 //!
 //! **Update** (Jacobi, one iterate in, the next out):
@@ -208,8 +208,8 @@ impl AdfParams {
 /// The largest table entry, 28107 (`g(1/√2)` in Q16): bounds every flux and the per-pixel sum.
 const MAX_FLUX: i32 = max_entry();
 
-/// Largest index the flux reads. Entries from 7404 on are 0, so clamping the index to
-/// `LUT_LAST` instead of `LUT_LEN` reads the same 0 (and is one `usat #13` on Arm).
+/// Largest index the flux reads. Entries from 7404 on are 0, so clamping the signed index to
+/// `−LUT_LEN..=LUT_LAST` reads the same 0s as `±LUT_LEN` would (and is one `ssat #14` on Arm).
 const LUT_LAST: u32 = (LUT_LEN - 1) as u32;
 
 // Evaluated at compile time only, like `build_lut`: an out-of-range index would be a compile
@@ -227,7 +227,7 @@ const fn max_entry() -> i32 {
     // The facts the fast paths rely on.
     assert!(max == 28107);
     assert!(EXP_FLUX[LUT_LEN - 1] == 0 && EXP_FLUX[LUT_LEN] == 0, "the last two entries are 0");
-    const { assert!(LUT_LAST == (1 << 13) - 1, "usat #13 clamps to LUT_LAST") };
+    const { assert!(LUT_LAST == (1 << 13) - 1 && LUT_LEN == 1 << 13, "ssat #14 clamps to -LUT_LEN..=LUT_LAST") };
     max as i32
 }
 
@@ -295,8 +295,8 @@ impl Diffusion {
     }
 
     /// `g(∇/κ)` in Q16 for a signed `∇` in Q16 (the flux divided by κ, with its sign): the
-    /// entry of [`SIGNED_FLUX`] at [`Self::index`]. Not exactly odd (the arithmetic shift and
-    /// the rounding are not symmetric, so `flux(−∇)` may sit one table step from `−flux(∇)`):
+    /// entry of [`SIGNED_FLUX`] at [`Self::index`]. Not exactly odd (the index rounds half up,
+    /// not symmetrically, so `flux(−∇)` may sit one table step from `−flux(∇)` at a tie):
     /// every pair of pixels therefore takes its flux in one orientation only, `flux(later −
     /// earlier)` in row-major order, and both pixels use it (see [`Self::update`]).
     #[inline(always)]
@@ -434,7 +434,7 @@ struct RowCarry {
 /// The Armv7E-M copy of the row loop (Cortex-M4/M7): the portable loop's operations in
 /// assembly, one pixel per pass, the flux as `sub`, `smmulr`, `ssat #14`, `ldrsh` (LLVM's
 /// schedule of the same loop kept the table base out of the address and spilled the carried
-/// values: ≈ 60 instructions per pixel; this one is 36). The same bits as the portable loop
+/// values: ≈ 60 instructions per pixel; this one is 37). The same bits as the portable loop
 /// (the firmware's bit-exactness jobs compare the target's frames with the host's).
 #[cfg(fusion_arm_dsp)]
 mod arm {
@@ -467,7 +467,7 @@ mod arm {
         unsafe {
             core::arch::asm!(
                 // r6 and r7 (LLVM's base and frame pointers, not available as operands) are
-                // saved and hold the end pointer and the update multiplier inside the loop.
+                // saved and hold the update multiplier (r6) and the end pointer (r7).
                 "push {{r6, r7}}",
                 "mov r6, r12",
                 "mov r7, r11",
@@ -1497,7 +1497,7 @@ mod tests {
             "flux table: max |g_table − t·exp(−t²)| = {max_err:.3e} (= {:.4} grey levels per flux at κ = 30)",
             30.0 * max_err
         );
-        // Index rounding: ≤ 1 · 2⁻¹² = 2.44e-4; entries: 2⁻¹⁷; shift truncation ≤ 2⁶⁻¹⁶/30 = 3.3e-5.
+        // Index rounding: ≤ 1 · 2⁻¹² = 2.44e-4; entries: 2⁻¹⁷; the multiplier's rounding < 0.01 step.
         assert!(max_err < 2.9e-4, "max flux error {max_err:e}");
         assert!(max_err > 1e-5, "the bound should be nearly reached: {max_err:e}");
     }
@@ -1736,7 +1736,7 @@ mod tests {
         for dq in (0..(125 << 16)).step_by(61) {
             assert!((d.flux(dq) + d.flux(-dq)).abs() <= step, "{dq}");
         }
-        assert_eq!(d.flux(1 << 16), -d.flux(-(1 << 16)), "exact where the shift truncates nothing");
+        assert_eq!(d.flux(1 << 16), -d.flux(-(1 << 16)), "exact away from a rounding tie");
         for dq in [121 << 16, -(121 << 16), i32::MIN, i32::MAX, i32::MIN + 1] {
             assert_eq!(d.flux(dq), 0, "beyond 4κ the conduction is 0: {dq}");
         }

@@ -8,7 +8,9 @@
 //!
 //! Arguments: `adf|tsifsd|ifevip`, `classic|flight`, the side `n` (frames are `n × n`),
 //! optionally `--repeat R` (fuse R times; prints the minimum and median time per fusion) and `--write DIR` (also write the synthetic pair as
-//! `DIR/synth<n>_VIS.png`, `DIR/synth<n>_IR.png`, and raw 8-bit `.gray` twins for the firmware). Only [`fuse_region`] does the fusion, so
+//! `DIR/synth<n>_VIS.png`, `DIR/synth<n>_IR.png`, and raw 8-bit `.gray` twins for the firmware),
+//! or `--pair VIS.png TIR.png` (a real pair instead of the synthetic one: the TIR frame is
+//! bicubic-rescaled onto the VIS grid first, outside the timing, and `n` is ignored). Only [`fuse_region`] does the fusion, so
 //! `--toggle-collect` on it counts the fusion alone (frame synthesis excluded). The frames are
 //! the ones of the criterion benches (`benches/fuse_adf_tsifsd.rs`).
 
@@ -18,9 +20,10 @@ use fusion_nostd::fuse::adf::AdfParams;
 use fusion_nostd::fuse::ifevip::{IfevipParams, scratch_pixels};
 use fusion_nostd::fuse::tsifsd::TsifsdParams;
 use fusion_nostd::pipeline::{Method, fuse_method};
+use fusion_nostd::rescale::{Filter, rescale};
 use fusion_nostd::{FrameMut, FrameRef, Guards};
 use host_harness::CoreScratch;
-use host_harness::io::{Gray, save_gray_u8};
+use host_harness::io::{ColorPolicy, Gray, load_gray_u8, save_gray_u8};
 use host_harness::study::bench_frame as frame;
 use std::hint::black_box;
 use std::path::PathBuf;
@@ -62,15 +65,32 @@ fn main() -> Result<()> {
     };
     let mut repeat = 1usize;
     let mut write: Option<PathBuf> = None;
+    let mut pair: Option<(PathBuf, PathBuf)> = None;
     let mut rest = args.iter().skip(3);
     while let Some(a) = rest.next() {
         match a.as_str() {
             "--repeat" => repeat = rest.next().context("--repeat R")?.parse()?,
             "--write" => write = Some(PathBuf::from(rest.next().context("--write DIR")?)),
+            "--pair" => {
+                let vis = PathBuf::from(rest.next().context("--pair VIS TIR")?);
+                pair = Some((vis, PathBuf::from(rest.next().context("--pair VIS TIR")?)));
+            }
             other => bail!("unknown argument {other}"),
         }
     }
-    let (vis, tir) = (frame(n, 3), frame(n, 11));
+    let (n, vis, tir) = match &pair {
+        None => (n, frame(n, 3), frame(n, 11)),
+        Some((v, t)) => {
+            let vis = load_gray_u8(v, ColorPolicy::Bt601)?;
+            let tir = load_gray_u8(t, ColorPolicy::Bt601)?;
+            if vis.width != vis.height {
+                bail!("--pair wants a square VIS frame, got {}x{}", vis.width, vis.height);
+            }
+            let mut up = Gray::new(vis.width, vis.height);
+            rescale(tir.view()?, up.view_mut()?, Filter::Cubic)?;
+            (vis.width, vis.data, up.data)
+        }
+    };
     if let Some(dir) = write {
         for (name, data) in [("VIS", &vis), ("IR", &tir)] {
             let img = Gray { width: n, height: n, data: data.clone() };

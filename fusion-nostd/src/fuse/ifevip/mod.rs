@@ -310,10 +310,12 @@ fn output_pass(
     // Rows done by the Cortex-M loop report here.
     #[cfg_attr(not(fusion_arm_dsp), allow(unused_mut))]
     let mut rows_saturated = false;
+    // `add` is in 0..=256, so the sum is in 0..=511: the clamp is a `min` (branch-free; a
+    // branch on the freshly loaded table value mispredicted on noisy frames).
     let mut put = |o: &mut u8, v: u8, add: i32| {
-        let sum = i32::from(v) + add;
+        let sum = (i32::from(v) + add) as u32;
         saturated |= sum > 255;
-        *o = sum.clamp(0, 255) as u8;
+        *o = sum.min(255) as u8;
     };
     let rows = out.rows_mut().zip(vis.rows()).zip(tir.rows()).zip(r_plane.chunks_exact(w.max(1)));
     match table.and_then(|t| t.first_chunk_mut::<ADD_TABLE_LEN>()) {

@@ -35,7 +35,7 @@
 //! 0 of a rendered dataset) the analysis costs ≈ 2.7 M instructions on a noisy frame that it
 //! declines (≈ 2.1 per VIS pixel; 15.4 M when every row was folded to its minimum and maximum
 //! byte by byte) and less on a clean one (TSIFSD skip `roi`: 21.0 → 7.0 M per frame), against
-//! ≈ 120 (TSIFSD) to ≈ 4700 (ADF) instructions per pixel for the fusion itself
+//! ≈ 110 (TSIFSD) to ≈ 850 (ADF) instructions per pixel for the whole pipeline
 //! (`fw/budgets.toml`). Measured as skip `roi` − skip `none` of TSIFSD on the declined frames
 //! with `fusion budget --skip-study DATASET --target arm --frames 1 --whole-frames 0`
 //! (`fw/README.md`).

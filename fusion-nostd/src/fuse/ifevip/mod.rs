@@ -307,8 +307,8 @@ fn output_pass(
         if val <= 0 { 0 } else { ((val + half) >> GAIN_BITS).min(256) as i32 }
     };
     let mut saturated = false;
-    // Rows done by the Cortex-M loop report here.
-    #[cfg_attr(not(fusion_arm_dsp), allow(unused_mut))]
+    // Rows (or blocks) done by the Cortex-M and AVX2 loops report here.
+    #[cfg_attr(not(any(fusion_arm_dsp, target_arch = "x86_64")), allow(unused_mut))]
     let mut rows_saturated = false;
     // `add` is in 0..=256, so the sum is in 0..=511: the clamp is a `min` (branch-free; a
     // branch on the freshly loaded table value mispredicted on noisy frames).

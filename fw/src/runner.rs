@@ -4,7 +4,7 @@
 use crate::semihosting;
 use crate::{Meter, OUT, SCRATCH, STRIP_SCRATCH, TIR, VIS, fnv1a, job, say, sizes};
 use core::fmt::Write;
-use fusion_nostd::fuse::adf::diffuse;
+use fusion_nostd::fuse::adf::{Band, diffuse_pair};
 use fusion_nostd::fuse::ifevip::background;
 use fusion_nostd::pipeline::{FuseReport, Method, Pipeline, RescalePolicy, fuse, fuse_method, fusion_grid};
 use fusion_nostd::scene::Decline;
@@ -74,8 +74,8 @@ fn staged(
     match &pipeline.method {
         Method::Adf(p) => {
             let [a, b, tmp] = planes.planes(n)?;
-            m.region("adf.diffuse_vis", || diffuse(vg, p, a, tmp))?;
-            m.region("adf.diffuse_tir", || diffuse(tg, p, b, tmp))?;
+            let (vb, tb) = (Band::Frame(vg), Band::Frame(tg));
+            m.region("adf.diffuse", || diffuse_pair(vb, tb, (w, h), p, a, b, tmp))?;
         }
         // TSIFSD's flight kernel is one pass (window sums of IR − VIS, Scharr saliency, weights
         // and reconstruction together): no public stage to measure apart.

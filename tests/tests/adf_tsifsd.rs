@@ -252,14 +252,37 @@ fn core_matches_the_reference_on_synthetic_frames() -> Result<(), Error> {
                     }
                     // Classic TSIFSD: NaN (0/0) pixels of the reference are guarded in the core.
                     let nan = want.data.iter().filter(|v| v.is_nan()).count();
+                    // Classic ADF's published weights are unbounded (|p_IR| + |p_VIS| ≫ 1 on
+                    // random frames): they scale the base layers' fixed-point error, so the bound
+                    // scales with them, as in `fusion stress`.
+                    let bound = match (method, variant) {
+                        (Method::Adf, Variant::Classic) => 2.0 * classic_weight_sum(vis, tir).max(1.0),
+                        _ => 2.0,
+                    };
                     if nan == 0 {
-                        assert!(c.max_abs <= 2, "{method:?} {variant:?} {w}x{h} #{k}: max abs {}", c.max_abs);
+                        assert!(
+                            f64::from(c.max_abs) <= bound,
+                            "{method:?} {variant:?} {w}x{h} #{k}: max abs {} > {bound}",
+                            c.max_abs
+                        );
                     }
                 }
             }
         }
     }
     Ok(())
+}
+
+/// `|p_IR| + |p_VIS|` of the published (classic) KL weights of a pair, from the f64 reference.
+fn classic_weight_sum(vis: &Gray<u8>, tir: &Gray<u8>) -> f64 {
+    let p = adf(Variant::Classic);
+    let (v, t) = (to_f64(vis), to_f64(tir));
+    let (a_v, a_t) = (reference::adf::diffuse(&v, &p), reference::adf::diffuse(&t, &p));
+    let detail = |i: &Gray<f64>, a: &Gray<f64>| -> Vec<f64> {
+        i.data.iter().zip(&a.data).map(|(x, y)| x - y).collect()
+    };
+    let (p_ir, p_vis) = reference::adf::kl_weights(&detail(&t, &a_t), &detail(&v, &a_v), Variant::Classic);
+    p_ir.abs() + p_vis.abs()
 }
 
 fn constant(w: usize, h: usize, v: u8) -> Gray<u8> {
@@ -462,10 +485,17 @@ mod properties {
             let variant = if flight { Variant::Flight } else { Variant::Classic };
             let (out, _, _) = core(method, variant, &vis, &tir).map_err(|e| TestCaseError::fail(e.to_string()))?;
             let want = reference(method, variant, &to_f64(&vis), &to_f64(&tir));
+            // Classic ADF's unbounded weights scale the fixed-point error (see
+            // `core_matches_the_reference_on_synthetic_frames`).
+            let bound = if method == Method::Adf && variant == Variant::Classic {
+                2.0 * classic_weight_sum(&vis, &tir).max(1.0)
+            } else {
+                2.0
+            };
             for (i, (&o, &r)) in out.data.iter().zip(&want.data).enumerate() {
                 // ADF classic near a degenerate eigenvector is ill-conditioned: skip huge weights.
                 if r.is_finite() && r.abs() < 1e4 {
-                    prop_assert!(o.abs_diff(cast(r)) <= 2, "{method:?} {variant:?} {w}x{h} pixel {i}: {o} vs {r}");
+                    prop_assert!(f64::from(o.abs_diff(cast(r))) <= bound, "{method:?} {variant:?} {w}x{h} pixel {i}: {o} vs {r}, bound {bound}");
                 }
             }
         }

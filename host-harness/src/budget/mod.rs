@@ -39,10 +39,9 @@ pub fn method_key(m: MethodArg) -> &'static str {
 /// The measured stages of a method, in order: `(budget key, firmware region, what it is)`.
 fn method_stages(m: MethodArg) -> &'static [(&'static str, &'static str, &'static str)] {
     match m {
-        MethodArg::Adf => &[
-            ("diffuse_vis", "adf.diffuse_vis", "anisotropic diffusion of VIS (10 iterations)"),
-            ("diffuse_tir", "adf.diffuse_tir", "anisotropic diffusion of TIR"),
-        ],
+        MethodArg::Adf => {
+            &[("diffuse", "adf.diffuse", "anisotropic diffusion of VIS and TIR together (10 iterations)")]
+        }
         // The flight kernel is one pass; its stages cannot be measured apart.
         MethodArg::Tsifsd => &[],
         MethodArg::Ifevip => &[(
@@ -811,38 +810,17 @@ mod tests {
 
     #[test]
     fn stages_and_remainder() -> Result<()> {
-        let run = run_with(&[
-            ("rescale", 10),
-            ("adf.diffuse_vis", 100),
-            ("adf.diffuse_tir", 101),
-            ("adf.fuse", 260),
-            ("pipeline", 272),
-        ]);
+        let run = run_with(&[("rescale", 10), ("adf.diffuse", 201), ("adf.fuse", 260), ("pipeline", 272)]);
         let rows = stages_of(MethodArg::Adf, &run)?;
         let got: Vec<_> = rows.iter().map(|r| (r.key, r.count)).collect();
         assert_eq!(
             got,
-            [
-                ("rescale", 10),
-                ("diffuse_vis", 100),
-                ("diffuse_tir", 101),
-                ("kl_reconstruct", 59),
-                ("method", 260),
-                ("pipeline", 272)
-            ]
+            [("rescale", 10), ("diffuse", 201), ("kl_reconstruct", 59), ("method", 260), ("pipeline", 272)]
         );
         // A method region smaller than its stages is an error, as is a missing region.
         assert!(
-            stages_of(
-                MethodArg::Adf,
-                &run_with(&[
-                    ("adf.diffuse_vis", 5),
-                    ("adf.diffuse_tir", 5),
-                    ("adf.fuse", 6),
-                    ("pipeline", 7)
-                ])
-            )
-            .is_err()
+            stages_of(MethodArg::Adf, &run_with(&[("adf.diffuse", 10), ("adf.fuse", 6), ("pipeline", 7)]))
+                .is_err()
         );
         assert!(stages_of(MethodArg::Tsifsd, &run).is_err());
         Ok(())

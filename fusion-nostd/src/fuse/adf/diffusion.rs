@@ -1,0 +1,1300 @@
+//! ADF step 1: the Perona–Malik diffusion of both bands at once (the base layers).
+//!
+//! # Number formats
+//!
+//! | quantity | format | range |
+//! |---|---|---|
+//! | state `A_k` of one band | `i16`, Q7 grey levels | clamped to `0..=32767` (0 ..< 256 levels) after every update |
+//! | one pixel of both bands (rows, pipeline) | `i32` word: VIS in the low half, TIR in the high half | — |
+//! | neighbour difference `∇` | `i16` | `−32767..=32767` (two states) |
+//! | pair flux `F(∇)` | `i16`, units of ½ state unit | \|F\| ≤ Δt·κ·55 (≤ 3500) |
+//! | per-pixel sum `Σ = 2·Σ_axial F + Σ_diagonal F` | `i16`, every partial sum saturating | \|Σ\| ≤ 12·\|F\|max: saturates only when Δt·κ > 49.7 |
+//! | update | `⌈Σ/2⌉` (`Σ − (Σ >> 1)`, half up), added with the clamp to `0..=32767` | — |
+//! | base layer handed on (planes, rows) | `i32`, Q16 (`state << 9`, exact) | — |
+//!
+//! The update is the published `A ← A + Δt·(Σ_axial c∇ + ½·Σ_diagonal c∇)`, `c = exp(−(∇/κ)²)`:
+//! `F = Δt·c·∇` in ½ state units makes `Σ/2` the step in state units.
+//!
+//! **The flux function.** `F(∇)` is defined by a fixed sequence of 16-bit integer operations
+//! (each a `vpmulhrsw`/`vpmulhuw` lane on x86-64), so that every target computes the same value:
+//! with `r(a, b) = (a·b + 2¹⁴) >> 15` (rounded Q15 product),
+//!
+//! 1. `u = ((min(|∇|, 4κ_q − 1) << s) · S) >> 16` — `|∇|/(4κ)` in Q15 (`κ_q = 128κ`, `s` the
+//!    largest shift with `4κ_q·2ˢ ≤ 2¹⁶`, `S = ⌊2³¹/(4κ_q·2ˢ)⌋`); `z = r(u, u) = (∇/κ)²/16`;
+//! 2. `p = 1 − z + z²/2 − z³/6 ≈ exp(−z)` by Horner (`1` is 32767, `1/6` is 5461);
+//! 3. `c = p¹⁶ ≈ exp(−(∇/κ)²)` by four squarings `r(p, p)`;
+//! 4. `F = r(r(∇, c), Δt_q)`, `Δt_q = round(2¹⁵·Δt)`.
+//!
+//! Beyond `|∇| ≈ 4κ` the sequence gives `c = 0` (exactly: `p ≈ 1/3`, `p¹⁶ < 2⁻¹⁶`). Error of
+//! `c` against `exp(−t²)`: ≤ 5·10⁻⁴ + 16·(Taylor remainder) (the `1 = 32767` bias and the
+//! roundings; unit test `flux_function_error_is_within_its_bound`).
+//!
+//! Where a table read is cheaper than the arithmetic (Cortex-M, RV32, x86-64 without AVX2), the
+//! function is tabulated once per call for all 65 535 differences (128 KiB of the work plane,
+//! [`TABLE_WORDS`]); a pair flux is then one subtraction and one read, with no index
+//! arithmetic and no clamp (the states are clamped instead). The AVX2 row loop evaluates the
+//! arithmetic form sixteen lanes at a time. Both give the same bits (checked exhaustively).
+//!
+//! **Both bands at once.** A work word holds one pixel of both bands; the Armv7E-M loop takes
+//! both differences with one `ssub16` and sums both bands' fluxes with `qadd16`/`qsub16`
+//! (saturating 16-bit halves), the AVX2 loop runs 8 pixels × 2 bands per vector. The portable
+//! loop performs the same saturating operations in the same order, band by band.
+//!
+//! **Pair fluxes and the row pipeline.** Each neighbour pair's flux is taken once, as
+//! `F(later − earlier)` in row-major order, and enters both pixels with opposite signs (4 flux
+//! evaluations per pixel and iteration instead of 8). The iterations run as a row pipeline
+//! (temporal blocking): stage `k` turns each new row of iterate `k` into a row of iterate
+//! `k + 1` and hands it straight on, so the frame is read and written once per group of
+//! iterations and the work rows stay in cache.
+
+use super::AdfParams;
+use crate::filters::border::Border;
+use crate::{Error, FrameRef};
+
+/// Fractional bits of the diffusion state.
+pub(super) const STATE_BITS: u32 = 7;
+/// The largest state (255.99 grey levels).
+const STATE_MAX: i32 = i16::MAX as i32;
+/// From the state's Q7 to the Q16 of the base-layer planes.
+const PLANE_SHIFT: u32 = 16 - STATE_BITS;
+/// Entries of the flux table: differences `−32767..=32767` and one unused pad.
+const TABLE_ENTRIES: usize = 1 << 16;
+/// Work words the flux table takes (two entries per word).
+pub(crate) const TABLE_WORDS: usize = TABLE_ENTRIES / 2;
+/// Index of difference 0 in the table.
+const TABLE_CENTRE: i32 = i16::MAX as i32;
+
+/// Rows of work memory per pipeline stage, each `w + 2` words: two state rows and the north
+/// fluxes.
+const STAGE_ROWS: usize = 3;
+
+/// One input band of the diffusion.
+#[derive(Debug, Clone, Copy)]
+pub enum Band<'a> {
+    /// An 8-bit frame.
+    Frame(FrameRef<'a, u8>),
+    /// A constant frame of this level (the eclipse plan's VIS).
+    Level(u8),
+}
+
+/// An 8-bit value in Q7.
+#[inline(always)]
+fn q7(v: u8) -> i32 {
+    i32::from(v) << STATE_BITS
+}
+
+/// Writes row `y` of both bands, packed, into `dst` (`w` words).
+fn fill_row(dst: &mut [i32], vis: &Band<'_>, tir: &Band<'_>, y: usize) {
+    match (vis, tir) {
+        (Band::Frame(v), Band::Frame(t)) => {
+            for ((d, &a), &b) in dst.iter_mut().zip(v.row(y)).zip(t.row(y)) {
+                *d = pack(q7(a), q7(b));
+            }
+        }
+        (Band::Level(a), Band::Frame(t)) => {
+            for (d, &b) in dst.iter_mut().zip(t.row(y)) {
+                *d = pack(q7(*a), q7(b));
+            }
+        }
+        (Band::Frame(v), Band::Level(b)) => {
+            for (d, &a) in dst.iter_mut().zip(v.row(y)) {
+                *d = pack(q7(a), q7(*b));
+            }
+        }
+        (Band::Level(a), Band::Level(b)) => dst.fill(pack(q7(*a), q7(*b))),
+    }
+}
+
+/// The low (VIS) half of a work word, sign-extended.
+#[inline(always)]
+fn lo(w: i32) -> i32 {
+    i32::from(w as i16)
+}
+
+/// The high (TIR) half of a work word.
+#[inline(always)]
+fn hi(w: i32) -> i32 {
+    w >> 16
+}
+
+/// A work word from two 16-bit values.
+#[inline(always)]
+fn pack(lo: i32, hi: i32) -> i32 {
+    (hi << 16) | (lo & 0xFFFF)
+}
+
+/// Both halves of a word, `[VIS, TIR]`.
+#[inline(always)]
+fn halves(w: i32) -> [i32; 2] {
+    [lo(w), hi(w)]
+}
+
+/// Saturation to `i16` (`qadd16`, `vpaddsw`).
+#[inline(always)]
+fn sat16(x: i32) -> i32 {
+    x.clamp(i32::from(i16::MIN), i32::from(i16::MAX))
+}
+
+/// `(a·b + 2¹⁴) >> 15` for 16-bit `a`, `b` (`vpmulhrsw`; not both −32768).
+#[inline(always)]
+fn mulhrs(a: i32, b: i32) -> i32 {
+    (a * b + (1 << 14)) >> 15
+}
+
+/// The flux function's per-call constants (see the module docs).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) struct FluxFn {
+    /// `min(4κ_q − 1, 32767)`: the clamp of `|∇|`.
+    limit: i32,
+    /// The shift `s` of the clamped `|∇|`.
+    shift: u32,
+    /// `S = ⌊2³¹ / (4κ_q·2ˢ)⌋`, an unsigned 16-bit multiplier.
+    scale: u32,
+    /// `Δt` in Q15.
+    dt: i32,
+}
+
+/// `1/6` in Q15 (the cubic term of `exp(−z)`).
+const SIXTH: i32 = 5461;
+/// `1/2` in Q15.
+const HALF: i32 = 1 << 14;
+/// `1` in Q15 (the largest value).
+const ONE: i32 = i16::MAX as i32;
+
+impl FluxFn {
+    pub(super) fn new(params: &AdfParams) -> Self {
+        let k4 = 4 * (u32::from(params.kappa.max(1)) << STATE_BITS); // 4κ in Q7, ≤ 130 560
+        let mut shift = 0;
+        while k4 << (shift + 1) <= 1 << 16 {
+            shift += 1;
+        }
+        let x = k4 << shift; // in (2¹⁵, 2¹⁶], or above 2¹⁶ with shift 0
+        Self {
+            limit: (k4 - 1).min(i16::MAX as u32) as i32,
+            shift,
+            scale: ((1u64 << 31) / u64::from(x)) as u32,
+            dt: ((u32::from(params.dt_milli) << 15) + 500).div_euclid(1000) as i32,
+        }
+    }
+
+    /// `F(∇)` (½ state units) for a difference `∇` of two states (any `i32` is accepted and
+    /// taken as `clamp(∇, −32767, 32767)`). Odd: `F(−∇) = −F(∇)`.
+    #[inline(always)]
+    pub(super) fn eval(&self, d: i32) -> i32 {
+        let d = d.clamp(-TABLE_CENTRE, TABLE_CENTRE);
+        let m = d.unsigned_abs();
+        let a = m.min(self.limit as u32);
+        let u = (((a << self.shift) & 0xFFFF) * self.scale) >> 16; // < 2¹⁵
+        let z = mulhrs(u as i32, u as i32);
+        let r = mulhrs(z, HALF - mulhrs(z, SIXTH));
+        let p = ONE - mulhrs(z, ONE - r);
+        let c = (0..4).fold(p, |c, _| mulhrs(c, c));
+        let f = mulhrs(mulhrs(m as i32, c), self.dt);
+        if d < 0 { -f } else { f }
+    }
+
+    /// Writes the flux of every difference `−32767..=32767` into `table` (index `∇ + 32767`;
+    /// the last entry, unused, is 0).
+    fn tabulate(&self, table: &mut [i16]) {
+        for (i, t) in table.iter_mut().enumerate() {
+            let d = i as i32 - TABLE_CENTRE;
+            *t = if d <= TABLE_CENTRE { self.eval(d) as i16 } else { 0 };
+        }
+    }
+}
+
+/// Where the row loops read a flux from.
+trait FluxSource {
+    fn flux(&self, d: i32) -> i32;
+    /// The table behind the source, if it is one (the Armv7E-M loop reads tables only).
+    #[cfg_attr(not(fusion_arm_dsp), allow(dead_code))]
+    fn table(&self) -> Option<&[i16]> {
+        None
+    }
+}
+
+impl FluxSource for FluxFn {
+    #[inline(always)]
+    fn flux(&self, d: i32) -> i32 {
+        self.eval(d)
+    }
+}
+
+/// The tabulated flux function ([`TABLE_ENTRIES`] entries).
+struct Table<'t>(&'t [i16]);
+
+impl FluxSource for Table<'_> {
+    #[inline(always)]
+    fn flux(&self, d: i32) -> i32 {
+        self.0.get((d + TABLE_CENTRE) as usize).map_or(0, |&f| i32::from(f))
+    }
+
+    fn table(&self) -> Option<&[i16]> {
+        Some(self.0)
+    }
+}
+
+/// `words` seen as the flux table's `i16` entries (the first [`TABLE_WORDS`] words), or `None`
+/// when there are fewer.
+fn table_view(words: &mut [i32]) -> Option<&mut [i16]> {
+    let words = words.get_mut(..TABLE_WORDS)?;
+    // SAFETY: the `TABLE_WORDS` `i32` words are `TABLE_ENTRIES` properly aligned `i16`s of the
+    // same borrowed memory (every bit pattern is valid for both types); the mutable borrow of
+    // `words` is moved into the returned slice.
+    Some(unsafe { core::slice::from_raw_parts_mut(words.as_mut_ptr().cast::<i16>(), TABLE_ENTRIES) })
+}
+
+/// What the row loop carries from one pixel to the next, both bands per word: the previous
+/// east flux (this pixel's west, negated), the previous south-east flux, and
+/// `sat(sat(2·v(i−1)) + dr(i−2))`.
+#[derive(Debug, Clone, Copy)]
+struct RowCarry {
+    h_prev: i32,
+    dr_prev: i32,
+    partial: i32,
+}
+
+/// Per-call constants of the diffusion.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Diffusion {
+    pub(super) fx: FluxFn,
+    border: Border,
+    /// Use the AVX2 row loop (x86-64 with AVX2).
+    #[cfg(target_arch = "x86_64")]
+    avx2: bool,
+}
+
+/// One band's part of the row update: the same saturating steps, in the same order, as the
+/// `qadd16`/`qsub16` (Armv7E-M) and `vpaddsw`/`vpsubsw` (AVX2) loops. With `t2 = 2·(h + v −
+/// h_prev)` and `s = dr + dl − north`, the step is `Σ/2 = (t2 + s)/2` rounded half to odd
+/// (`⌊Σ/2⌋ | (s & 1)`: exact for an even sum, otherwise the odd neighbour), which is odd in
+/// `Σ` — a band and its negative (`255 − I`) diffuse to exact negatives — and unbiased.
+#[inline(always)]
+fn update_band(c: i32, [h, v, dr, dl]: [i32; 4], h_prev: i32, n: i32) -> i32 {
+    let t = sat16(sat16(h + v) - h_prev);
+    let t2 = sat16(t + t);
+    let s = sat16(sat16(dr + dl) - n);
+    let step = ((t2 + s) >> 1) | (s & 1);
+    (c + step).clamp(0, STATE_MAX)
+}
+
+impl Diffusion {
+    pub(super) fn new(params: &AdfParams) -> Self {
+        Self {
+            fx: FluxFn::new(params),
+            border: params.border(),
+            #[cfg(target_arch = "x86_64")]
+            avx2: crate::cpu::has_avx2(),
+        }
+    }
+
+    /// Whether the row loops here read a table (false: the AVX2 loop's arithmetic).
+    fn wants_table(&self) -> bool {
+        #[cfg(target_arch = "x86_64")]
+        if self.avx2 {
+            return false;
+        }
+        true
+    }
+
+    /// The next iterate of one pixel (both bands) from its 3×3 neighbourhood (columns left,
+    /// centre, right, each top to bottom) with all eight fluxes: the path for frames too
+    /// small for the row pipeline. The north sum and the west flux are formed exactly as the
+    /// row pipeline forms them, so both give the same bits.
+    fn update<F: FluxSource>(&self, f: &F, [l, c, r]: [[i32; 3]; 3]) -> i32 {
+        let out = [0, 1].map(|b| {
+            let band = |w: i32| halves(w)[b];
+            let centre = band(c[1]);
+            let later = |w: i32| f.flux(band(w) - centre);
+            let earlier = |w: i32| f.flux(centre - band(w));
+            let north = sat16(sat16(sat16(earlier(c[0]) * 2) + earlier(l[0])) + earlier(r[0]));
+            update_band(centre, [later(r[1]), later(c[2]), later(r[2]), later(l[2])], earlier(l[1]), north)
+        });
+        pack(out[0], out[1])
+    }
+
+    /// One Jacobi iteration of the packed `w`-wide plane `src` into `dst`.
+    fn iterate<F: FluxSource>(&self, f: &F, src: &[i32], dst: &mut [i32], w: usize) {
+        let h = src.len() / w.max(1);
+        for (y, out) in dst.chunks_exact_mut(w.max(1)).enumerate() {
+            let row = |yy: usize| src.get(yy * w..yy * w + w);
+            let Some(mid) = row(y) else { return };
+            let (up, down) = match self.border {
+                Border::Replicate => (row(y.saturating_sub(1)), row((y + 1).min(h - 1))),
+                _ => (y.checked_sub(1).and_then(row), row(y + 1)),
+            };
+            crate::filters::border::map_neighbourhoods(up, mid, down, self.border, out.iter_mut(), |n, o| {
+                *o = self.update(f, n)
+            });
+        }
+    }
+
+    /// The north fluxes of the top pad row `top` with every pixel of the first row `q` (both
+    /// padded, `w + 2` long), into `north[1..=w]`, as the row loop forms them.
+    fn top_north<F: FluxSource>(&self, f: &F, top: &[i32], q: &[i32], north: &mut [i32]) {
+        let pixels = top.windows(3).zip(q.iter().skip(1)).zip(north.iter_mut().skip(1));
+        for ((t, &c), n) in pixels {
+            if let &[nw, n0, ne] = t {
+                let band = |b: usize| {
+                    let cb = halves(c)[b];
+                    let fl = |w: i32| f.flux(cb - halves(w)[b]);
+                    sat16(sat16(sat16(fl(n0) * 2) + fl(nw)) + fl(ne))
+                };
+                *n = pack(band(0), band(1));
+            }
+        }
+    }
+
+    /// One output row of a Jacobi iteration by pair fluxes. `p` is the row being updated and
+    /// `q` the row below, both padded by one column on each side (`w + 2`); `north[i]` holds
+    /// the north sums of pixel `i` of `p` (`sat(sat(2·F(C − N)) + F(C − NW)) + F(C − NE)`,
+    /// subtracted) and is replaced by those of `q`. Per pixel and band four fluxes: the pairs
+    /// east (`h`), south (`v`), south-east (`dr`) and south-west (`dl`), each `F(later −
+    /// earlier)`. Each enters this pixel's sum and, negated, its partner's: the west flux is
+    /// the previous pixel's `h`, and the pairs to `q` become `q`'s north sums. The next
+    /// iterate goes to `out` (`w`).
+    #[inline(never)]
+    fn row(&self, table: Option<&[i16]>, p: &[i32], q: &[i32], north: &mut [i32], out: &mut [i32]) {
+        match table {
+            Some(t) => self.row_with(&Table(t), p, q, north, out),
+            None => self.row_with(&self.fx, p, q, north, out),
+        }
+    }
+
+    #[inline(always)]
+    fn row_with<F: FluxSource>(&self, f: &F, p: &[i32], q: &[i32], north: &mut [i32], out: &mut [i32]) {
+        let fl = |a: i32, b: i32| pack(f.flux(lo(b) - lo(a)), f.flux(hi(b) - hi(a)));
+        let (Some(&p0), Some(&p1), Some(&q1)) = (p.first(), p.get(1), q.get(1)) else { return };
+        // The left pad's pairs: p[0]–p[1] (the first west flux) and p[0]–q[1].
+        #[cfg_attr(not(any(target_arch = "x86_64", fusion_arm_dsp)), allow(unused_mut))]
+        let mut carry = RowCarry { h_prev: fl(p0, p1), dr_prev: fl(p0, q1), partial: 0 };
+        #[cfg(target_arch = "x86_64")]
+        let done = if self.avx2 {
+            // SAFETY: `avx2` is set only when the CPU has AVX2 (checked at run time).
+            unsafe { avx2::row_blocks(&self.fx, p, q, north, out, &mut carry) }
+        } else {
+            0
+        };
+        #[cfg(fusion_arm_dsp)]
+        let done = match f.table() {
+            Some(t) => arm::row_pixels(t, p, q, north, out, &mut carry),
+            None => 0,
+        };
+        #[cfg(not(any(target_arch = "x86_64", fusion_arm_dsp)))]
+        let done = 0;
+        let RowCarry { mut h_prev, mut dr_prev, mut partial } = carry;
+        let north = core::cell::Cell::from_mut(north).as_slice_of_cells();
+        // The rest of the row from pixel `done` (padded index done + 1).
+        let (Some(pd), Some(qd), Some(nd), Some(od)) =
+            (p.get(done..), q.get(done..), north.get(done..), out.get_mut(done..))
+        else {
+            return;
+        };
+        let pixels = pd.windows(2).skip(1).zip(qd.windows(3)).zip(nd.windows(2)).zip(od.iter_mut());
+        for (((pw, qw), nw), o) in pixels {
+            let (&[pc, pr], &[ql, qc, qr], [n_prev, n_here]) = (pw, qw, nw) else { continue };
+            let (h, v, dr, dl) = (fl(pc, pr), fl(pc, qc), fl(pc, qr), fl(pc, ql));
+            let band = |b: usize| {
+                let x = |w: i32| halves(w)[b];
+                let next = update_band(x(pc), [x(h), x(v), x(dr), x(dl)], x(h_prev), x(n_here.get()));
+                let below = sat16(x(partial) + x(dl));
+                let partial = sat16(sat16(x(v) * 2) + x(dr_prev));
+                (next, below, partial)
+            };
+            let ((o0, n0, s0), (o1, n1, s1)) = (band(0), band(1));
+            *o = pack(o0, o1);
+            n_prev.set(pack(n0, n1));
+            partial = pack(s0, s1);
+            dr_prev = dr;
+            h_prev = h;
+        }
+        // The right pad's pair p[w+1]–q[w] completes q's last north sums.
+        let n = p.len();
+        if let (Some(last), Some(&pr), Some(&ql)) =
+            (north.get(n.wrapping_sub(2)), p.get(n.wrapping_sub(1)), q.get(n.wrapping_sub(2)))
+        {
+            let d = fl(pr, ql);
+            last.set(pack(sat16(lo(partial) + lo(d)), sat16(hi(partial) + hi(d))));
+        }
+    }
+}
+
+/// Where the first stage of a pipeline group reads its rows.
+#[derive(Clone, Copy)]
+enum Input<'a> {
+    /// The two input bands (first group).
+    Bands(Band<'a>, Band<'a>),
+    /// The base layers themselves (later groups, read before being overwritten).
+    Layers,
+}
+
+/// The base layers of both bands (Q16): whole planes (`w·h`, row `y` at `y·w`), or one row
+/// each that every finished row replaces (the streaming form).
+struct Layers<'s> {
+    vis: &'s mut [i32],
+    tir: &'s mut [i32],
+    whole: bool,
+}
+
+impl Layers<'_> {
+    fn range(&self, y: usize, w: usize) -> core::ops::Range<usize> {
+        if self.whole { y * w..y * w + w } else { 0..w }
+    }
+
+    /// Lets `run` write finished row `y` (packed Q7 words, `w`) and stores it as Q16 rows of
+    /// both bands: planes through `spare` (`w` words), single rows in place (the TIR row holds
+    /// the packed words, then both rows are unpacked from it).
+    fn finish(&mut self, y: usize, w: usize, spare: &mut [i32], run: impl FnOnce(&mut [i32])) {
+        let r = self.range(y, w);
+        let (Some(v), Some(t)) = (self.vis.get_mut(r.clone()), self.tir.get_mut(r)) else { return };
+        if self.whole {
+            let packed = spare.get_mut(..w).unwrap_or(&mut []);
+            run(packed);
+            for ((v, t), &p) in v.iter_mut().zip(t.iter_mut()).zip(&*packed) {
+                *v = lo(p) << PLANE_SHIFT;
+                *t = hi(p) << PLANE_SHIFT;
+            }
+        } else {
+            run(t);
+            for (v, t) in v.iter_mut().zip(t.iter_mut()) {
+                let p = *t;
+                *v = lo(p) << PLANE_SHIFT;
+                *t = hi(p) << PLANE_SHIFT;
+            }
+        }
+    }
+
+    /// Row `y` of both planes, packed into `dst` (later groups' input).
+    fn read(&self, y: usize, w: usize, dst: &mut [i32]) {
+        let r = self.range(y, w);
+        let (Some(v), Some(t)) = (self.vis.get(r.clone()), self.tir.get(r)) else { return };
+        for ((d, &v), &t) in dst.iter_mut().zip(v).zip(t) {
+            *d = pack(v >> PLANE_SHIFT, t >> PLANE_SHIFT);
+        }
+    }
+
+    /// Row `y` of both layers (the last one written, for the streaming form).
+    fn rows(&self, y: usize, w: usize) -> (&[i32], &[i32]) {
+        let r = self.range(y, w);
+        (self.vis.get(r.clone()).unwrap_or(&[]), self.tir.get(r).unwrap_or(&[]))
+    }
+}
+
+/// Writes the one-column pads of a padded row (`row[0]`, `row[w+1]`) by the border rule.
+#[inline]
+fn set_pads(row: &mut [i32], border: Border) {
+    let n = row.len();
+    let (left, right) = match border {
+        Border::Replicate => (row.get(1).copied(), row.get(n.wrapping_sub(2)).copied()),
+        _ => (Some(0), Some(0)),
+    };
+    if let (Some(l), Some(first)) = (left, row.first_mut()) {
+        *first = l;
+    }
+    if let (Some(r), Some(last)) = (right, row.last_mut()) {
+        *last = r;
+    }
+}
+
+/// One stage's memory: the two state rows (row `j` in slot `j % 2`) and the north sums of
+/// the oldest row not yet updated.
+fn stage_rows(mem: &mut [i32], stride: usize) -> Option<[&mut [i32]; STAGE_ROWS]> {
+    let mut rows = mem.chunks_exact_mut(stride.max(1));
+    Some([rows.next()?, rows.next()?, rows.next()?])
+}
+
+/// Work words of a pipeline group of `stages` iterations on `w`-wide rows: the stages' rows.
+fn group_words(w: usize, stages: usize) -> usize {
+    stages * STAGE_ROWS * (w + 2)
+}
+
+/// A running diffusion: the constants, the flux table if one is used, the frame size.
+struct Pipeline<'t> {
+    d: Diffusion,
+    table: Option<&'t [i16]>,
+    size: (usize, usize),
+}
+
+impl<'t> Pipeline<'t> {
+    /// Splits the flux table off the front of `work` when the row loops read one and it fits
+    /// (with at least `min_rest` words left), tabulates it, and returns the rest of `work`.
+    fn new<'w: 't>(
+        d: Diffusion,
+        size: (usize, usize),
+        work: &'w mut [i32],
+        min_rest: usize,
+    ) -> (Self, &'w mut [i32]) {
+        if d.wants_table() && work.len() >= TABLE_WORDS + min_rest {
+            let (tw, rest) = work.split_at_mut(TABLE_WORDS);
+            let table = table_view(tw).map(|t| {
+                d.fx.tabulate(t);
+                &*t
+            });
+            return (Self { d, table, size }, rest);
+        }
+        (Self { d, table: None, size }, work)
+    }
+
+    /// Runs `stages` Jacobi iterations in one pass down the frame (temporal blocking): stage
+    /// `s` keeps the last two rows of iterate `s` and the north sums of their pairs, and turns
+    /// each new row of iterate `s` into the previous row of iterate `s + 1`, which goes
+    /// straight into stage `s + 1` (the last stage writes `layers`). All the work rows live
+    /// in `mem` ([`group_words`] and the finished row, `w`), so the frame is read and written
+    /// once per group of iterations and the working set stays in cache.
+    fn run_group(&self, input: Input<'_>, layers: &mut Layers<'_>, mem: &mut [i32], stages: usize) {
+        let (w, h) = self.size;
+        let Some(mem) = mem.get_mut(..group_words(w, stages) + w) else { return };
+        mem.fill(0);
+        for t in 0..h + stages {
+            self.step(t, input, layers, mem, stages);
+        }
+    }
+
+    /// Step `t` (`0 .. h + stages`) of a pipeline group: input row `t` enters stage 0 and
+    /// every stage passes on the row it can now finish; the last stage writes row
+    /// `t − stages` (when `t ≥ stages`) to `layers`. `mem` holds the group's zeroed work
+    /// ([`group_words`], then the finished row when `layers` are planes) and is carried from
+    /// step to step.
+    fn step(&self, t: usize, input: Input<'_>, layers: &mut Layers<'_>, mem: &mut [i32], stages: usize) {
+        let (w, h) = self.size;
+        let stride = w + 2;
+        let per_stage = STAGE_ROWS * stride;
+        let Some((mem, finished)) = mem.split_at_mut_checked(stages * per_stage) else { return };
+        let border = self.d.border;
+        let mut chunks = mem.chunks_exact_mut(per_stage.max(1));
+        let mut cur = chunks.next();
+        // The input row t enters stage 0.
+        if t < h
+            && let Some([s0, s1, _]) = cur.as_deref_mut().and_then(|m| stage_rows(m, stride))
+        {
+            let slot = if t.is_multiple_of(2) { s0 } else { s1 };
+            let dst = slot.get_mut(1..=w).unwrap_or(&mut []);
+            match input {
+                Input::Bands(vis, tir) => fill_row(dst, &vis, &tir, t),
+                Input::Layers => layers.read(t, w, dst),
+            }
+            set_pads(slot, border);
+        }
+        for s in 0..stages {
+            let mut next = chunks.next();
+            // Row j of iterate s has just arrived at stage s (j = h: the bottom pad).
+            let Some(j) = t.checked_sub(s) else { break };
+            if j <= h
+                && let Some([s0, s1, north]) = cur.as_deref_mut().and_then(|m| stage_rows(m, stride))
+            {
+                let (older, newer) = if j % 2 == 0 { (s1, s0) } else { (s0, s1) };
+                if j == 0 {
+                    // The pairs between the top pad row and row 0.
+                    let top: &[i32] = match border {
+                        Border::Replicate => newer,
+                        _ => {
+                            older.fill(0);
+                            older
+                        }
+                    };
+                    match self.table {
+                        Some(tb) => self.d.top_north(&Table(tb), top, newer, north),
+                        None => self.d.top_north(&self.d.fx, top, newer, north),
+                    }
+                } else {
+                    // Output row j − 1 of iterate s + 1, from rows j − 1 (`older`) and j
+                    // (`newer`), or the bottom pad row when j = h.
+                    let (p, q): (&[i32], &[i32]) = if j < h {
+                        (older, newer)
+                    } else {
+                        // Row h − 1 is `older`; the free slot becomes the zero pad row.
+                        match border {
+                            Border::Replicate => (older, older),
+                            _ => {
+                                newer.fill(0);
+                                (older, newer)
+                            }
+                        }
+                    };
+                    let y = j - 1;
+                    match next.as_deref_mut().and_then(|m| stage_rows(m, stride)) {
+                        Some([n0, n1, _]) => {
+                            let slot = if y % 2 == 0 { n0 } else { n1 };
+                            self.d.row(self.table, p, q, north, slot.get_mut(1..=w).unwrap_or(&mut []));
+                            set_pads(slot, border);
+                        }
+                        None => layers.finish(y, w, finished, |out| self.d.row(self.table, p, q, north, out)),
+                    }
+                }
+            }
+            cur = next.take();
+        }
+    }
+
+    /// Plain Jacobi sweeps (8 fluxes per pixel) on the layer planes as packed ping-pong planes
+    /// (frames too small for one pipeline stage), then unpacked.
+    fn sweeps(&self, vis: Band<'_>, tir: Band<'_>, layers: &mut Layers<'_>, iterations: u16) {
+        let (w, h) = self.size;
+        let n = w * h;
+        let (Some(a), Some(b)) = (layers.vis.get_mut(..n), layers.tir.get_mut(..n)) else { return };
+        for (y, row) in a.chunks_exact_mut(w.max(1)).enumerate().take(h) {
+            fill_row(row, &vis, &tir, y);
+        }
+        for i in 0..iterations {
+            let (src, dst) = if i % 2 == 0 { (&*a, &mut *b) } else { (&*b, &mut *a) };
+            match self.table {
+                Some(t) => self.d.iterate(&Table(t), src, dst, w),
+                None => self.d.iterate(&self.d.fx, src, dst, w),
+            }
+        }
+        if iterations % 2 == 1 {
+            a.copy_from_slice(b);
+        }
+        for (v, t) in a.iter_mut().zip(b.iter_mut()) {
+            let p = *v;
+            *v = lo(p) << PLANE_SHIFT;
+            *t = hi(p) << PLANE_SHIFT;
+        }
+    }
+}
+
+/// Work words [`diffuse_rows`] needs for `w`-wide frames: the flux table, the row pipeline of
+/// all iterations and the two output rows — independent of the height (65 596 words, 256.2 KiB,
+/// at W = 1024 with 10 iterations).
+pub(crate) fn stream_words(w: usize, params: &AdfParams) -> usize {
+    TABLE_WORDS + group_words(w, usize::from(params.iterations)) + 2 * w
+}
+
+/// The size the bands share (a [`Band::Level`] takes any size).
+fn band_size(vis: &Band<'_>, tir: &Band<'_>, size: (usize, usize)) -> Result<(), Error> {
+    for b in [vis, tir] {
+        if let Band::Frame(f) = b
+            && f.size() != size
+        {
+            return Err(Error::SizeMismatch { expected: size, got: f.size() });
+        }
+    }
+    Ok(())
+}
+
+/// Diffuses both bands with `params.iterations` Perona–Malik steps into the base layers
+/// `a_vis`, `a_tir` (Q16, packed `w × h`, at least `w·h` each), using `work` as work memory
+/// (the flux table and the row pipeline's rows: with [`TABLE_WORDS`] `+ 3·(w + 2)·iterations
+/// + w` words all iterations run in one pass down the frame; with less, in groups, and the
+/// table is left out when it does not fit — the same bits either way). Step 1 of ADF,
+/// public for tests and benches.
+pub fn diffuse_pair(
+    vis: Band<'_>,
+    tir: Band<'_>,
+    size: (usize, usize),
+    params: &AdfParams,
+    a_vis: &mut [i32],
+    a_tir: &mut [i32],
+    work: &mut [i32],
+) -> Result<(), Error> {
+    params.validate()?;
+    diffuse_with(Diffusion::new(params), vis, tir, size, params.iterations, a_vis, a_tir, work)
+}
+
+/// [`diffuse_pair`] with the given constants (the tests switch the row loops).
+#[allow(clippy::too_many_arguments)]
+fn diffuse_with(
+    d: Diffusion,
+    vis: Band<'_>,
+    tir: Band<'_>,
+    size: (usize, usize),
+    iterations: u16,
+    a_vis: &mut [i32],
+    a_tir: &mut [i32],
+    work: &mut [i32],
+) -> Result<(), Error> {
+    band_size(&vis, &tir, size)?;
+    let (w, h) = size;
+    let pixels = w * h;
+    let capacity = a_vis.len().min(a_tir.len());
+    let (Some(a_vis), Some(a_tir)) = (a_vis.get_mut(..pixels), a_tir.get_mut(..pixels)) else {
+        return Err(Error::ScratchTooSmall { needed: pixels, capacity });
+    };
+    let mut layers = Layers { vis: a_vis, tir: a_tir, whole: true };
+    let (pipe, mem) = Pipeline::new(d, size, work, group_words(w, 1) + w);
+    let sweeps = iterations;
+    let iterations = usize::from(iterations);
+    let mut group = iterations;
+    while group > 0 && group_words(w, group) + w > mem.len() {
+        group = (mem.len().saturating_sub(w) / (STAGE_ROWS * (w + 2))).min(group - 1);
+    }
+    if group == 0 || pixels == 0 {
+        pipe.sweeps(vis, tir, &mut layers, sweeps);
+        return Ok(());
+    }
+    let mut done = 0;
+    let mut input = Input::Bands(vis, tir);
+    while done < iterations {
+        let stages = group.min(iterations - done);
+        pipe.run_group(input, &mut layers, mem, stages);
+        input = Input::Layers;
+        done += stages;
+    }
+    Ok(())
+}
+
+/// Diffuses both bands together through one row pipeline (all iterations in one group, the
+/// streaming form of [`diffuse_pair`], the same bits) and hands every row `y < until` of the
+/// two base layers (Q16) to `sink(y, A_VIS row, A_TIR row)`, top to bottom; rows from `until`
+/// on are not finished (row `y` needs the input only up to row `y + iterations`). Memory:
+/// `work`, [`stream_words`] words; no plane. The strip pipeline ([`crate::strips`]) runs it
+/// on windows.
+pub(crate) fn diffuse_rows(
+    vis: FrameRef<'_, u8>,
+    tir: FrameRef<'_, u8>,
+    params: &AdfParams,
+    work: &mut [i32],
+    until: usize,
+    mut sink: impl FnMut(usize, &[i32], &[i32]),
+) -> Result<(), Error> {
+    params.validate()?;
+    let size = vis.size();
+    band_size(&Band::Frame(vis), &Band::Frame(tir), size)?;
+    let (w, h) = size;
+    let stages = usize::from(params.iterations);
+    let needed = stream_words(w, params);
+    let capacity = work.len();
+    let work = work.get_mut(..needed).ok_or(Error::ScratchTooSmall { needed, capacity })?;
+    let (rows, work) = work.split_at_mut(2 * w);
+    let (row_v, row_t) = rows.split_at_mut(w);
+    let (pipe, mem) = Pipeline::new(Diffusion::new(params), size, work, group_words(w, stages));
+    let mem = mem.get_mut(..group_words(w, stages)).ok_or(Error::ScratchTooSmall { needed, capacity })?;
+    mem.fill(0);
+    let mut layers = Layers { vis: row_v, tir: row_t, whole: false };
+    let input = Input::Bands(Band::Frame(vis), Band::Frame(tir));
+    for t in 0..until.min(h) + stages {
+        pipe.step(t, input, &mut layers, mem, stages);
+        if let Some(y) = t.checked_sub(stages) {
+            let (v, tr) = layers.rows(y, w);
+            sink(y, v, tr);
+        }
+    }
+    Ok(())
+}
+
+/// The Armv7E-M copy of the row loop (Cortex-M4/M7), both bands per word: one `ssub16` for
+/// both differences, the two table reads (`sxth`/`asr` index, `ldrsh`), `pkhbt` to pack the
+/// fluxes, and the sums as saturating halves (`qadd16`, `qsub16`), the update as `shadd16`
+/// with `[1, 1]` (half up), `qadd16` and `usat16 #15`. The same operations in the same order as
+/// the portable loop, so the same bits (the firmware's bit-exactness jobs compare the target's
+/// frames with the host's).
+#[cfg(fusion_arm_dsp)]
+mod arm {
+    use super::{RowCarry, TABLE_CENTRE, TABLE_ENTRIES};
+
+    /// Runs the row loop of `Diffusion::row` on every pixel of `out` with the flux `table`,
+    /// updating `carry`; returns the pixels done (0 when a slice is too short, and the
+    /// portable loop runs).
+    pub(super) fn row_pixels(
+        table: &[i16],
+        p: &[i32],
+        q: &[i32],
+        north: &mut [i32],
+        out: &mut [i32],
+        carry: &mut RowCarry,
+    ) -> usize {
+        let w = out.len();
+        if w == 0 || p.len() < w + 2 || q.len() < w + 2 || north.len() < w + 2 || table.len() < TABLE_ENTRIES
+        {
+            return 0;
+        }
+        let centre = table.as_ptr().wrapping_add(TABLE_CENTRE as usize);
+        let end = out.as_mut_ptr().wrapping_add(w);
+        let RowCarry { mut h_prev, mut dr_prev, mut partial } = *carry;
+        // SAFETY: pixel i (0 ≤ i < w) reads p[i + 1], p[i + 2], q[i], q[i + 1], q[i + 2],
+        // north[i + 1], writes north[i] and out[i]: all inside the slices, whose lengths are
+        // checked above (p, q, north ≥ w + 2); `ldrd` reads an `i32` slice, so its address is
+        // word-aligned. The table reads are at `centre + 2·k` with k a difference of two
+        // 16-bit halves in 0..=32767 (every state the pipeline writes is clamped there by
+        // `usat16 #15`, every input is `u8 << 7`, every pad is a state or 0), so
+        // k in −32767..=32767, inside the 65 536 entries. The loop runs while the output
+        // pointer has not reached `end` (w ≥ 1 passes). r6 is pushed and popped around the
+        // loop; every other register written is declared.
+        unsafe {
+            core::arch::asm!(
+                // r6 (LLVM's base pointer, not available as an operand) is saved and holds
+                // the end pointer.
+                "push {{r6}}",
+                "mov r6, r11",
+                "2:",
+                "ldrd r11, r12, [r0], #4",    // pc, pr
+                "ssub16 r12, r12, r11",       // pr − pc, both bands
+                "sxth lr, r12",
+                "ldrsh lr, [r4, lr, lsl #1]",
+                "asr r12, r12, #16",
+                "ldrsh r12, [r4, r12, lsl #1]",
+                "pkhbt r12, lr, r12, lsl #16", // h
+                "ldr r5, [r1, #4]",           // qc
+                "ssub16 r5, r5, r11",
+                "sxth lr, r5",
+                "ldrsh lr, [r4, lr, lsl #1]",
+                "asr r5, r5, #16",
+                "ldrsh r5, [r4, r5, lsl #1]",
+                "pkhbt r5, lr, r5, lsl #16",  // v
+                "qadd16 lr, r12, r5",         // h + v
+                "qsub16 lr, lr, r8",          // − h_prev
+                "mov r8, r12",
+                "qadd16 lr, lr, lr",          // t2 = 2·(h + v − h_prev)
+                "qadd16 r12, r5, r5",
+                "qadd16 r12, r12, r9",        // the next partial: 2·v + dr_prev
+                "ldr r5, [r1], #4",           // ql
+                "ssub16 r5, r5, r11",
+                "sxth r9, r5",
+                "ldrsh r9, [r4, r9, lsl #1]",
+                "asr r5, r5, #16",
+                "ldrsh r5, [r4, r5, lsl #1]",
+                "pkhbt r5, r9, r5, lsl #16",  // dl
+                "qadd16 r10, r10, r5",        // north sums of q's pixel i − 1
+                "str r10, [r2], #4",
+                "mov r10, r12",
+                "ldr r9, [r1, #4]",           // qr
+                "ssub16 r9, r9, r11",
+                "sxth r12, r9",
+                "ldrsh r12, [r4, r12, lsl #1]",
+                "asr r9, r9, #16",
+                "ldrsh r9, [r4, r9, lsl #1]",
+                "pkhbt r9, r12, r9, lsl #16", // dr (the next dr_prev)
+                "qadd16 r12, r9, r5",         // dr + dl
+                "ldr r5, [r2]",               // this pixel's north sums
+                "qsub16 r12, r12, r5",        // s = dr + dl − north
+                "shadd16 lr, lr, r12",        // ⌊(t2 + s)/2⌋
+                "and r12, r12, #0x00010001",
+                "orr lr, lr, r12",            // the step, half to odd
+                "qadd16 lr, r11, lr",
+                "usat16 lr, #15, lr",
+                "str lr, [r3], #4",
+                "cmp r3, r6",
+                "bne 2b",
+                "pop {{r6}}",
+                inout("r0") p.as_ptr().wrapping_add(1) => _,
+                inout("r1") q.as_ptr() => _,
+                inout("r2") north.as_mut_ptr() => _,
+                inout("r3") out.as_mut_ptr() => _,
+                in("r4") centre,
+                inout("r8") h_prev,
+                inout("r9") dr_prev,
+                inout("r10") partial,
+                inout("r11") end => _,
+                out("r5") _,
+                out("r12") _,
+                out("lr") _,
+            );
+        }
+        *carry = RowCarry { h_prev, dr_prev, partial };
+        w
+    }
+}
+
+/// The AVX2 copy of the row loop (x86-64 hosts): eight pixels × two bands (16 lanes of
+/// `i16`) at a time, the flux by its arithmetic form (17 operations, no table). The same
+/// values as the portable loop, so the same bits (checked by
+/// `avx2_rows_equal_the_portable_rows` and `avx2_flux_equals_the_function_exhaustively`).
+#[cfg(target_arch = "x86_64")]
+mod avx2 {
+    use super::{FluxFn, HALF, ONE, RowCarry, SIXTH, hi, lo, pack, sat16};
+    use core::arch::x86_64::*;
+
+    /// Eight words at `s[at..at + 8]`.
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    fn load(s: &[i32], at: usize) -> Option<__m256i> {
+        let v: &[i32; 8] = s.get(at..at + 8)?.try_into().ok()?;
+        // SAFETY: reads the 32 bytes of `v` (unaligned load).
+        Some(unsafe { _mm256_loadu_si256(v.as_ptr().cast()) })
+    }
+
+    /// Stores eight words to `s[at..at + 8]`.
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    fn store(s: &mut [i32], at: usize, x: __m256i) -> Option<()> {
+        let v: &mut [i32; 8] = s.get_mut(at..at + 8)?.try_into().ok()?;
+        // SAFETY: writes the 32 bytes of `v` (unaligned store).
+        unsafe { _mm256_storeu_si256(v.as_mut_ptr().cast(), x) };
+        Some(())
+    }
+
+    /// `[prev[8 − k..], cur[..8 − k]]` in words: `cur` shifted up by `k` words (`BYTES` =
+    /// 16 − 4k), the vacated words taken from the top of `prev`.
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    fn shift_in<const BYTES: i32>(prev: __m256i, cur: __m256i) -> __m256i {
+        _mm256_alignr_epi8::<BYTES>(cur, _mm256_permute2x128_si256::<0x21>(prev, cur))
+    }
+
+    /// The constants of [`FluxFn`], broadcast.
+    pub(super) struct Flux {
+        limit: __m256i,
+        shift: __m128i,
+        scale: __m256i,
+        dt: __m256i,
+        sixth: __m256i,
+        half: __m256i,
+        one: __m256i,
+    }
+
+    impl Flux {
+        #[target_feature(enable = "avx2")]
+        #[inline]
+        pub(super) fn new(fx: &FluxFn) -> Self {
+            Flux {
+                limit: _mm256_set1_epi16(fx.limit as i16),
+                shift: _mm_cvtsi32_si128(fx.shift as i32),
+                scale: _mm256_set1_epi16(fx.scale as u16 as i16),
+                dt: _mm256_set1_epi16(fx.dt as i16),
+                sixth: _mm256_set1_epi16(SIXTH as i16),
+                half: _mm256_set1_epi16(HALF as i16),
+                one: _mm256_set1_epi16(ONE as i16),
+            }
+        }
+
+        /// [`FluxFn::eval`] on sixteen differences in `−32767..=32767`.
+        #[target_feature(enable = "avx2")]
+        #[inline]
+        pub(super) fn apply(&self, d: __m256i) -> __m256i {
+            let m = _mm256_abs_epi16(d);
+            let a = _mm256_min_epi16(m, self.limit);
+            let u = _mm256_mulhi_epu16(_mm256_sll_epi16(a, self.shift), self.scale);
+            let z = _mm256_mulhrs_epi16(u, u);
+            let r = _mm256_mulhrs_epi16(z, _mm256_sub_epi16(self.half, _mm256_mulhrs_epi16(z, self.sixth)));
+            let mut c = _mm256_sub_epi16(self.one, _mm256_mulhrs_epi16(z, _mm256_sub_epi16(self.one, r)));
+            for _ in 0..4 {
+                c = _mm256_mulhrs_epi16(c, c);
+            }
+            _mm256_sign_epi16(_mm256_mulhrs_epi16(_mm256_mulhrs_epi16(m, c), self.dt), d)
+        }
+    }
+
+    /// [`Flux::apply`] on sixteen values (for the tests).
+    ///
+    /// # Safety
+    /// The CPU must support AVX2.
+    #[cfg(test)]
+    #[target_feature(enable = "avx2")]
+    pub(super) unsafe fn flux16(fx: &FluxFn, x: [i16; 16]) -> [i16; 16] {
+        let flux = Flux::new(fx);
+        let mut out = [0i16; 16];
+        // SAFETY: reads the 32 bytes of `x`, writes the 32 bytes of `out`.
+        unsafe {
+            let v = _mm256_loadu_si256(x.as_ptr().cast());
+            _mm256_storeu_si256(out.as_mut_ptr().cast(), flux.apply(v));
+        }
+        out
+    }
+
+    /// Runs the row loop of `Diffusion::row` on whole blocks of eight pixels from the start of
+    /// the row, updating `carry`; returns the pixels done.
+    ///
+    /// # Safety
+    /// The CPU must support AVX2.
+    #[target_feature(enable = "avx2")]
+    pub(super) unsafe fn row_blocks(
+        fx: &FluxFn,
+        p: &[i32],
+        q: &[i32],
+        north: &mut [i32],
+        out: &mut [i32],
+        carry: &mut RowCarry,
+    ) -> usize {
+        let flux = Flux::new(fx);
+        let zero = _mm256_setzero_si256();
+        let lsb = _mm256_set1_epi16(1);
+        let mut h_prev = _mm256_set_epi32(carry.h_prev, 0, 0, 0, 0, 0, 0, 0);
+        let mut v_prev = zero;
+        // Word 7 holds the carried value; the other words (and `v_prev`) are 0, so that the
+        // first block writes the unused `north[0]` exactly as the portable loop does.
+        let mut dr_prev = _mm256_set_epi32(carry.dr_prev, 0, 0, 0, 0, 0, 0, 0);
+        let (mut h, mut v, mut dr) = (h_prev, v_prev, dr_prev);
+        let mut x = 0;
+        while x + 8 <= out.len() {
+            let (Some(pc), Some(pr), Some(ql), Some(qc), Some(qr), Some(n_here)) = (
+                load(p, x + 1),
+                load(p, x + 2),
+                load(q, x),
+                load(q, x + 1),
+                load(q, x + 2),
+                load(north, x + 1),
+            ) else {
+                break;
+            };
+            h = flux.apply(_mm256_sub_epi16(pr, pc));
+            v = flux.apply(_mm256_sub_epi16(qc, pc));
+            dr = flux.apply(_mm256_sub_epi16(qr, pc));
+            let dl = flux.apply(_mm256_sub_epi16(ql, pc));
+            let west = shift_in::<12>(h_prev, h);
+            let t = _mm256_subs_epi16(_mm256_adds_epi16(h, v), west);
+            let t2 = _mm256_adds_epi16(t, t);
+            let s = _mm256_subs_epi16(_mm256_adds_epi16(dr, dl), n_here);
+            // ⌊(t2 + s)/2⌋ without overflow, then the odd bit of s.
+            let half = _mm256_add_epi16(
+                _mm256_add_epi16(_mm256_srai_epi16::<1>(t2), _mm256_srai_epi16::<1>(s)),
+                _mm256_and_si256(_mm256_and_si256(t2, s), lsb),
+            );
+            let step = _mm256_or_si256(half, _mm256_and_si256(s, lsb));
+            let next = _mm256_max_epi16(_mm256_adds_epi16(pc, step), zero);
+            // The north sums of the row below at x − 1 .. x + 6 (pixel indices 0-based):
+            // sat(sat(sat(2·v(k)) + dr(k − 1)) + dl(k + 1)).
+            let v_up = shift_in::<12>(v_prev, v);
+            let dr_up = shift_in::<8>(dr_prev, dr);
+            let below = _mm256_adds_epi16(_mm256_adds_epi16(_mm256_adds_epi16(v_up, v_up), dr_up), dl);
+            if store(out, x, next).is_none() || store(north, x, below).is_none() {
+                break;
+            }
+            (h_prev, v_prev, dr_prev) = (h, v, dr);
+            x += 8;
+        }
+        if x > 0 {
+            let word = |a: __m256i, i: usize| {
+                let mut l = [0i32; 8];
+                // SAFETY: writes the 32 bytes of `l`.
+                unsafe { _mm256_storeu_si256(l.as_mut_ptr().cast(), a) };
+                l.get(i).copied().unwrap_or(0)
+            };
+            let (v7, dr6) = (word(v, 7), word(dr, 6));
+            let partial = |f: fn(i32) -> i32| sat16(sat16(f(v7) * 2) + f(dr6));
+            *carry = RowCarry {
+                h_prev: word(h, 7),
+                dr_prev: word(dr, 7),
+                partial: pack(partial(lo), partial(hi)),
+            };
+        }
+        x
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    extern crate std;
+    use super::super::Variant;
+    use super::*;
+    use std::vec::Vec;
+
+    fn noise(n: usize, seed: u32, levels: u32) -> Vec<u8> {
+        let mut s = seed;
+        (0..n)
+            .map(|_| {
+                s = s.wrapping_mul(1664525).wrapping_add(1013904223);
+                ((s >> 24) % levels) as u8 * (255 / (levels - 1).max(1)) as u8
+            })
+            .collect()
+    }
+
+    fn params(kappa: u16, dt_milli: u16) -> AdfParams {
+        AdfParams { kappa, dt_milli, ..AdfParams::default() }
+    }
+
+    /// The flux function against `Δt·∇·exp(−(∇/κ)²)` (½ state units) over every difference:
+    /// the error in grey levels per pair flux, for the published κ, Δt and the extremes.
+    #[test]
+    fn flux_function_error_is_within_its_bound() {
+        for (kappa, dt) in [(30u16, 150u16), (1, 150), (10, 250), (64, 100), (100, 150), (255, 250)] {
+            let fx = FluxFn::new(&params(kappa, dt));
+            let kq = f64::from(kappa) * 128.0;
+            let mut max_err = 0.0f64;
+            for d in -32767..=32767 {
+                let t = f64::from(d) / kq;
+                let want = f64::from(dt) / 1000.0 * f64::from(d) * libm::exp(-t * t);
+                max_err = max_err.max((f64::from(fx.eval(d)) - want).abs());
+            }
+            // A unit is ½ state unit, 1/256 grey level.
+            let levels = max_err / 256.0;
+            std::println!(
+                "κ {kappa} Δt {dt}: max |F − Δt·∇·exp(−(∇/κ)²)| = {max_err:.3} units ({levels:.5} levels)"
+            );
+            // Two roundings (½ unit, ½·Δt unit) and the function's error: the bias of
+            // `1 = 32767` (16·2⁻¹⁵ of c), the truncated `u`, the Taylor remainder z⁴/24 raised
+            // to the 16th power — below 1.2·10⁻³ of the largest flux, Δt·κ.
+            let bound = 0.5 + 0.5 * f64::from(dt) / 1000.0 + 1.2e-3 * f64::from(dt) / 1000.0 * kq;
+            assert!(max_err <= bound, "κ {kappa} Δt {dt}: {max_err} > {bound}");
+        }
+    }
+
+    /// Odd, 0 from `4κ` on, never beyond `Δt·κ·0.429` (+1): the twelve-term sum stays inside
+    /// `i16` (no saturation) whenever `Δt·κ ≤ 49.7`, e.g. for the published 0.15 · 30.
+    #[test]
+    fn flux_is_odd_bounded_and_zero_far_away() {
+        for (kappa, dt) in [(30u16, 150u16), (1, 1), (7, 250), (255, 250)] {
+            let fx = FluxFn::new(&params(kappa, dt));
+            let kq = i32::from(kappa) * 128;
+            let bound = (f64::from(dt) / 1000.0 * f64::from(kq) * 0.4289).ceil() as i32 + 1;
+            for d in 0..=32767 {
+                assert_eq!(fx.eval(-d), -fx.eval(d), "κ {kappa} {d}");
+                assert!(fx.eval(d).abs() <= bound, "κ {kappa} {d}: {} > {bound}", fx.eval(d));
+                if d >= 4 * kq {
+                    assert_eq!(fx.eval(d), 0, "κ {kappa} {d}");
+                }
+            }
+        }
+    }
+
+    /// The table and (on x86-64 with AVX2) the sixteen-lane arithmetic give the function's value
+    /// for every difference and every κ class.
+    #[test]
+    fn table_and_avx2_equal_the_function_exhaustively() {
+        let mut table = std::vec![0i32; TABLE_WORDS];
+        for kappa in [1u16, 2, 7, 16, 30, 63, 64, 65, 100, 128, 129, 200, 255] {
+            for dt in [1u16, 150, 250] {
+                let fx = FluxFn::new(&params(kappa, dt));
+                let Some(t) = table_view(&mut table) else { panic!("table") };
+                fx.tabulate(t);
+                let t = Table(t);
+                for d in -32767..=32767 {
+                    assert_eq!(t.flux(d), fx.eval(d), "κ {kappa} Δt {dt} ∇ {d}");
+                }
+                #[cfg(target_arch = "x86_64")]
+                if crate::cpu::has_avx2() {
+                    let all: Vec<i16> = (-32767..=32767i32).map(|d| d as i16).chain([0]).collect();
+                    for block in all.chunks_exact(16) {
+                        let mut lanes = [0i16; 16];
+                        lanes.copy_from_slice(block);
+                        // SAFETY: the CPU has AVX2 (checked above).
+                        let got = unsafe { avx2::flux16(&fx, lanes) };
+                        assert_eq!(got, lanes.map(|d| fx.eval(i32::from(d)) as i16), "κ {kappa} Δt {dt}");
+                    }
+                }
+            }
+        }
+    }
+
+    /// Every way to run the diffusion gives the same bits: the row pipeline in one group (with
+    /// the table, and on x86-64 with the AVX2 loop) and in several groups without the table,
+    /// and plain Jacobi sweeps with all eight fluxes per pixel; sizes from one row to one
+    /// column, both borders, parameters that saturate the sums.
+    #[test]
+    fn every_schedule_gives_the_same_bits() -> Result<(), Error> {
+        let sizes = [
+            (1usize, 6usize),
+            (6, 1),
+            (7, 2),
+            (5, 6),
+            (1, 60),
+            (2, 40),
+            (3, 50),
+            (17, 9),
+            (31, 40),
+            (64, 23),
+        ];
+        let all_params = [
+            AdfParams::default(),
+            AdfParams { iterations: 7, dt_milli: 250, kappa: 5, ..AdfParams::default() },
+            AdfParams { iterations: 23, dt_milli: 100, kappa: 200, ..AdfParams::default() },
+            AdfParams { iterations: 3, dt_milli: 250, kappa: 255, ..AdfParams::default() },
+            AdfParams { iterations: 2, dt_milli: 1, kappa: 1, ..AdfParams::default() },
+        ];
+        for (k, &(w, h)) in sizes.iter().enumerate() {
+            for levels in [2u32, 256] {
+                let (sv, st) = (noise(w * h, 7 + k as u32, levels), noise(w * h, 70 + k as u32, levels));
+                let (fv, ft) = (FrameRef::new(&sv, w, h)?, FrameRef::new(&st, w, h)?);
+                for p in all_params {
+                    for variant in [Variant::Classic, Variant::Flight] {
+                        let p = AdfParams { variant, ..p };
+                        let mut results = Vec::new();
+                        let big = TABLE_WORDS + group_words(w, usize::from(p.iterations)) + w;
+                        let several = group_words(w, 2) + w;
+                        for (work_len, avx2) in [(big, false), (big, true), (several, false), (1, false)] {
+                            let mut d = Diffusion::new(&p);
+                            #[cfg(target_arch = "x86_64")]
+                            {
+                                d.avx2 = avx2 && crate::cpu::has_avx2();
+                            }
+                            #[cfg(not(target_arch = "x86_64"))]
+                            let _ = (avx2, &mut d);
+                            let (mut a, mut b, mut work) =
+                                (std::vec![0i32; w * h], std::vec![0i32; w * h], std::vec![0i32; work_len]);
+                            let (vis, tir) = (Band::Frame(fv), Band::Frame(ft));
+                            diffuse_with(d, vis, tir, (w, h), p.iterations, &mut a, &mut b, &mut work)?;
+                            results.push((a, b));
+                        }
+                        for r in &results[1..] {
+                            assert_eq!(r, &results[0], "{w}x{h} {p:?}");
+                        }
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// A [`Band::Level`] is the constant frame of that level.
+    #[test]
+    fn a_level_band_is_a_constant_frame() -> Result<(), Error> {
+        let (w, h) = (19, 13);
+        let tir = noise(w * h, 3, 256);
+        for variant in [Variant::Classic, Variant::Flight] {
+            let p = AdfParams { variant, ..AdfParams::default() };
+            let level = [0u8, 77][usize::from(variant == Variant::Flight)];
+            let flat = std::vec![level; w * h];
+            let mut out = [(); 2].map(|_| (std::vec![0i32; w * h], std::vec![0i32; w * h]));
+            for (band, (a, b)) in
+                [Band::Level(level), Band::Frame(FrameRef::new(&flat, w, h)?)].into_iter().zip(&mut out)
+            {
+                let mut work = std::vec![0i32; TABLE_WORDS + 4096];
+                diffuse_pair(band, Band::Frame(FrameRef::new(&tir, w, h)?), (w, h), &p, a, b, &mut work)?;
+            }
+            assert_eq!(out[0], out[1]);
+            assert!(out[0].0.iter().all(|&v| v == i32::from(level) << 16), "a constant stays constant");
+        }
+        Ok(())
+    }
+
+    /// The AVX2 row loop against the portable one (table and function) on random rows: every
+    /// state in range, north sums anywhere in `i16`, every κ class, widths around the block.
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn avx2_rows_equal_the_portable_rows() {
+        if !crate::cpu::has_avx2() {
+            return;
+        }
+        let mut seed = 99u32;
+        let mut next = || {
+            seed = seed.wrapping_mul(1664525).wrapping_add(1013904223);
+            seed
+        };
+        let mut table = std::vec![0i32; TABLE_WORDS];
+        for kappa in [1u16, 2, 7, 30, 100, 255] {
+            for dt_milli in [1u16, 150, 250] {
+                let mut d = Diffusion::new(&params(kappa, dt_milli));
+                let Some(t) = table_view(&mut table) else { return };
+                d.fx.tabulate(t);
+                let t: &[i16] = t;
+                for w in [1usize, 7, 8, 9, 16, 23, 64] {
+                    let mut state = || pack((next() >> 17) as i32, (next() >> 17) as i32);
+                    let p: Vec<i32> = (0..w + 2).map(|_| state()).collect();
+                    let q: Vec<i32> = (0..w + 2).map(|_| state()).collect();
+                    let north: Vec<i32> = (0..w + 2).map(|_| next() as i32).collect();
+                    let mut results = Vec::new();
+                    for (avx2, table) in [(false, Some(t)), (false, None), (true, None)] {
+                        d.avx2 = avx2;
+                        let (mut n, mut o) = (north.clone(), std::vec![0i32; w]);
+                        d.row(table, &p, &q, &mut n, &mut o);
+                        results.push((n, o));
+                    }
+                    for r in &results[1..] {
+                        assert_eq!(r, &results[0], "kappa {kappa} dt {dt_milli} w {w}");
+                    }
+                }
+            }
+        }
+    }
+
+    /// One iteration on a 1×1 frame, by hand: the 8 neighbours are outside (zero padding), so
+    /// `u ← u − Δt·6·u·exp(−(u/κ)²)`.
+    #[test]
+    fn one_pixel_one_iteration_by_hand() -> Result<(), Error> {
+        let p = AdfParams { variant: Variant::Classic, iterations: 1, ..AdfParams::default() };
+        for v in [0u8, 10, 30, 60, 255] {
+            let src = [v];
+            let (mut a, mut b, mut work) = ([0i32; 1], [0i32; 1], [0i32; 1]);
+            let band = Band::Frame(FrameRef::new(&src, 1, 1)?);
+            diffuse_pair(band, band, (1, 1), &p, &mut a, &mut b, &mut work)?;
+            let u = f64::from(v);
+            let want = u - 0.15 * 6.0 * u * libm::exp(-(u / 30.0) * (u / 30.0));
+            for got in [a[0], b[0]] {
+                let got = f64::from(got) / 65536.0;
+                // 12 flux roundings of ½ unit (1/512 level) each, the step's rounding, the
+                // function's error.
+                assert!((got - want).abs() < 8.0 / 256.0, "{v}: {got} vs {want}");
+            }
+        }
+        Ok(())
+    }
+}

@@ -183,22 +183,44 @@ impl FluxFn {
     pub(super) fn eval(&self, d: i32) -> i32 {
         let d = d.clamp(-TABLE_CENTRE, TABLE_CENTRE);
         let m = d.unsigned_abs();
+        let f = self.flux_of(m, self.conduction(m));
+        if d < 0 { -f } else { f }
+    }
+
+    /// `c ≈ exp(−(∇/κ)²)` in Q15 for `|∇| = m` (steps 1–3).
+    #[inline(always)]
+    fn conduction(&self, m: u32) -> i32 {
         let a = m.min(self.limit as u32);
         let u = (((a << self.shift) & 0xFFFF) * self.scale) >> 16; // < 2¹⁵
         let z = mulhrs(u as i32, u as i32);
         let r = mulhrs(z, HALF - mulhrs(z, SIXTH));
         let p = ONE - mulhrs(z, ONE - r);
-        let c = (0..4).fold(p, |c, _| mulhrs(c, c));
-        let f = mulhrs(mulhrs(m as i32, c), self.dt);
-        if d < 0 { -f } else { f }
+        (0..4).fold(p, |c, _| mulhrs(c, c))
+    }
+
+    /// `F = r(r(m, c), Δt_q)` for `|∇| = m` (step 4).
+    #[inline(always)]
+    fn flux_of(&self, m: u32, c: i32) -> i32 {
+        mulhrs(mulhrs(m as i32, c), self.dt)
     }
 
     /// Writes the flux of every difference `−32767..=32767` into `table` (index `∇ + 32767`;
-    /// the last entry, unused, is 0).
+    /// the last entry, unused, is 0): the non-negative half by the function (up to the clamp
+    /// `4κ_q − 1`, past which the conduction is constant — 0 in practice), the other half by
+    /// oddness.
     fn tabulate(&self, table: &mut [i16]) {
-        for (i, t) in table.iter_mut().enumerate() {
-            let d = i as i32 - TABLE_CENTRE;
-            *t = if d <= TABLE_CENTRE { self.eval(d) as i16 } else { 0 };
+        let (neg, pos) = table.split_at_mut(TABLE_CENTRE as usize);
+        let far = self.conduction(self.limit as u32);
+        for (m, t) in pos.iter_mut().enumerate() {
+            let m = m as u32;
+            *t = match m {
+                _ if m > TABLE_CENTRE as u32 => 0,
+                _ if m >= self.limit as u32 => self.flux_of(m, far) as i16,
+                _ => self.flux_of(m, self.conduction(m)) as i16,
+            };
+        }
+        for (n, &p) in neg.iter_mut().zip(pos.get(1..).unwrap_or(&[]).iter().rev().skip(1)) {
+            *n = -p;
         }
     }
 }
@@ -782,9 +804,65 @@ pub(crate) fn diffuse_rows(
 mod arm {
     use super::{RowCarry, TABLE_CENTRE, TABLE_ENTRIES};
 
-    /// Runs the row loop of `Diffusion::row` on every pixel of `out` with the flux `table`,
-    /// updating `carry`; returns the pixels done (0 when a slice is too short, and the
-    /// portable loop runs).
+    /// One pixel of the row loop, both bands: `h_prev`, `partial` name the registers the
+    /// carried values come in, `h`, `next` the ones the new values go to (a second pixel swaps
+    /// them, so the loop needs no moves); `dr_prev` comes and goes in r9. Registers: r0 `p`
+    /// (at pc), r1 `q` (at ql), r2 `north` (at the previous pixel's entry), r3 `out`, r4 the
+    /// table's centre; r5, r11 (pc), r12, lr scratch.
+    macro_rules! pixel {
+        ($h_prev:literal, $h:literal, $partial:literal, $next:literal) => {
+            concat!(
+                "ldrd r11, r12, [r0], #4\n",      // pc, pr
+                "ssub16 r12, r12, r11\n",         // pr − pc, both bands
+                "sxth lr, r12\n",
+                "ldrsh lr, [r4, lr, lsl #1]\n",
+                "asr r12, r12, #16\n",
+                "ldrsh r12, [r4, r12, lsl #1]\n",
+                "pkhbt ", $h, ", lr, r12, lsl #16\n", // h
+                "ldr r5, [r1, #4]\n",              // qc
+                "ssub16 r5, r5, r11\n",
+                "sxth lr, r5\n",
+                "ldrsh lr, [r4, lr, lsl #1]\n",
+                "asr r5, r5, #16\n",
+                "ldrsh r5, [r4, r5, lsl #1]\n",
+                "pkhbt r5, lr, r5, lsl #16\n",    // v
+                "qadd16 lr, ", $h, ", r5\n",       // h + v
+                "qsub16 lr, lr, ", $h_prev, "\n",  // − h_prev
+                "qadd16 lr, lr, lr\n",            // t2 = 2·(h + v − h_prev)
+                "qadd16 ", $next, ", r5, r5\n",
+                "qadd16 ", $next, ", ", $next, ", r9\n", // the next partial: 2·v + dr_prev
+                "ldr r5, [r1], #4\n",              // ql
+                "ssub16 r5, r5, r11\n",
+                "sxth r9, r5\n",
+                "ldrsh r9, [r4, r9, lsl #1]\n",
+                "asr r5, r5, #16\n",
+                "ldrsh r5, [r4, r5, lsl #1]\n",
+                "pkhbt r5, r9, r5, lsl #16\n",    // dl
+                "qadd16 ", $partial, ", ", $partial, ", r5\n", // north sums of q's pixel i − 1
+                "str ", $partial, ", [r2], #4\n",
+                "ldr r9, [r1, #4]\n",              // qr
+                "ssub16 r9, r9, r11\n",
+                "sxth r12, r9\n",
+                "ldrsh r12, [r4, r12, lsl #1]\n",
+                "asr r9, r9, #16\n",
+                "ldrsh r9, [r4, r9, lsl #1]\n",
+                "pkhbt r9, r12, r9, lsl #16\n",   // dr (the next dr_prev)
+                "qadd16 r12, r9, r5\n",           // dr + dl
+                "ldr r5, [r2]\n",                 // this pixel's north sums
+                "qsub16 r12, r12, r5\n",          // s = dr + dl − north
+                "shadd16 lr, lr, r12\n",          // ⌊(t2 + s)/2⌋
+                "and r12, r12, #0x00010001\n",
+                "orr lr, lr, r12\n",              // the step, half to odd
+                "qadd16 lr, r11, lr\n",
+                "usat16 lr, #15, lr\n",
+                "str lr, [r3], #4\n",
+            )
+        };
+    }
+
+    /// Runs the row loop of `Diffusion::row` on the pixels of `out` two at a time with the
+    /// flux `table`, updating `carry`; returns the pixels done (an even number; 0 when a slice
+    /// is too short or the row has one pixel, and the portable loop runs).
     pub(super) fn row_pixels(
         table: &[i16],
         p: &[i32],
@@ -794,78 +872,36 @@ mod arm {
         carry: &mut RowCarry,
     ) -> usize {
         let w = out.len();
-        if w == 0 || p.len() < w + 2 || q.len() < w + 2 || north.len() < w + 2 || table.len() < TABLE_ENTRIES
-        {
+        let pairs = w / 2;
+        if pairs == 0 || p.len() < w + 2 || q.len() < w + 2 || north.len() < w + 2 || table.len() < TABLE_ENTRIES {
             return 0;
         }
         let centre = table.as_ptr().wrapping_add(TABLE_CENTRE as usize);
-        let end = out.as_mut_ptr().wrapping_add(w);
+        let end = out.as_mut_ptr().wrapping_add(2 * pairs);
         let RowCarry { mut h_prev, mut dr_prev, mut partial } = *carry;
-        // SAFETY: pixel i (0 ≤ i < w) reads p[i + 1], p[i + 2], q[i], q[i + 1], q[i + 2],
-        // north[i + 1], writes north[i] and out[i]: all inside the slices, whose lengths are
-        // checked above (p, q, north ≥ w + 2); `ldrd` reads an `i32` slice, so its address is
-        // word-aligned. The table reads are at `centre + 2·k` with k a difference of two
-        // 16-bit halves in 0..=32767 (every state the pipeline writes is clamped there by
-        // `usat16 #15`, every input is `u8 << 7`, every pad is a state or 0), so
+        // SAFETY: pixel i (0 ≤ i < 2·pairs ≤ w) reads p[i + 1], p[i + 2], q[i], q[i + 1],
+        // q[i + 2], north[i + 1], writes north[i] and out[i]: all inside the slices, whose
+        // lengths are checked above (p, q, north ≥ w + 2); `ldrd` reads an `i32` slice, so its
+        // address is word-aligned. The table reads are at `centre + 2·k` with k a difference
+        // of two 16-bit halves in 0..=32767 (every state the pipeline writes is clamped there
+        // by `usat16 #15`, every input is `u8 << 7`, every pad is a state or 0), so
         // k in −32767..=32767, inside the 65 536 entries. The loop runs while the output
-        // pointer has not reached `end` (w ≥ 1 passes). r6 is pushed and popped around the
-        // loop; every other register written is declared.
+        // pointer has not reached `end` (pairs ≥ 1 passes of two pixels). r6, r7 and the end
+        // pointer are pushed and popped around the loop; every other register written is
+        // declared.
         unsafe {
             core::arch::asm!(
-                // r6 (LLVM's base pointer, not available as an operand) is saved and holds
-                // the end pointer.
-                "push {{r6}}",
-                "mov r6, r11",
+                // r6 and r7 (LLVM's base and frame pointers, not available as operands) are
+                // saved; they carry the second pixel's partial sums and the first pixel's east
+                // flux. The end pointer lives on the stack, at [sp, #8].
+                "push {{r6, r7, r11}}",
                 "2:",
-                "ldrd r11, r12, [r0], #4",    // pc, pr
-                "ssub16 r12, r12, r11",       // pr − pc, both bands
-                "sxth lr, r12",
-                "ldrsh lr, [r4, lr, lsl #1]",
-                "asr r12, r12, #16",
-                "ldrsh r12, [r4, r12, lsl #1]",
-                "pkhbt r12, lr, r12, lsl #16", // h
-                "ldr r5, [r1, #4]",           // qc
-                "ssub16 r5, r5, r11",
-                "sxth lr, r5",
-                "ldrsh lr, [r4, lr, lsl #1]",
-                "asr r5, r5, #16",
-                "ldrsh r5, [r4, r5, lsl #1]",
-                "pkhbt r5, lr, r5, lsl #16",  // v
-                "qadd16 lr, r12, r5",         // h + v
-                "qsub16 lr, lr, r8",          // − h_prev
-                "mov r8, r12",
-                "qadd16 lr, lr, lr",          // t2 = 2·(h + v − h_prev)
-                "qadd16 r12, r5, r5",
-                "qadd16 r12, r12, r9",        // the next partial: 2·v + dr_prev
-                "ldr r5, [r1], #4",           // ql
-                "ssub16 r5, r5, r11",
-                "sxth r9, r5",
-                "ldrsh r9, [r4, r9, lsl #1]",
-                "asr r5, r5, #16",
-                "ldrsh r5, [r4, r5, lsl #1]",
-                "pkhbt r5, r9, r5, lsl #16",  // dl
-                "qadd16 r10, r10, r5",        // north sums of q's pixel i − 1
-                "str r10, [r2], #4",
-                "mov r10, r12",
-                "ldr r9, [r1, #4]",           // qr
-                "ssub16 r9, r9, r11",
-                "sxth r12, r9",
-                "ldrsh r12, [r4, r12, lsl #1]",
-                "asr r9, r9, #16",
-                "ldrsh r9, [r4, r9, lsl #1]",
-                "pkhbt r9, r12, r9, lsl #16", // dr (the next dr_prev)
-                "qadd16 r12, r9, r5",         // dr + dl
-                "ldr r5, [r2]",               // this pixel's north sums
-                "qsub16 r12, r12, r5",        // s = dr + dl − north
-                "shadd16 lr, lr, r12",        // ⌊(t2 + s)/2⌋
-                "and r12, r12, #0x00010001",
-                "orr lr, lr, r12",            // the step, half to odd
-                "qadd16 lr, r11, lr",
-                "usat16 lr, #15, lr",
-                "str lr, [r3], #4",
-                "cmp r3, r6",
+                pixel!("r8", "r7", "r10", "r6"),
+                pixel!("r7", "r8", "r6", "r10"),
+                "ldr r12, [sp, #8]",
+                "cmp r3, r12",
                 "bne 2b",
-                "pop {{r6}}",
+                "pop {{r6, r7, r11}}",
                 inout("r0") p.as_ptr().wrapping_add(1) => _,
                 inout("r1") q.as_ptr() => _,
                 inout("r2") north.as_mut_ptr() => _,
@@ -881,7 +917,7 @@ mod arm {
             );
         }
         *carry = RowCarry { h_prev, dr_prev, partial };
-        w
+        2 * pairs
     }
 }
 

@@ -294,9 +294,9 @@ pub fn fuse_strips(
             let mut cov = Covariance::new();
             walk.run(band, &mut report, |vis_w, tir_w, y0, strip| {
                 let keep = strip.start - y0..strip.end - y0;
-                diffuse_rows(vis_w, tir_w, p, work, keep.end, |y, av, at| {
+                diffuse_rows(vis_w, tir_w, p, work, keep.end, |y, a| {
                     if keep.contains(&y) {
-                        cov.add_row(vis_w.row(y), tir_w.row(y), av, at);
+                        cov.add_row(vis_w.row(y), tir_w.row(y), a);
                     }
                 })?;
                 Ok(vis_w.height())
@@ -306,10 +306,10 @@ pub fn fuse_strips(
             let mut saturated = false;
             walk.run(band, &mut report, |vis_w, tir_w, y0, strip| {
                 let keep = strip.start - y0..strip.end - y0;
-                diffuse_rows(vis_w, tir_w, p, work, keep.end, |y, av, at| {
+                diffuse_rows(vis_w, tir_w, p, work, keep.end, |y, a| {
                     if keep.contains(&y) {
                         let (iv, it) = (vis_w.row(y), tir_w.row(y));
-                        saturated |= fusion.u8_row(iv, it, av, at, out.row_mut(y0 + y));
+                        saturated |= fusion.u8_row(iv, it, a, out.row_mut(y0 + y));
                     }
                 })?;
                 Ok(vis_w.height())

@@ -349,9 +349,9 @@ fn exercise_entry_points() {
                 }
                 let _ = black_box(ifevip::background(t, &ife_p, &mut scratch));
                 let _ = black_box(ifevip::scratch_pixels(w, h, &ife_p));
-                if let Ok([x, y, z]) = scratch.planes(w * h) {
+                if let Ok([x, y, _]) = scratch.planes(w * h) {
                     let b = adf::Band::Frame(v);
-                    let _ = black_box(adf::diffuse_pair(b, b, (w, h), &adf_p, x, y, z));
+                    let _ = black_box(adf::diffuse_pair(b, b, (w, h), &adf_p, x, y));
                     let _ = black_box(box_sum_u8(v, black_box(17), ts_p.mean_border(), x, y));
                 }
                 if let Ok(strip) = v.sub_rows(black_box(1), black_box(5)) {

@@ -73,9 +73,9 @@ fn staged(
     };
     match &pipeline.method {
         Method::Adf(p) => {
-            let [a, b, tmp] = planes.planes(n)?;
+            let [a, _, work] = planes.planes(n)?;
             let (vb, tb) = (Band::Frame(vg), Band::Frame(tg));
-            m.region("adf.diffuse", || diffuse_pair(vb, tb, (w, h), p, a, b, tmp))?;
+            m.region("adf.diffuse", || diffuse_pair(vb, tb, (w, h), p, a, work))?;
         }
         // TSIFSD's flight kernel is one pass (window sums of IR − VIS, Scharr saliency, weights
         // and reconstruction together): no public stage to measure apart.

@@ -80,7 +80,7 @@ pub fn has_strips(m: MethodArg) -> bool {
 /// One row of the stage table.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Stage {
-    /// Budget key (`rescale`, `diffuse_vis`, …, `method`, `pipeline`).
+    /// Budget key (`rescale`, `diffuse`, …, `method`, `pipeline`).
     pub key: &'static str,
     /// What it covers.
     pub what: &'static str,

@@ -5,29 +5,30 @@
 //! | quantity | format | range |
 //! |---|---|---|
 //! | state `A_k` of one band | `i16`, Q7 grey levels | clamped to `0..=32767` (0 ..< 256 levels) after every update |
-//! | one pixel of both bands (rows, pipeline) | `i32` word: VIS in the low half, TIR in the high half | — |
+//! | one pixel of both bands (rows, pipeline, the base-layer plane) | `i32` word: VIS in the low half, TIR in the high half | — |
 //! | neighbour difference `∇` | `i16` | `−32767..=32767` (two states) |
-//! | pair flux `F(∇)` | `i16`, units of ½ state unit | \|F\| ≤ Δt·κ·55 (≤ 3500) |
-//! | per-pixel sum `Σ = 2·Σ_axial F + Σ_diagonal F` | `i16`, every partial sum saturating | \|Σ\| ≤ 12·\|F\|max: saturates only when Δt·κ > 49.7 |
-//! | update | `⌈Σ/2⌉` (`Σ − (Σ >> 1)`, half up), added with the clamp to `0..=32767` | — |
-//! | base layer handed on (planes, rows) | `i32`, Q16 (`state << 9`, exact) | — |
+//! | pair flux `F(∇)` | `i16`, ½ state units | \|F\| ≤ Δt·(0.4289·κ_q + 66) + 2 ≤ [`MAX_FLUX`] = 3518 |
+//! | per-pixel sum `Σ = 2·(h + v − h_prev) + (dr + dl − north)`, north sums | `i16` partial sums | every partial sum ≤ 6·3518 < 2¹⁵: nothing saturates |
+//! | step | `Σ/2` rounded half to odd (`⌊Σ/2⌋ \| (s & 1)`), added with the clamp to `0..=32767` | — |
 //!
 //! The update is the published `A ← A + Δt·(Σ_axial c∇ + ½·Σ_diagonal c∇)`, `c = exp(−(∇/κ)²)`:
-//! `F = Δt·c·∇` in ½ state units makes `Σ/2` the step in state units.
+//! `F = Δt·c·∇` in ½ state units makes `Σ/2` the step in state units. Rounding the step half
+//! to odd keeps it odd in `Σ` (a band and its negative `255 − I` diffuse to exact negatives,
+//! as in the f64 reference) and unbiased.
 //!
 //! **The flux function.** `F(∇)` is defined by a fixed sequence of 16-bit integer operations
 //! (each a `vpmulhrsw`/`vpmulhuw` lane on x86-64), so that every target computes the same value:
-//! with `r(a, b) = (a·b + 2¹⁴) >> 15` (rounded Q15 product),
+//! with `r(a, b) = (a·b + 2¹⁴) >> 15` (rounded Q15 product) and `m = |∇|`,
 //!
-//! 1. `u = ((min(|∇|, 4κ_q − 1) << s) · S) >> 16` — `|∇|/(4κ)` in Q15 (`κ_q = 128κ`, `s` the
+//! 1. `u = ((min(m, 4κ_q − 1) << s) · S) >> 16` — `m/(4κ)` in Q15 (`κ_q = 128κ`, `s` the
 //!    largest shift with `4κ_q·2ˢ ≤ 2¹⁶`, `S = ⌊2³¹/(4κ_q·2ˢ)⌋`); `z = r(u, u) = (∇/κ)²/16`;
 //! 2. `p = 1 − z + z²/2 − z³/6 ≈ exp(−z)` by Horner (`1` is 32767, `1/6` is 5461);
 //! 3. `c = p¹⁶ ≈ exp(−(∇/κ)²)` by four squarings `r(p, p)`;
-//! 4. `F = r(r(∇, c), Δt_q)`, `Δt_q = round(2¹⁵·Δt)`.
+//! 4. `F = sign(∇)·r(r(m, c), Δt_q)`, `Δt_q = round(2¹⁵·Δt)` — odd by construction.
 //!
 //! Beyond `|∇| ≈ 4κ` the sequence gives `c = 0` (exactly: `p ≈ 1/3`, `p¹⁶ < 2⁻¹⁶`). Error of
-//! `c` against `exp(−t²)`: ≤ 5·10⁻⁴ + 16·(Taylor remainder) (the `1 = 32767` bias and the
-//! roundings; unit test `flux_function_error_is_within_its_bound`).
+//! `F` against `Δt·∇·exp(−(∇/κ)²)`: ≤ 0.6 units (0.0023 grey levels) at the published κ = 30,
+//! Δt = 0.15 (unit test `flux_function_error_is_within_its_bound`, every difference).
 //!
 //! Where a table read is cheaper than the arithmetic (Cortex-M, RV32, x86-64 without AVX2), the
 //! function is tabulated once per call for all 65 535 differences (128 KiB of the work plane,
@@ -37,8 +38,8 @@
 //!
 //! **Both bands at once.** A work word holds one pixel of both bands; the Armv7E-M loop takes
 //! both differences with one `ssub16` and sums both bands' fluxes with `qadd16`/`qsub16`
-//! (saturating 16-bit halves), the AVX2 loop runs 8 pixels × 2 bands per vector. The portable
-//! loop performs the same saturating operations in the same order, band by band.
+//! (16-bit halves), the AVX2 loop runs 8 pixels × 2 bands per vector, the portable loop sums
+//! each band in `i32`: the same values, since no partial sum leaves `i16`.
 //!
 //! **Pair fluxes and the row pipeline.** Each neighbour pair's flux is taken once, as
 //! `F(later − earlier)` in row-major order, and enters both pixels with opposite signs (4 flux
@@ -671,7 +672,7 @@ fn band_size(vis: &Band<'_>, tir: &Band<'_>, size: (usize, usize)) -> Result<(),
 /// Diffuses both bands with `params.iterations` Perona–Malik steps into the base layers,
 /// `state` (`w·h` words: pixel `(x, y)` at `y·w + x`, VIS in the low and TIR in the high 16
 /// bits, Q7), using `work` as work memory: the flux table and the row pipeline's rows. With
-/// [`TABLE_WORDS`] `+ 3·(w + 2)·iterations` words all iterations run in one pass down the
+/// 32 768 (the table) `+ 3·(w + 2)·iterations` words all iterations run in one pass down the
 /// frame; with less, in groups, and without the table when it does not fit; a frame too small
 /// for one stage (fewer than about 3 rows) takes plain Jacobi sweeps with `work` (at least
 /// `w·h`) as the second plane — the same bits every way. Step 1 of ADF, public for tests and

@@ -76,10 +76,10 @@ pub enum Band<'a> {
     Level(u8),
 }
 
-/// An 8-bit value in Q7.
+/// Two 8-bit values as a work word of Q7 states (both halves non-negative).
 #[inline(always)]
-fn q7(v: u8) -> i32 {
-    i32::from(v) << STATE_BITS
+fn pack_u8(vis: u8, tir: u8) -> i32 {
+    (i32::from(tir) << (16 + STATE_BITS)) | (i32::from(vis) << STATE_BITS)
 }
 
 /// Writes row `y` of both bands, packed, into `dst` (`w` words).
@@ -87,20 +87,20 @@ fn fill_row(dst: &mut [i32], vis: &Band<'_>, tir: &Band<'_>, y: usize) {
     match (vis, tir) {
         (Band::Frame(v), Band::Frame(t)) => {
             for ((d, &a), &b) in dst.iter_mut().zip(v.row(y)).zip(t.row(y)) {
-                *d = pack(q7(a), q7(b));
+                *d = pack_u8(a, b);
             }
         }
         (Band::Level(a), Band::Frame(t)) => {
             for (d, &b) in dst.iter_mut().zip(t.row(y)) {
-                *d = pack(q7(*a), q7(b));
+                *d = pack_u8(*a, b);
             }
         }
         (Band::Frame(v), Band::Level(b)) => {
             for (d, &a) in dst.iter_mut().zip(v.row(y)) {
-                *d = pack(q7(a), q7(*b));
+                *d = pack_u8(a, *b);
             }
         }
-        (Band::Level(a), Band::Level(b)) => dst.fill(pack(q7(*a), q7(*b))),
+        (Band::Level(a), Band::Level(b)) => dst.fill(pack_u8(*a, *b)),
     }
 }
 
@@ -201,14 +201,19 @@ impl FluxFn {
     /// oddness.
     fn tabulate(&self, table: &mut [i16]) {
         let Some((neg, pos)) = table.split_at_mut_checked(TABLE_CENTRE as usize) else { return };
-        let far = self.conduction(self.limit as u32);
-        for (m, t) in pos.iter_mut().enumerate() {
-            let m = m as u32;
-            *t = match m {
-                _ if m > TABLE_CENTRE as u32 => 0,
-                _ if m >= self.limit as u32 => self.flux_of(m, far) as i16,
-                _ => self.flux_of(m, self.conduction(m)) as i16,
-            };
+        let limit = self.limit as usize;
+        let (near, beyond) = pos.split_at_mut(limit.min(pos.len()));
+        for (m, t) in near.iter_mut().enumerate() {
+            *t = self.flux_of(m as u32, self.conduction(m as u32)) as i16;
+        }
+        // From the clamp on the conduction is constant: 0 (the usual case, a plain fill) or not.
+        match self.conduction(limit as u32) {
+            0 => beyond.fill(0),
+            far => {
+                for (m, t) in (limit..).zip(beyond.iter_mut()) {
+                    *t = if m > TABLE_CENTRE as usize { 0 } else { self.flux_of(m as u32, far) as i16 };
+                }
+            }
         }
         for (n, &p) in neg.iter_mut().zip(pos.get(1..).unwrap_or(&[]).iter().rev().skip(1)) {
             *n = -p;

@@ -359,18 +359,18 @@ fn fused32(p_ir: i32, iv: u8, it: u8, a: i32) -> i32 {
 /// From the Q37 fused value to the raw Q16.
 const Q_SHIFT: u32 = WEIGHT_BITS + STATE_BITS - RAW_FRAC_BITS;
 
-/// The one code path: diffuse both bands, KL weights, then hand each fused raw row (Q16) to
-/// `emit(y, row)`.
+/// The one code path: diffuse both bands, KL weights, then hand each row — its pixels and
+/// packed base layers — to `emit(fusion, y, VIS row, TIR row, base-layer row)`, which fuses it.
 fn run(
     vis: FrameRef<'_, u8>,
     tir: FrameRef<'_, u8>,
     params: &AdfParams,
     scratch: &mut ScratchMut<'_>,
-    mut emit: impl FnMut(usize, &[i32]),
+    mut emit: impl FnMut(&Fusion, usize, &[u8], &[u8], &[i32]),
 ) -> Result<Guards, Error> {
     params.validate()?;
     let (w, h) = vis.size();
-    let [a, raw, work] = full_planes(scratch, w * h)?;
+    let [a, _, work] = full_planes(scratch, w * h)?;
     diffuse_pair(Band::Frame(vis), Band::Frame(tir), (w, h), params, a, work)?;
     let a = &*a;
     let rows = || vis.rows().zip(tir.rows()).zip(a.chunks_exact(w.max(1)));
@@ -379,9 +379,8 @@ fn run(
         cov.add_row(iv, it, a);
     }
     let fusion = cov.weights(w * h, params.variant);
-    for (y, (((iv, it), a), out)) in rows().zip(raw.chunks_exact_mut(w.max(1))).enumerate() {
-        fusion.raw_row(iv, it, a, out);
-        emit(y, out);
+    for (y, ((iv, it), a)) in rows().enumerate() {
+        emit(&fusion, y, iv, it, a);
     }
     Ok(fusion.guards)
 }
@@ -419,11 +418,8 @@ pub fn fuse_adf(
 ) -> Result<Guards, Error> {
     check_sizes(&vis, &tir, out.size())?;
     let mut saturated = false;
-    let guards = run(vis, tir, params, scratch, |y, raw| {
-        for (o, &v) in out.row_mut(y).iter_mut().zip(raw) {
-            saturated |= raw_saturates(v);
-            *o = raw_to_u8(v);
-        }
+    let guards = run(vis, tir, params, scratch, |fusion, y, iv, it, a| {
+        saturated |= fusion.u8_row(iv, it, a, out.row_mut(y));
     })?;
     Ok(if saturated { guards | Guards::OUTPUT_SATURATED } else { guards })
 }
@@ -439,11 +435,7 @@ pub fn fuse_adf_raw(
     scratch: &mut ScratchMut<'_>,
 ) -> Result<Guards, Error> {
     check_sizes(&vis, &tir, raw.size())?;
-    run(vis, tir, params, scratch, |y, row| {
-        for (o, &v) in raw.row_mut(y).iter_mut().zip(row) {
-            *o = v;
-        }
-    })
+    run(vis, tir, params, scratch, |fusion, y, iv, it, a| fusion.raw_row(iv, it, a, raw.row_mut(y)))
 }
 
 /// ADF of a whole frame computed on a window of it, for the pipeline's scene skipping

@@ -7,14 +7,14 @@
 //! | state `A_k` of one band | `i16`, Q7 grey levels | clamped to `0..=32767` (0 ..< 256 levels) after every update |
 //! | one pixel of both bands (rows, pipeline, the base-layer plane) | `i32` word: VIS in the low half, TIR in the high half | — |
 //! | neighbour difference `∇` | `i16` | `−32767..=32767` (two states) |
-//! | pair flux `F(∇)` | `i16`, ½ state units | \|F\| ≤ Δt·(0.4289·κ_q + 66) + 2 ≤ [`MAX_FLUX`] = 3518 |
-//! | per-pixel sum `Σ = 2·(h + v − h_prev) + (dr + dl − north)`, north sums | `i16` partial sums | every partial sum ≤ 6·3518 < 2¹⁵: nothing saturates |
-//! | step | `Σ/2` rounded half to odd (`⌊Σ/2⌋ \| (s & 1)`), added with the clamp to `0..=32767` | — |
+//! | pair flux `F(∇)` | `i16`, state units | \|F\| ≤ Δt/2·(0.4289·κ_q + 66) + 2 ≤ [`MAX_FLUX`] = 1760 |
+//! | step `Σ = 2·(h + v − h_prev) + (dr + dl − north)`, north sums | `i16` partial sums | every partial sum ≤ 12·1760 < 2¹⁵: nothing saturates |
+//! | next state | `A + Σ`, clamped to `0..=32767` | — |
 //!
 //! The update is the published `A ← A + Δt·(Σ_axial c∇ + ½·Σ_diagonal c∇)`, `c = exp(−(∇/κ)²)`:
-//! `F = Δt·c·∇` in ½ state units makes `Σ/2` the step in state units. Rounding the step half
-//! to odd keeps it odd in `Σ` (a band and its negative `255 − I` diffuse to exact negatives,
-//! as in the f64 reference) and unbiased.
+//! with `F = Δt/2·c·∇` (state units) it is `A + 2·Σ_axial F + Σ_diagonal F`, with no rounding
+//! after the fluxes' own: the step is odd in the fluxes, so a band and its negative `255 − I`
+//! diffuse to exact negatives, as in the f64 reference.
 //!
 //! **The flux function.** `F(∇)` is defined by a fixed sequence of 16-bit integer operations
 //! (each a `vpmulhrsw`/`vpmulhuw` lane on x86-64), so that every target computes the same value:
@@ -24,10 +24,10 @@
 //!    largest shift with `4κ_q·2ˢ ≤ 2¹⁶`, `S = ⌊2³¹/(4κ_q·2ˢ)⌋`); `z = r(u, u) = (∇/κ)²/16`;
 //! 2. `p = 1 − z + z²/2 − z³/6 ≈ exp(−z)` by Horner (`1` is 32767, `1/6` is 5461);
 //! 3. `c = p¹⁶ ≈ exp(−(∇/κ)²)` by four squarings `r(p, p)`;
-//! 4. `F = sign(∇)·r(r(m, c), Δt_q)`, `Δt_q = round(2¹⁵·Δt)` — odd by construction.
+//! 4. `F = sign(∇)·r(r(m, c), Δt_q)`, `Δt_q = round(2¹⁵·Δt/2)` — odd by construction.
 //!
 //! Beyond `|∇| ≈ 4κ` the sequence gives `c = 0` (exactly: `p ≈ 1/3`, `p¹⁶ < 2⁻¹⁶`). Error of
-//! `F` against `Δt·∇·exp(−(∇/κ)²)`: ≤ 0.6 units (0.0023 grey levels) at the published κ = 30,
+//! `F` against `Δt/2·∇·exp(−(∇/κ)²)`: ≤ 0.6 state units (0.0046 grey levels) at the published κ = 30,
 //! Δt = 0.15 (unit test `flux_function_error_is_within_its_bound`, every difference).
 //!
 //! Where a table read is cheaper than the arithmetic (Cortex-M, RV32, x86-64 without AVX2), the
@@ -143,7 +143,7 @@ pub(super) struct FluxFn {
     shift: u32,
     /// `S = ⌊2³¹ / (4κ_q·2ˢ)⌋`, an unsigned 16-bit multiplier.
     scale: u32,
-    /// `Δt` in Q15.
+    /// `Δt/2` in Q15.
     dt: i32,
 }
 
@@ -164,11 +164,11 @@ impl FluxFn {
             limit: k4.saturating_sub(1).min(i16::MAX as u32) as i32,
             shift,
             scale: (1u64 << 31).checked_div(u64::from(x)).unwrap_or(0) as u32,
-            dt: ((u32::from(params.dt_milli) << 15) + 500).div_euclid(1000) as i32,
+            dt: ((u32::from(params.dt_milli) << 14) + 500).div_euclid(1000) as i32,
         }
     }
 
-    /// `F(∇)` (½ state units) for a difference `∇` of two states (any `i32` is accepted and
+    /// `F(∇)` (state units) for a difference `∇` of two states (any `i32` is accepted and
     /// taken as `clamp(∇, −32767, 32767)`). Odd: `F(−∇) = −F(∇)`.
     #[inline(always)]
     pub(super) fn eval(&self, d: i32) -> i32 {
@@ -282,27 +282,24 @@ pub(super) struct Diffusion {
     avx2: bool,
 }
 
-/// One band's part of the row update. With `t2 = 2·(h + v − h_prev)` and `s = dr + dl −
-/// north`, the step is `Σ/2 = (t2 + s)/2` rounded half to odd (`⌊Σ/2⌋ | (s & 1)`: exact for
-/// an even sum, otherwise the odd neighbour), which is odd in `Σ` — a band and its negative
-/// (`255 − I`) diffuse to exact negatives — and unbiased. No partial sum here or in the
-/// north sums exceeds `6·|F|max ≤ 6·3518 < 2¹⁵` ([`MAX_FLUX`]), so the 16-bit lanes of the
-/// Armv7E-M and AVX2 loops (saturating instructions, for defence) compute the same values as
-/// these plain sums.
+/// One band's part of the row update: the step `Σ = 2·(h + v − h_prev) + (dr + dl − north)`
+/// (exact: no rounding, so it is odd in the fluxes — a band and its negative `255 − I` diffuse
+/// to exact negatives, as in the f64 reference). No partial sum here or in the north sums
+/// exceeds `12·|F|max ≤ 12·1760 < 2¹⁵` ([`MAX_FLUX`]), so the 16-bit lanes of the Armv7E-M and
+/// AVX2 loops (saturating instructions, for defence) compute the same values as these plain
+/// sums.
 #[inline(always)]
 fn update_band(c: i32, [h, v, dr, dl]: [i32; 4], h_prev: i32, n: i32) -> i32 {
-    let t2 = 2 * (h + v - h_prev);
-    let s = dr + dl - n;
-    let step = ((t2 + s) >> 1) | (s & 1);
+    let step = 2 * (h + v - h_prev) + (dr + dl - n);
     (c + step).clamp(0, STATE_MAX)
 }
 
-/// A bound on `|F|` for every parameter set (κ ≤ 255, Δt ≤ 0.25): `Δt·(0.4289·κ_q + 66) + 2`
+/// A bound on `|F|` for every parameter set (κ ≤ 255, Δt ≤ 0.25): `Δt/2·(0.4289·κ_q + 66) + 2`
 /// (the largest `t·exp(−t²)`, the conduction's excess over `exp(−t²)` of at most 0.002 times
-/// `|∇| ≤ 32767`, two roundings); `6·MAX_FLUX < 2¹⁵`. Checked by
+/// `|∇| ≤ 32767`, two roundings); `12·MAX_FLUX < 2¹⁵`. Checked by
 /// `flux_is_odd_bounded_and_zero_far_away`.
-const MAX_FLUX: i32 = 3518;
-const _: () = assert!(6 * MAX_FLUX < 1 << 15, "partial sums stay inside i16");
+const MAX_FLUX: i32 = 1760;
+const _: () = assert!(12 * MAX_FLUX < 1 << 15, "every partial sum stays inside i16");
 
 /// One pixel of one band in the portable row loop: the four pair fluxes, the next state, the
 /// north sum of the pixel below-left (returned) and the carried values.
@@ -771,10 +768,9 @@ pub(crate) fn diffuse_rows(
 /// The Armv7E-M copy of the row loop (Cortex-M4/M7), both bands per word, two pixels per
 /// pass: one `ssub16` for both differences, the two table reads (`sxth`/`asr` index, `ldrsh`),
 /// `pkhbt` to pack the fluxes, the sums as 16-bit halves (`qadd16`, `qsub16`: never clipping,
-/// see `update_band`), the step as `shadd16` (`⌊(t2 + s)/2⌋` from 17 bits) with the odd bit
-/// `s & 1` or-ed in, then `qadd16` and `usat16 #15`. The same values as the portable loop, so
-/// the same bits (the firmware's bit-exactness jobs compare the target's frames with the
-/// host's). 45.5 instructions per pixel of both bands.
+/// see `update_band`), then `qadd16` and `usat16 #15` for the next state. The same values as the
+/// portable loop, so the same bits (the firmware's bit-exactness jobs compare the target's
+/// frames with the host's). 42.5 instructions per pixel of both bands.
 #[cfg(fusion_arm_dsp)]
 mod arm {
     use super::{RowCarry, TABLE_CENTRE, TABLE_ENTRIES};
@@ -795,8 +791,8 @@ mod arm {
                 "ldrsh r12, [r4, r12, lsl #1]\n",
                 "pkhbt ",
                 $h,
-                ", lr, r12, lsl #16\n", // h
-                "ldr r5, [r1, #4]\n",   // qc
+                ", lr, r12, lsl #16\n",     // h
+                "ldrd r5, r12, [r1, #4]\n", // qc, qr
                 "ssub16 r5, r5, r11\n",
                 "sxth lr, r5\n",
                 "ldrsh lr, [r4, lr, lsl #1]\n",
@@ -833,8 +829,7 @@ mod arm {
                 "str ",
                 $partial,
                 ", [r2], #4\n",
-                "ldr r9, [r1, #4]\n", // qr
-                "ssub16 r9, r9, r11\n",
+                "ssub16 r9, r12, r11\n", // qr − pc
                 "sxth r12, r9\n",
                 "ldrsh r12, [r4, r12, lsl #1]\n",
                 "asr r9, r9, #16\n",
@@ -843,9 +838,7 @@ mod arm {
                 "qadd16 r12, r9, r5\n",         // dr + dl
                 "ldr r5, [r2]\n",               // this pixel's north sums
                 "qsub16 r12, r12, r5\n",        // s = dr + dl − north
-                "shadd16 lr, lr, r12\n",        // ⌊(t2 + s)/2⌋
-                "and r12, r12, #0x00010001\n",
-                "orr lr, lr, r12\n", // the step, half to odd
+                "qadd16 lr, lr, r12\n",         // the step t2 + s
                 "qadd16 lr, r11, lr\n",
                 "usat16 lr, #15, lr\n",
                 "str lr, [r3], #4\n",
@@ -1031,7 +1024,6 @@ mod avx2 {
     ) -> usize {
         let flux = Flux::new(fx);
         let zero = _mm256_setzero_si256();
-        let lsb = _mm256_set1_epi16(1);
         let mut h_prev = _mm256_set_epi32(carry.h_prev, 0, 0, 0, 0, 0, 0, 0);
         let mut v_prev = zero;
         // Word 7 holds the carried value; the other words (and `v_prev`) are 0, so that the
@@ -1056,14 +1048,8 @@ mod avx2 {
             let dl = flux.apply(_mm256_sub_epi16(ql, pc));
             let west = shift_in::<12>(h_prev, h);
             let t = _mm256_subs_epi16(_mm256_adds_epi16(h, v), west);
-            let t2 = _mm256_adds_epi16(t, t);
             let s = _mm256_subs_epi16(_mm256_adds_epi16(dr, dl), n_here);
-            // ⌊(t2 + s)/2⌋ without overflow, then the odd bit of s.
-            let half = _mm256_add_epi16(
-                _mm256_add_epi16(_mm256_srai_epi16::<1>(t2), _mm256_srai_epi16::<1>(s)),
-                _mm256_and_si256(_mm256_and_si256(t2, s), lsb),
-            );
-            let step = _mm256_or_si256(half, _mm256_and_si256(s, lsb));
+            let step = _mm256_adds_epi16(_mm256_adds_epi16(t, t), s);
             let next = _mm256_max_epi16(_mm256_adds_epi16(pc, step), zero);
             // The north sums of the row below at x − 1 .. x + 6 (pixel indices 0-based):
             // sat(sat(sat(2·v(k)) + dr(k − 1)) + dl(k + 1)).
@@ -1116,7 +1102,7 @@ mod tests {
         AdfParams { kappa, dt_milli, ..AdfParams::default() }
     }
 
-    /// The flux function against `Δt·∇·exp(−(∇/κ)²)` (½ state units) over every difference:
+    /// The flux function against `Δt/2·∇·exp(−(∇/κ)²)` (state units) over every difference:
     /// the error in grey levels per pair flux, for the published κ, Δt and the extremes.
     #[test]
     fn flux_function_error_is_within_its_bound() {
@@ -1126,30 +1112,30 @@ mod tests {
             let mut max_err = 0.0f64;
             for d in -32767..=32767 {
                 let t = f64::from(d) / kq;
-                let want = f64::from(dt) / 1000.0 * f64::from(d) * libm::exp(-t * t);
+                let want = f64::from(dt) / 2000.0 * f64::from(d) * libm::exp(-t * t);
                 max_err = max_err.max((f64::from(fx.eval(d)) - want).abs());
             }
-            // A unit is ½ state unit, 1/256 grey level.
-            let levels = max_err / 256.0;
+            // A state unit is 1/128 grey level.
+            let levels = max_err / 128.0;
             std::println!(
-                "κ {kappa} Δt {dt}: max |F − Δt·∇·exp(−(∇/κ)²)| = {max_err:.3} units ({levels:.5} levels)"
+                "κ {kappa} Δt {dt}: max |F − Δt/2·∇·exp(−(∇/κ)²)| = {max_err:.3} units ({levels:.5} levels)"
             );
-            // Two roundings (½ unit, ½·Δt unit) and the function's error: the bias of
+            // Two roundings (½ unit, ½·Δt/2 unit) and the function's error: the bias of
             // `1 = 32767` (16·2⁻¹⁵ of c), the truncated `u`, the Taylor remainder z⁴/24 raised
-            // to the 16th power — below 1.2·10⁻³ of the largest flux, Δt·κ.
-            let bound = 0.5 + 0.5 * f64::from(dt) / 1000.0 + 1.2e-3 * f64::from(dt) / 1000.0 * kq;
+            // to the 16th power — below 1.2·10⁻³ of the largest flux, Δt/2·κ.
+            let bound = 0.5 + 0.5 * f64::from(dt) / 2000.0 + 1.2e-3 * f64::from(dt) / 2000.0 * kq;
             assert!(max_err <= bound, "κ {kappa} Δt {dt}: {max_err} > {bound}");
         }
     }
 
-    /// Odd, 0 from `4κ` on, never beyond `Δt·κ·0.429` (+1): the twelve-term sum stays inside
-    /// `i16` (no saturation) whenever `Δt·κ ≤ 49.7`, e.g. for the published 0.15 · 30.
+    /// Odd, 0 from `4κ` on, never beyond `Δt/2·κ·0.429` (+1) ≤ [`MAX_FLUX`]: the twelve-term
+    /// step stays inside `i16` for every parameter set.
     #[test]
     fn flux_is_odd_bounded_and_zero_far_away() {
         for (kappa, dt) in [(30u16, 150u16), (1, 1), (7, 250), (255, 250)] {
             let fx = FluxFn::new(&params(kappa, dt));
             let kq = i32::from(kappa) * 128;
-            let bound = (f64::from(dt) / 1000.0 * f64::from(kq) * 0.4289).ceil() as i32 + 1;
+            let bound = (f64::from(dt) / 2000.0 * f64::from(kq) * 0.4289).ceil() as i32 + 1;
             assert!(bound <= MAX_FLUX, "κ {kappa} Δt {dt}: {bound}");
             for d in 0..=32767 {
                 assert_eq!(fx.eval(-d), -fx.eval(d), "κ {kappa} {d}");
@@ -1336,9 +1322,8 @@ mod tests {
             let want = u - 0.15 * 6.0 * u * libm::exp(-(u / 30.0) * (u / 30.0));
             for got in [lo(a[0]), hi(a[0])] {
                 let got = f64::from(got) / 128.0;
-                // 12 flux roundings of ½ unit (1/512 level) each, the step's rounding, the
-                // function's error.
-                assert!((got - want).abs() < 8.0 / 256.0, "{v}: {got} vs {want}");
+                // 12 flux roundings of ½ state unit (1/256 level) each and the function's error.
+                assert!((got - want).abs() < 7.0 / 128.0, "{v}: {got} vs {want}");
             }
         }
         Ok(())

@@ -77,6 +77,22 @@ pub enum Variant {
     Flight,
 }
 
+/// The size contract of the two-frame methods: VIS, TIR and the output all the same size
+/// ([`crate::Error::SizeMismatch`] names the first that differs).
+pub(crate) fn check_sizes(
+    vis: &crate::FrameRef<'_, u8>,
+    tir: &crate::FrameRef<'_, u8>,
+    out: (usize, usize),
+) -> Result<(), crate::Error> {
+    if vis.size() != tir.size() {
+        return Err(crate::Error::SizeMismatch { expected: vis.size(), got: tir.size() });
+    }
+    if out != vis.size() {
+        return Err(crate::Error::SizeMismatch { expected: vis.size(), got: out });
+    }
+    Ok(())
+}
+
 /// Rounds half away from zero and saturates to `0..=255`, as MATLAB's `uint8()` cast, for a
 /// value in fixed point with `frac_bits` fractional bits.
 #[inline]

@@ -62,7 +62,7 @@
 //! not grow with the height and it can start at any row, which is what lets the strip
 //! pipeline ([`crate::strips`]) run it in 152.1 KiB at W = 1024.
 
-use super::{Guards, Variant};
+use super::{Guards, Variant, check_sizes};
 use crate::filters::border::Border;
 use crate::filters::box_sum::box_sum_u8;
 use crate::filters::median3::{CHUNK, median3_chunk};
@@ -278,16 +278,6 @@ fn combine_u8(iv: u8, ii: u8, sum_v: i32, sum_i: i32, sal_v: u64, sal_i: u64, ta
     let (wv, wi, _, zero) = weights(sal_v, sal_i);
     let (out, saturated) = fused_u8(iv, ii, sum_v, sum_i, wv as u32, wi as u32, taps as u32);
     (out, zero, saturated)
-}
-
-fn check_sizes(vis: &FrameRef<'_, u8>, tir: &FrameRef<'_, u8>, out: (usize, usize)) -> Result<(), Error> {
-    if vis.size() != tir.size() {
-        return Err(Error::SizeMismatch { expected: vis.size(), got: tir.size() });
-    }
-    if out != vis.size() {
-        return Err(Error::SizeMismatch { expected: vis.size(), got: out });
-    }
-    Ok(())
 }
 
 /// The guards of a run: some pixel had both saliencies 0, some 8-bit output saturated.

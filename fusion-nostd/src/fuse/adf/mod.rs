@@ -62,7 +62,7 @@ use diffusion::STATE_BITS;
 pub use diffusion::{Band, diffuse_pair};
 pub(crate) use diffusion::{diffuse_rows, stream_words};
 
-use super::{Guards, Variant};
+use super::{Guards, Variant, check_sizes};
 use crate::filters::border::Border;
 use crate::{Error, FrameMut, FrameRef, ScratchMut};
 
@@ -215,16 +215,6 @@ fn div_round(n: i128, d: i128) -> i128 {
     // it; without it a division-overflow panic path stays in the image (issue 9).
     let q = |a: i128, b: i128| a.checked_div(b).unwrap_or(0);
     if n >= 0 { q(2 * n + d, 2 * d) } else { -q(-2 * n + d, 2 * d) }
-}
-
-fn check_sizes(vis: &FrameRef<'_, u8>, tir: &FrameRef<'_, u8>, out: (usize, usize)) -> Result<(), Error> {
-    if vis.size() != tir.size() {
-        return Err(Error::SizeMismatch { expected: vis.size(), got: tir.size() });
-    }
-    if out != vis.size() {
-        return Err(Error::SizeMismatch { expected: vis.size(), got: out });
-    }
-    Ok(())
 }
 
 /// Pixels per covariance chunk: 2¹⁵ details (`|D| < 2¹⁵`) sum below 2³⁰ in `i32`, their

@@ -15,7 +15,7 @@
 //! | method | streaming form | halo (grid rows) | passes | work memory at width W |
 //! |---|---|---|---|---|
 //! | TSIFSD flight | the flight kernel started at the strip's first row: column sums of the 35×35 window and a ring of `2r + 3` rows of lane words | `max(r, 1)` = 17 (the mean's radius; the Scharr rows `y ± 1` lie inside it) | 1 | `(W + 2r + 1) + (2r + 3)·W` words (152.1 KiB at W = 1024) |
-//! | ADF (both variants) | the diffusion's row pipeline of both bands (all iterations in one group) | `iterations` = 10 | 2: the covariance (global KL weights), then the output | `32 768 + iterations·3·(W + 2) + 2W` words: the flux table and the pipeline (256.2 KiB at W = 1024, 10 iterations) |
+//! | ADF (both variants) | the diffusion's row pipeline of both bands (all iterations in one group) | `iterations` = 10 | 2: the covariance (global KL weights), then the output | `32 768 + iterations·3·(W + 2) + W` words: the flux table, the pipeline and its output row (252.2 KiB at W = 1024, 10 iterations) |
 //!
 //! ADF's weights come from the covariance of the whole frame's detail layers, which no strip
 //! knows alone: the first pass diffuses every strip and adds its rows to the exact integer sums
@@ -50,12 +50,11 @@ use crate::pipeline::{
 use crate::scene::Rect;
 use crate::{Error, Filter, FrameMut, FrameRef};
 
-/// `i32` words of method work memory in a [`StripScratch512K`] (256.25 KiB: ADF's flux table
-/// and row pipeline at W = 1024, 65 596 words, see the table above).
-pub const STRIP_WORK_WORDS: usize = 65_600;
-/// Bytes of band window in a [`StripScratch512K`] (the rest of 512 KiB: 255.75 KiB, 255 rows of
-/// a 1024-wide grid).
-pub const STRIP_BAND_BYTES: usize = 512 * 1024 - 4 * STRIP_WORK_WORDS;
+/// `i32` words of method work memory in a [`StripScratch512K`] (256 KiB; ADF needs 64 572 at
+/// W = 1024, see the table above).
+pub const STRIP_WORK_WORDS: usize = 64 * 1024;
+/// Bytes of band window in a [`StripScratch512K`] (256 KiB: 256 rows of a 1024-wide grid).
+pub const STRIP_BAND_BYTES: usize = 256 * 1024;
 /// The whole strip working set of a [`StripScratch512K`]: 512 KiB.
 pub const STRIP_SCRATCH_BYTES: usize = STRIP_WORK_WORDS * 4 + STRIP_BAND_BYTES;
 

@@ -14,7 +14,11 @@
 //! The update is the published `A ← A + Δt·(Σ_axial c∇ + ½·Σ_diagonal c∇)`, `c = exp(−(∇/κ)²)`:
 //! with `F = Δt/2·c·∇` (state units) it is `A + 2·Σ_axial F + Σ_diagonal F`, with no rounding
 //! after the fluxes' own: the step is odd in the fluxes, so a band and its negative `255 − I`
-//! diffuse to exact negatives, as in the f64 reference.
+//! diffuse to exact negatives, as in the f64 reference — as long as no state is clamped. The
+//! clamp to 0..=32767 (which the f64 reference does not have) can act where the explicit scheme
+//! overshoots: for Δt > 1/6 (the scheme's max-principle bound; the API allows up to 0.25) at
+//! high-contrast single pixels, and by a few state units where the fluxes' rounding pushes a
+//! pixel at 0 below it.
 //!
 //! **The flux function.** `F(∇)` is defined by a fixed sequence of 16-bit integer operations
 //! (each a `vpmulhrsw`/`vpmulhuw` lane on x86-64), so that every target computes the same value:
@@ -56,12 +60,16 @@ use crate::{Error, FrameRef};
 pub(super) const STATE_BITS: u32 = 7;
 /// The largest state (255.99 grey levels).
 const STATE_MAX: i32 = i16::MAX as i32;
-/// Entries of the flux table: differences `−32767..=32767` and one unused pad.
+/// The largest difference of two states; the flux function takes any `∇` as
+/// `clamp(∇, −D_MAX, D_MAX)`.
+const D_MAX: i32 = i16::MAX as i32;
+/// Entries of the flux table: one per 16-bit difference `−32768..=32767` (−32768, which two
+/// states cannot differ by, reads as −32767), so any 16-bit difference is a valid index.
 const TABLE_ENTRIES: usize = 1 << 16;
 /// Work words the flux table takes (two entries per word).
 pub(crate) const TABLE_WORDS: usize = TABLE_ENTRIES / 2;
 /// Index of difference 0 in the table.
-const TABLE_CENTRE: i32 = i16::MAX as i32;
+const TABLE_CENTRE: usize = 1 << 15;
 
 /// Rows of work memory per pipeline stage, each `w + 2` words: two state rows and the north
 /// fluxes.
@@ -172,7 +180,7 @@ impl FluxFn {
     /// taken as `clamp(∇, −32767, 32767)`). Odd: `F(−∇) = −F(∇)`.
     #[inline(always)]
     pub(super) fn eval(&self, d: i32) -> i32 {
-        let d = d.clamp(-TABLE_CENTRE, TABLE_CENTRE);
+        let d = d.clamp(-D_MAX, D_MAX);
         let m = d.unsigned_abs();
         let f = self.flux_of(m, self.conduction(m));
         if d < 0 { -f } else { f }
@@ -195,12 +203,11 @@ impl FluxFn {
         mulhrs(mulhrs(m as i32, c), self.dt)
     }
 
-    /// Writes the flux of every difference `−32767..=32767` into `table` (index `∇ + 32767`;
-    /// the last entry, unused, is 0): the non-negative half by the function (up to the clamp
-    /// `4κ_q − 1`, past which the conduction is constant — 0 in practice), the other half by
-    /// oddness.
+    /// Writes the flux of every 16-bit difference into `table` (index `∇ + 32768`): the
+    /// non-negative half by the function (up to the clamp `4κ_q − 1`, past which the conduction
+    /// is constant — 0 in practice), the other half by oddness (−32768 as −32767).
     fn tabulate(&self, table: &mut [i16]) {
-        let Some((neg, pos)) = table.split_at_mut_checked(TABLE_CENTRE as usize) else { return };
+        let Some((neg, pos)) = table.split_at_mut_checked(TABLE_CENTRE) else { return };
         let limit = self.limit as usize;
         let (near, beyond) = pos.split_at_mut(limit.min(pos.len()));
         for (m, t) in near.iter_mut().enumerate() {
@@ -211,11 +218,13 @@ impl FluxFn {
             0 => beyond.fill(0),
             far => {
                 for (m, t) in (limit..).zip(beyond.iter_mut()) {
-                    *t = if m > TABLE_CENTRE as usize { 0 } else { self.flux_of(m as u32, far) as i16 };
+                    *t = self.flux_of(m as u32, far) as i16;
                 }
             }
         }
-        for (n, &p) in neg.iter_mut().zip(pos.get(1..).unwrap_or(&[]).iter().rev().skip(1)) {
+        // neg[i] is ∇ = i − 32768: −pos[32768 − i], and −pos[32767] for i = 0.
+        let mirrored = pos.last().into_iter().chain(pos.iter().skip(1).rev());
+        for (n, &p) in neg.iter_mut().zip(mirrored) {
             *n = -p;
         }
     }
@@ -244,7 +253,7 @@ struct Table<'t>(&'t [i16]);
 impl FluxSource for Table<'_> {
     #[inline(always)]
     fn flux(&self, d: i32) -> i32 {
-        self.0.get((d + TABLE_CENTRE) as usize).map_or(0, |&f| i32::from(f))
+        self.0.get((d + TABLE_CENTRE as i32) as usize).map_or(0, |&f| i32::from(f))
     }
 
     fn table(&self) -> Option<&[i16]> {
@@ -264,7 +273,7 @@ fn table_view(words: &mut [i32]) -> Option<&mut [i16]> {
 
 /// What the row loop carries from one pixel to the next, both bands per word: the previous
 /// east flux (this pixel's west, negated), the previous south-east flux, and
-/// `sat(sat(2·v(i−1)) + dr(i−2))`.
+/// `2·v(i−1) + dr(i−2)`.
 #[derive(Debug, Clone, Copy)]
 struct RowCarry {
     h_prev: i32,
@@ -284,7 +293,7 @@ pub(super) struct Diffusion {
 
 /// One band's part of the row update: the step `Σ = 2·(h + v − h_prev) + (dr + dl − north)`
 /// (exact: no rounding, so it is odd in the fluxes — a band and its negative `255 − I` diffuse
-/// to exact negatives, as in the f64 reference). No partial sum here or in the north sums
+/// to exact negatives while no state is clamped, see the module docs). No partial sum here or in the north sums
 /// exceeds `12·|F|max ≤ 12·1760 < 2¹⁵` ([`MAX_FLUX`]), so the 16-bit lanes of the Armv7E-M and
 /// AVX2 loops (saturating instructions, for defence) compute the same values as these plain
 /// sums.
@@ -389,7 +398,7 @@ impl Diffusion {
 
     /// One output row of a Jacobi iteration by pair fluxes. `p` is the row being updated and
     /// `q` the row below, both padded by one column on each side (`w + 2`); `north[i]` holds
-    /// the north sums of pixel `i` of `p` (`sat(sat(2·F(C − N)) + F(C − NW)) + F(C − NE)`,
+    /// the north sums of pixel `i` of `p` (`2·F(C − N) + F(C − NW) + F(C − NE)`,
     /// subtracted) and is replaced by those of `q`. Per pixel and band four fluxes: the pairs
     /// east (`h`), south (`v`), south-east (`dr`) and south-west (`dl`), each `F(later −
     /// earlier)`. Each enters this pixel's sum and, negated, its partner's: the west flux is
@@ -470,16 +479,19 @@ struct Layers<'s> {
 }
 
 impl Layers<'_> {
-    /// Row `y` (`w` words).
+    /// Where row `y` (`w` words) is.
+    fn range(&self, y: usize, w: usize) -> core::ops::Range<usize> {
+        if self.whole { y * w..y * w + w } else { 0..w }
+    }
+
     fn row_mut(&mut self, y: usize, w: usize) -> &mut [i32] {
-        let r = if self.whole { y * w..y * w + w } else { 0..w };
+        let r = self.range(y, w);
         self.a.get_mut(r).unwrap_or(&mut [])
     }
 
     /// Row `y` (the last one finished, in the streaming form).
     fn row(&self, y: usize, w: usize) -> &[i32] {
-        let r = if self.whole { y * w..y * w + w } else { 0..w };
-        self.a.get(r).unwrap_or(&[])
+        self.a.get(self.range(y, w)).unwrap_or(&[])
     }
 }
 
@@ -641,10 +653,8 @@ impl<'t> Pipeline<'t> {
         }
         for i in 0..iterations {
             let (src, dst) = if i % 2 == 0 { (&*a, &mut *b) } else { (&*b, &mut *a) };
-            match self.table {
-                Some(t) => self.d.iterate(&Table(t), src, dst, w),
-                None => self.d.iterate(&self.d.fx, src, dst, w),
-            }
+            // (Sweeps run only when not even one stage fits, so no table was taken either.)
+            self.d.iterate(&self.d.fx, src, dst, w);
         }
         if iterations % 2 == 1 {
             a.iter_mut().zip(b.iter()).for_each(|(a, &b)| *a = b);
@@ -867,16 +877,17 @@ mod arm {
         {
             return 0;
         }
-        let centre = table.as_ptr().wrapping_add(TABLE_CENTRE as usize);
+        let centre = table.as_ptr().wrapping_add(TABLE_CENTRE);
         let end = out.as_mut_ptr().wrapping_add(2 * pairs);
         let RowCarry { mut h_prev, mut dr_prev, mut partial } = *carry;
         // SAFETY: pixel i (0 ≤ i < 2·pairs ≤ w) reads p[i + 1], p[i + 2], q[i], q[i + 1],
         // q[i + 2], north[i + 1], writes north[i] and out[i]: all inside the slices, whose
         // lengths are checked above (p, q, north ≥ w + 2); `ldrd` reads an `i32` slice, so its
-        // address is word-aligned. The table reads are at `centre + 2·k` with k a difference
-        // of two 16-bit halves in 0..=32767 (every state the pipeline writes is clamped there
-        // by `usat16 #15`, every input is `u8 << 7`, every pad is a state or 0), so
-        // k in −32767..=32767, inside the 65 536 entries. The loop runs while the output
+        // address is word-aligned. The table reads are at `centre + 2·k` with k the
+        // sign-extended 16-bit result of `ssub16`, so k in −32768..=32767 and every read lies
+        // inside the 65 536 entries whatever the rows hold (the pipeline's states are in
+        // 0..=32767 anyway: inputs `u8 << 7`, pads states or 0, outputs `usat16 #15`). The loop
+        // runs while the output
         // pointer has not reached `end` (pairs ≥ 1 passes of two pixels). r6, r7 and the end
         // pointer are pushed and popped around the loop; every other register written is
         // declared.
@@ -913,7 +924,7 @@ mod arm {
 }
 
 /// The AVX2 copy of the row loop (x86-64 hosts): eight pixels × two bands (16 lanes of
-/// `i16`) at a time, the flux by its arithmetic form (17 operations, no table). The same
+/// `i16`) at a time, the flux by its arithmetic form (18 operations, no table). The same
 /// values as the portable loop, so the same bits (checked by
 /// `avx2_rows_equal_the_portable_rows` and `avx2_flux_equals_the_function_exhaustively`).
 #[cfg(target_arch = "x86_64")]
@@ -1029,7 +1040,6 @@ mod avx2 {
         // Word 7 holds the carried value; the other words (and `v_prev`) are 0, so that the
         // first block writes the unused `north[0]` exactly as the portable loop does.
         let mut dr_prev = _mm256_set_epi32(carry.dr_prev, 0, 0, 0, 0, 0, 0, 0);
-        let (mut h, mut v, mut dr) = (h_prev, v_prev, dr_prev);
         let mut x = 0;
         while x + 8 <= out.len() {
             let (Some(pc), Some(pr), Some(ql), Some(qc), Some(qr), Some(n_here)) = (
@@ -1042,9 +1052,9 @@ mod avx2 {
             ) else {
                 break;
             };
-            h = flux.apply(_mm256_sub_epi16(pr, pc));
-            v = flux.apply(_mm256_sub_epi16(qc, pc));
-            dr = flux.apply(_mm256_sub_epi16(qr, pc));
+            let h = flux.apply(_mm256_sub_epi16(pr, pc));
+            let v = flux.apply(_mm256_sub_epi16(qc, pc));
+            let dr = flux.apply(_mm256_sub_epi16(qr, pc));
             let dl = flux.apply(_mm256_sub_epi16(ql, pc));
             let west = shift_in::<12>(h_prev, h);
             let t = _mm256_subs_epi16(_mm256_adds_epi16(h, v), west);
@@ -1052,7 +1062,7 @@ mod avx2 {
             let step = _mm256_adds_epi16(_mm256_adds_epi16(t, t), s);
             let next = _mm256_max_epi16(_mm256_adds_epi16(pc, step), zero);
             // The north sums of the row below at x − 1 .. x + 6 (pixel indices 0-based):
-            // sat(sat(sat(2·v(k)) + dr(k − 1)) + dl(k + 1)).
+            // 2·v(k) + dr(k − 1) + dl(k + 1).
             let v_up = shift_in::<12>(v_prev, v);
             let dr_up = shift_in::<8>(dr_prev, dr);
             let below = _mm256_adds_epi16(_mm256_adds_epi16(_mm256_adds_epi16(v_up, v_up), dr_up), dl);
@@ -1069,11 +1079,12 @@ mod avx2 {
                 unsafe { _mm256_storeu_si256(l.as_mut_ptr().cast(), a) };
                 l.get(i).copied().unwrap_or(0)
             };
-            let (v7, dr6) = (word(v, 7), word(dr, 6));
+            // The last whole block's fluxes (what the next block would take as `*_prev`).
+            let (v7, dr6) = (word(v_prev, 7), word(dr_prev, 6));
             let partial = |f: fn(i32) -> i32| 2 * f(v7) + f(dr6);
             *carry = RowCarry {
-                h_prev: word(h, 7),
-                dr_prev: word(dr, 7),
+                h_prev: word(h_prev, 7),
+                dr_prev: word(dr_prev, 7),
                 partial: pack(partial(lo), partial(hi)),
             };
         }
@@ -1158,7 +1169,7 @@ mod tests {
                 let Some(t) = table_view(&mut table) else { panic!("table") };
                 fx.tabulate(t);
                 let t = Table(t);
-                for d in -32767..=32767 {
+                for d in -32768..=32767 {
                     assert_eq!(t.flux(d), fx.eval(d), "κ {kappa} Δt {dt} ∇ {d}");
                 }
                 #[cfg(target_arch = "x86_64")]

@@ -20,8 +20,11 @@
 //! once for both pixels, the flux a fixed sequence of 16-bit integer operations (tabulated on
 //! Cortex-M and RV32, evaluated sixteen lanes at a time with AVX2), both bands in one pass.
 //! Error against the f64 reference: ≤ 0.005 grey levels per pair flux at κ = 30; on the VIFB
-//! pairs the fused frame is within 0.25 levels before the 8-bit cast, max 1 level after.
-
+//! pairs the fused frame is within 0.25 levels before the 8-bit cast, max 1 level after. The
+//! state is clamped to 0 ..< 256 levels, where the reference is not: for Δt > 1/6 (allowed up to
+//! 0.25) the explicit scheme can overshoot at high-contrast single pixels, and there the core
+//! departs from the reference.
+//!
 //! **KL weights.** With `a = n·ΣD_IR² − (ΣD_IR)²`, `b = n·ΣD_IR·D_VIS − ΣD_IR·ΣD_VIS`,
 //! `c = n·ΣD_VIS² − (ΣD_VIS)²` (exact `i128`, the covariance times `n(n−1)`), the eigenvector
 //! of the larger eigenvalue is `(2b, (c−a) + R)` when `c ≥ a` and `((a−c) + R, 2b)` otherwise,
@@ -51,10 +54,11 @@
 //!
 //! # Scratch
 //!
-//! Three `i32` planes of W·H: the packed base layers of both bands; the raw output rows; the
-//! diffusion's work plane (taken at its full capacity, even for a window) — the flux table
-//! (32 768 words, where a table is read) and the pipeline's stage rows (3·(W+2) words per
-//! iteration; frames of fewer than about 3 rows use it as the Jacobi ping-pong plane instead).
+//! Three `i32` planes of W·H (the pipeline's common scratch): the packed base layers of both
+//! bands; the second plane is not used; the diffusion's work plane (taken at its full capacity,
+//! even for a window) — the flux table (32 768 words, where a table is read) and the pipeline's
+//! stage rows (3·(W+2) words per iteration; frames of fewer than about 3 rows use it as the
+//! Jacobi ping-pong plane instead).
 
 mod diffusion;
 

@@ -1096,18 +1096,9 @@ mod avx2 {
 mod tests {
     extern crate std;
     use super::super::Variant;
+    use super::super::tests::noise;
     use super::*;
     use std::vec::Vec;
-
-    fn noise(n: usize, seed: u32, levels: u32) -> Vec<u8> {
-        let mut s = seed;
-        (0..n)
-            .map(|_| {
-                s = s.wrapping_mul(1664525).wrapping_add(1013904223);
-                ((s >> 24) % levels) as u8 * (255 / (levels - 1).max(1)) as u8
-            })
-            .collect()
-    }
 
     fn params(kappa: u16, dt_milli: u16) -> AdfParams {
         AdfParams { kappa, dt_milli, ..AdfParams::default() }

@@ -669,7 +669,8 @@ mod tests {
     use super::super::round_away_sat_u8;
     use super::*;
 
-    fn noise(n: usize, seed: u32, levels: u32) -> std::vec::Vec<u8> {
+    /// Deterministic test frames with `levels` grey levels (also used by `diffusion`'s tests).
+    pub(super) fn noise(n: usize, seed: u32, levels: u32) -> std::vec::Vec<u8> {
         let mut s = seed;
         (0..n)
             .map(|_| {

@@ -41,6 +41,35 @@ fn detect_avx2() -> bool {
 }
 
 #[cfg(target_arch = "x86_64")]
+static AVX512BW: AtomicU8 = AtomicU8::new(0); // 0 unknown, 1 no, 2 yes
+
+/// Whether this x86-64 CPU and OS support AVX-512 F and BW on 512-bit registers (CPUID leaf 7
+/// and the XCR0 opmask and ZMM states).
+#[cfg(target_arch = "x86_64")]
+pub(crate) fn has_avx512bw() -> bool {
+    match AVX512BW.load(Ordering::Relaxed) {
+        1 => false,
+        2 => true,
+        _ => {
+            let yes = has_avx2() && detect_avx512bw();
+            AVX512BW.store(if yes { 2 } else { 1 }, Ordering::Relaxed);
+            yes
+        }
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+fn detect_avx512bw() -> bool {
+    use core::arch::x86_64::__cpuid_count;
+    let ebx = __cpuid_count(7, 0).ebx;
+    let (f, bw) = (ebx & (1 << 16) != 0, ebx & (1 << 30) != 0);
+    // SAFETY: `has_avx2` (called first) saw OSXSAVE, so XGETBV is available.
+    let xcr0 = unsafe { xgetbv0() };
+    // SSE, AVX, opmask, ZMM_Hi256 and Hi16_ZMM state enabled by the OS.
+    f && bw && xcr0 & 0b1110_0110 == 0b1110_0110
+}
+
+#[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "xsave")]
 unsafe fn xgetbv0() -> u64 {
     // SAFETY: the caller guarantees XGETBV is available (CPUID.1:ECX.OSXSAVE).

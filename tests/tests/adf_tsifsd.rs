@@ -329,7 +329,10 @@ fn constant_images_give_the_average_and_the_guard() -> Result<(), Error> {
                 .zip(&want.data)
                 .map(|(r, w)| (f64::from(*r) / 65536.0 - w).abs())
                 .fold(0.0, f64::max);
-            assert!(err < 0.1, "{w}x{h}: {err}");
+            // The base layers' fixed-point error (≲ 0.05 levels here) times the published
+            // weights, which the border's details alone set.
+            let bound = 0.1 * classic_weight_sum(&vis, &tir).max(1.0);
+            assert!(err < bound, "{w}x{h}: {err} (bound {bound})");
         }
     }
     Ok(())

@@ -93,11 +93,7 @@ fn pack_u8(vis: u8, tir: u8) -> i32 {
 /// Writes row `y` of both bands, packed, into `dst` (`w` words).
 fn fill_row(dst: &mut [i32], vis: &Band<'_>, tir: &Band<'_>, y: usize) {
     match (vis, tir) {
-        (Band::Frame(v), Band::Frame(t)) => {
-            for ((d, &a), &b) in dst.iter_mut().zip(v.row(y)).zip(t.row(y)) {
-                *d = pack_u8(a, b);
-            }
-        }
+        (Band::Frame(v), Band::Frame(t)) => pack_rows(dst, v.row(y), t.row(y)),
         (Band::Level(a), Band::Frame(t)) => {
             for (d, &b) in dst.iter_mut().zip(t.row(y)) {
                 *d = pack_u8(*a, b);
@@ -109,6 +105,18 @@ fn fill_row(dst: &mut [i32], vis: &Band<'_>, tir: &Band<'_>, y: usize) {
             }
         }
         (Band::Level(a), Band::Level(b)) => dst.fill(pack_u8(*a, *b)),
+    }
+}
+
+crate::cpu::dispatch! {
+    /// Two 8-bit rows as work words.
+    fn pack_rows(dst: &mut [i32], vis: &[u8], tir: &[u8]) => pack_rows_kernel
+}
+
+#[inline(always)]
+fn pack_rows_kernel(dst: &mut [i32], vis: &[u8], tir: &[u8]) {
+    for ((d, &a), &b) in dst.iter_mut().zip(vis).zip(tir) {
+        *d = pack_u8(a, b);
     }
 }
 
@@ -142,38 +150,53 @@ fn mulhrs(a: i32, b: i32) -> i32 {
     (a * b + (1 << 14)) >> 15
 }
 
-/// The flux function's per-call constants (see the module docs).
+/// Segments of the piecewise-linear flux function (the vector loop holds each of its two
+/// 64-entry tables in two 512-bit registers).
+const SEGMENTS: usize = 64;
+
+/// The flux function's per-call constants (see the module docs): a piecewise-linear `F(|∇|)`
+/// on [`SEGMENTS`] segments of `2ᵏ` state units.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(super) struct FluxFn {
-    /// `min(4κ_q − 1, 32767)`: the clamp of `|∇|`.
+    /// `min(64·2ᵏ − 1, 32767)`: the clamp of `|∇|`.
     limit: i32,
-    /// The shift `s` of the clamped `|∇|`.
+    /// `k`, the segment width's shift (3 ..= 9).
     shift: u32,
-    /// `S = ⌊2³¹ / (4κ_q·2ˢ)⌋`, an unsigned 16-bit multiplier.
-    scale: u32,
-    /// `Δt/2` in Q15.
-    dt: i32,
+    /// Segment `j`'s base: `F` at its start `j·2ᵏ` (state units), plus its rise when `j` is
+    /// odd (see [`FluxFn::magnitude`]).
+    base: [i16; SEGMENTS],
+    /// `F` at the segment's end minus `F` at its start.
+    rise: [i16; SEGMENTS],
 }
-
-/// `1/6` in Q15 (the cubic term of `exp(−z)`).
-const SIXTH: i32 = 5461;
-/// `1/2` in Q15.
-const HALF: i32 = 1 << 14;
-/// `1` in Q15 (the largest value).
-const ONE: i32 = i16::MAX as i32;
 
 impl FluxFn {
     pub(super) fn new(params: &AdfParams) -> Self {
-        let k4 = 4 * (u32::from(params.kappa.max(1)) << STATE_BITS); // 4κ in Q7, 512 ..= 130 560
-        // The largest s with 4κ·2ˢ ≤ 2¹⁶ (at most 7).
-        let shift = (0..8).rev().find(|&s| k4 << s <= 1 << 16).unwrap_or(0);
-        let x = k4 << shift; // in (2¹⁵, 2¹⁶], or above 2¹⁶ with shift 0
-        Self {
-            limit: k4.saturating_sub(1).min(i16::MAX as u32) as i32,
-            shift,
-            scale: (1u64 << 31).checked_div(u64::from(x)).unwrap_or(0) as u32,
-            dt: ((u32::from(params.dt_milli) << 14) + 500).div_euclid(1000) as i32,
+        let kappa = u32::from(params.kappa.max(1));
+        // Span the segments over |∇| < 4κ (past which the flux rounds to 0) or every difference.
+        let span = (4 * (kappa << STATE_BITS)).min(1 << 15);
+        let shift = (3..=9).find(|&k| (SEGMENTS as u32) << k >= span).unwrap_or(9);
+        let kq = f64::from(kappa << STATE_BITS);
+        let half_dt = f64::from(params.dt_milli) / 2000.0;
+        let h2 = f64::from(1u32 << (2 * shift));
+        // f(g) = Δt/2·g·exp(−(g/κ_q)²) less f''(g)·h²/16, so that the chords' error is balanced
+        // (−f''h²/16 at the nodes, +f''h²/16 mid-segment) instead of one-sided.
+        let node = |j: usize| {
+            let g = f64::from((j as u32) << shift);
+            let t = g / kq;
+            let e = half_dt * libm::exp(-t * t);
+            let curvature = e * (4.0 * t * t * t - 6.0 * t) / kq;
+            libm::round(g * e - curvature * h2 / 16.0) as i32
+        };
+        let mut base = [0i16; SEGMENTS];
+        let mut rise = [0i16; SEGMENTS];
+        let mut here = node(0);
+        for (j, (b, r)) in base.iter_mut().zip(rise.iter_mut()).enumerate() {
+            let next = node(j + 1);
+            let odd = if j % 2 == 1 { next - here } else { 0 };
+            (*b, *r) = ((here + odd) as i16, (next - here) as i16);
+            here = next;
         }
+        Self { limit: ((SEGMENTS << shift) - 1).min(D_MAX as usize) as i32, shift, base, rise }
     }
 
     /// `F(∇)` (state units) for a difference `∇` of two states (any `i32` is accepted and
@@ -181,46 +204,30 @@ impl FluxFn {
     #[inline(always)]
     pub(super) fn eval(&self, d: i32) -> i32 {
         let d = d.clamp(-D_MAX, D_MAX);
-        let m = d.unsigned_abs();
-        let f = self.flux_of(m, self.conduction(m));
+        let f = self.magnitude(d.unsigned_abs());
         if d < 0 { -f } else { f }
     }
 
-    /// `c ≈ exp(−(∇/κ)²)` in Q15 for `|∇| = m` (steps 1–3).
+    /// `F` for `|∇| = m`: the linear interpolation `F(j·2ᵏ) + r(f, rise_j)` on segment
+    /// `j = min(m, limit) >> k`, `f` the position inside it in Q15. Computed as the vector loop
+    /// does: the 16 bits of `m << (15 − k)` hold `f` in their low 15 bits and `j`'s lowest bit
+    /// in the sign, so as a signed factor they are `f − 2¹⁵·(j & 1)` and the rounded product
+    /// is exactly `r(f, rise_j) − rise_j·(j & 1)`, which the odd segments' base makes up for.
     #[inline(always)]
-    fn conduction(&self, m: u32) -> i32 {
-        let a = m.min(self.limit as u32);
-        let u = (((a << self.shift) & 0xFFFF) * self.scale) >> 16; // < 2¹⁵
-        let z = mulhrs(u as i32, u as i32);
-        let r = mulhrs(z, HALF - mulhrs(z, SIXTH));
-        let p = ONE - mulhrs(z, ONE - r);
-        (0..4).fold(p, |c, _| mulhrs(c, c))
-    }
-
-    /// `F = r(r(m, c), Δt_q)` for `|∇| = m` (step 4).
-    #[inline(always)]
-    fn flux_of(&self, m: u32, c: i32) -> i32 {
-        mulhrs(mulhrs(m as i32, c), self.dt)
+    fn magnitude(&self, m: u32) -> i32 {
+        let m = m.min(self.limit as u32);
+        let j = (m >> self.shift) as usize;
+        let f = i32::from((m << (15 - self.shift)) as u16 as i16);
+        let (Some(&b), Some(&r)) = (self.base.get(j), self.rise.get(j)) else { return 0 };
+        i32::from(b) + mulhrs(f, i32::from(r))
     }
 
     /// Writes the flux of every 16-bit difference into `table` (index `∇ + 32768`): the
-    /// non-negative half by the function (up to the clamp `4κ_q − 1`, past which the conduction
-    /// is constant — 0 in practice), the other half by oddness (−32768 as −32767).
+    /// non-negative half by the function, the other half by oddness (−32768 as −32767).
     fn tabulate(&self, table: &mut [i16]) {
         let Some((neg, pos)) = table.split_at_mut_checked(TABLE_CENTRE) else { return };
-        let limit = self.limit as usize;
-        let (near, beyond) = pos.split_at_mut(limit.min(pos.len()));
-        for (m, t) in near.iter_mut().enumerate() {
-            *t = self.flux_of(m as u32, self.conduction(m as u32)) as i16;
-        }
-        // From the clamp on the conduction is constant: 0 (the usual case, a plain fill) or not.
-        match self.conduction(limit as u32) {
-            0 => beyond.fill(0),
-            far => {
-                for (m, t) in (limit..).zip(beyond.iter_mut()) {
-                    *t = self.flux_of(m as u32, far) as i16;
-                }
-            }
+        for (m, t) in pos.iter_mut().enumerate() {
+            *t = self.magnitude(m as u32) as i16;
         }
         // neg[i] is ∇ = i − 32768: −pos[32768 − i], and −pos[32767] for i = 0.
         let mirrored = pos.last().into_iter().chain(pos.iter().skip(1).rev());
@@ -286,9 +293,9 @@ struct RowCarry {
 pub(super) struct Diffusion {
     pub(super) fx: FluxFn,
     border: Border,
-    /// Use the AVX2 row loop (x86-64 with AVX2).
+    /// Use the AVX-512 row loop (x86-64 with AVX-512 F and BW).
     #[cfg(target_arch = "x86_64")]
-    avx2: bool,
+    avx512: bool,
 }
 
 /// One band's part of the row update: the step `Σ = 2·(h + v − h_prev) + (dr + dl − north)`
@@ -335,14 +342,14 @@ impl Diffusion {
             fx: FluxFn::new(params),
             border: params.border(),
             #[cfg(target_arch = "x86_64")]
-            avx2: crate::cpu::has_avx2(),
+            avx512: crate::cpu::has_avx512bw(),
         }
     }
 
-    /// Whether the row loops here read a table (false: the AVX2 loop's arithmetic).
+    /// Whether the row loops here read a table (false: the AVX-512 loop keeps the function in registers).
     fn wants_table(&self) -> bool {
         #[cfg(target_arch = "x86_64")]
-        if self.avx2 {
+        if self.avx512 {
             return false;
         }
         true
@@ -420,9 +427,10 @@ impl Diffusion {
         #[cfg_attr(not(any(target_arch = "x86_64", fusion_arm_dsp)), allow(unused_mut))]
         let mut carry = RowCarry { h_prev: fl(p0, p1), dr_prev: fl(p0, q1), partial: 0 };
         #[cfg(target_arch = "x86_64")]
-        let done = if self.avx2 {
-            // SAFETY: `avx2` is set only when the CPU has AVX2 (checked at run time).
-            unsafe { avx2::row_blocks(&self.fx, p, q, north, out, &mut carry) }
+        let done = if self.avx512 {
+            // SAFETY: `avx512` is set only when the CPU has AVX-512 F and BW (checked at run
+            // time).
+            unsafe { avx512::row_blocks(&self.fx, p, q, north, out, &mut carry) }
         } else {
             0
         };
@@ -923,108 +931,112 @@ mod arm {
     }
 }
 
-/// The AVX2 copy of the row loop (x86-64 hosts): eight pixels × two bands (16 lanes of
-/// `i16`) at a time, the flux by its arithmetic form (18 operations, no table). The same
-/// values as the portable loop, so the same bits (checked by
-/// `avx2_rows_equal_the_portable_rows` and `avx2_flux_equals_the_function_exhaustively`).
+/// The AVX-512 copy of the row loop (x86-64 hosts with AVX-512 F and BW): sixteen pixels × two
+/// bands (32 lanes of `i16`) at a time. The flux's two 64-entry tables sit in four registers and
+/// are read by `vpermi2w`, so a flux is ten operations (one multiply). The same values as the
+/// portable loop, so the same bits (checked by `avx512_rows_equal_the_portable_rows` and
+/// `table_and_avx512_equal_the_function_exhaustively`).
 #[cfg(target_arch = "x86_64")]
-mod avx2 {
-    use super::{FluxFn, HALF, ONE, RowCarry, SIXTH, hi, lo, pack};
+mod avx512 {
+    use super::{FluxFn, RowCarry, SEGMENTS, hi, lo, pack};
     use core::arch::x86_64::*;
 
-    /// Eight words at `s[at..at + 8]`.
-    #[target_feature(enable = "avx2")]
+    /// Sixteen words at `s[at..at + 16]`.
+    #[target_feature(enable = "avx512f,avx512bw")]
     #[inline]
-    fn load(s: &[i32], at: usize) -> Option<__m256i> {
-        let v: &[i32; 8] = s.get(at..at + 8)?.try_into().ok()?;
-        // SAFETY: reads the 32 bytes of `v` (unaligned load).
-        Some(unsafe { _mm256_loadu_si256(v.as_ptr().cast()) })
+    fn load(s: &[i32], at: usize) -> Option<__m512i> {
+        let v: &[i32; 16] = s.get(at..at + 16)?.try_into().ok()?;
+        // SAFETY: reads the 64 bytes of `v` (unaligned load).
+        Some(unsafe { _mm512_loadu_si512(v.as_ptr().cast()) })
     }
 
-    /// Stores eight words to `s[at..at + 8]`.
-    #[target_feature(enable = "avx2")]
+    /// Stores sixteen words to `s[at..at + 16]`.
+    #[target_feature(enable = "avx512f,avx512bw")]
     #[inline]
-    fn store(s: &mut [i32], at: usize, x: __m256i) -> Option<()> {
-        let v: &mut [i32; 8] = s.get_mut(at..at + 8)?.try_into().ok()?;
-        // SAFETY: writes the 32 bytes of `v` (unaligned store).
-        unsafe { _mm256_storeu_si256(v.as_mut_ptr().cast(), x) };
+    fn store(s: &mut [i32], at: usize, x: __m512i) -> Option<()> {
+        let v: &mut [i32; 16] = s.get_mut(at..at + 16)?.try_into().ok()?;
+        // SAFETY: writes the 64 bytes of `v` (unaligned store).
+        unsafe { _mm512_storeu_si512(v.as_mut_ptr().cast(), x) };
         Some(())
     }
 
-    /// `[prev[8 − k..], cur[..8 − k]]` in words: `cur` shifted up by `k` words (`BYTES` =
-    /// 16 − 4k), the vacated words taken from the top of `prev`.
-    #[target_feature(enable = "avx2")]
+    /// Thirty-two `i16` as a register.
+    #[target_feature(enable = "avx512f,avx512bw")]
     #[inline]
-    fn shift_in<const BYTES: i32>(prev: __m256i, cur: __m256i) -> __m256i {
-        _mm256_alignr_epi8::<BYTES>(cur, _mm256_permute2x128_si256::<0x21>(prev, cur))
+    fn lanes(x: &[i16; 32]) -> __m512i {
+        // SAFETY: reads the 64 bytes of `x`.
+        unsafe { _mm512_loadu_si512(x.as_ptr().cast()) }
     }
 
-    /// The constants of [`FluxFn`], broadcast.
+    /// The constants of [`FluxFn`] in registers.
     pub(super) struct Flux {
-        limit: __m256i,
+        limit: __m512i,
         shift: __m128i,
-        scale: __m256i,
-        dt: __m256i,
-        sixth: __m256i,
-        half: __m256i,
-        one: __m256i,
+        /// `15 − k`: the segment position's shift into Q15.
+        up: __m128i,
+        base: [__m512i; 2],
+        rise: [__m512i; 2],
+    }
+
+    /// Half `i` of a 64-entry table.
+    #[target_feature(enable = "avx512f,avx512bw")]
+    #[inline]
+    fn half(t: &[i16; SEGMENTS], i: usize) -> __m512i {
+        let h: Option<&[i16; 32]> = t.get(32 * i..32 * i + 32).and_then(|h| h.try_into().ok());
+        match h {
+            Some(h) => lanes(h),
+            None => _mm512_setzero_si512(),
+        }
     }
 
     impl Flux {
-        #[target_feature(enable = "avx2")]
+        #[target_feature(enable = "avx512f,avx512bw")]
         #[inline]
         pub(super) fn new(fx: &FluxFn) -> Self {
             Flux {
-                limit: _mm256_set1_epi16(fx.limit as i16),
+                limit: _mm512_set1_epi16(fx.limit as i16),
                 shift: _mm_cvtsi32_si128(fx.shift as i32),
-                scale: _mm256_set1_epi16(fx.scale as u16 as i16),
-                dt: _mm256_set1_epi16(fx.dt as i16),
-                sixth: _mm256_set1_epi16(SIXTH as i16),
-                half: _mm256_set1_epi16(HALF as i16),
-                one: _mm256_set1_epi16(ONE as i16),
+                up: _mm_cvtsi32_si128(15 - fx.shift as i32),
+                base: [half(&fx.base, 0), half(&fx.base, 1)],
+                rise: [half(&fx.rise, 0), half(&fx.rise, 1)],
             }
         }
 
-        /// [`FluxFn::eval`] on sixteen differences in `−32767..=32767`.
-        #[target_feature(enable = "avx2")]
+        /// [`FluxFn::eval`] on thirty-two differences in `−32767..=32767`, step by step as
+        /// [`FluxFn::magnitude`] (`vpermi2w` reads the index's low six bits; `j ≤ 63`).
+        #[target_feature(enable = "avx512f,avx512bw")]
         #[inline]
-        pub(super) fn apply(&self, d: __m256i) -> __m256i {
-            let m = _mm256_abs_epi16(d);
-            let a = _mm256_min_epi16(m, self.limit);
-            let u = _mm256_mulhi_epu16(_mm256_sll_epi16(a, self.shift), self.scale);
-            let z = _mm256_mulhrs_epi16(u, u);
-            let r = _mm256_mulhrs_epi16(z, _mm256_sub_epi16(self.half, _mm256_mulhrs_epi16(z, self.sixth)));
-            let mut c = _mm256_sub_epi16(self.one, _mm256_mulhrs_epi16(z, _mm256_sub_epi16(self.one, r)));
-            for _ in 0..4 {
-                c = _mm256_mulhrs_epi16(c, c);
-            }
-            _mm256_sign_epi16(_mm256_mulhrs_epi16(_mm256_mulhrs_epi16(m, c), self.dt), d)
+        pub(super) fn apply(&self, d: __m512i) -> __m512i {
+            let m = _mm512_min_epu16(_mm512_abs_epi16(d), self.limit);
+            let j = _mm512_srl_epi16(m, self.shift);
+            let f = _mm512_sll_epi16(m, self.up);
+            let s = _mm512_permutex2var_epi16(self.base[0], j, self.base[1]);
+            let r = _mm512_permutex2var_epi16(self.rise[0], j, self.rise[1]);
+            let g = _mm512_add_epi16(s, _mm512_mulhrs_epi16(f, r));
+            _mm512_mask_sub_epi16(g, _mm512_movepi16_mask(d), _mm512_setzero_si512(), g)
         }
     }
 
-    /// [`Flux::apply`] on sixteen values (for the tests).
+    /// [`Flux::apply`] on thirty-two values (for the tests).
     ///
     /// # Safety
-    /// The CPU must support AVX2.
+    /// The CPU must support AVX-512 F and BW.
     #[cfg(test)]
-    #[target_feature(enable = "avx2")]
-    pub(super) unsafe fn flux16(fx: &FluxFn, x: [i16; 16]) -> [i16; 16] {
+    #[target_feature(enable = "avx512f,avx512bw")]
+    pub(super) unsafe fn flux32(fx: &FluxFn, x: [i16; 32]) -> [i16; 32] {
         let flux = Flux::new(fx);
-        let mut out = [0i16; 16];
-        // SAFETY: reads the 32 bytes of `x`, writes the 32 bytes of `out`.
-        unsafe {
-            let v = _mm256_loadu_si256(x.as_ptr().cast());
-            _mm256_storeu_si256(out.as_mut_ptr().cast(), flux.apply(v));
-        }
+        let mut out = [0i16; 32];
+        // SAFETY: writes the 64 bytes of `out`.
+        unsafe { _mm512_storeu_si512(out.as_mut_ptr().cast(), flux.apply(lanes(&x))) };
         out
     }
 
-    /// Runs the row loop of `Diffusion::row` on whole blocks of eight pixels from the start of
+    /// Runs the row loop of `Diffusion::row` on whole blocks of sixteen pixels from the start of
     /// the row, updating `carry`; returns the pixels done.
     ///
     /// # Safety
-    /// The CPU must support AVX2.
-    #[target_feature(enable = "avx2")]
+    /// The CPU must support AVX-512 F and BW.
+    #[target_feature(enable = "avx512f,avx512bw")]
     pub(super) unsafe fn row_blocks(
         fx: &FluxFn,
         p: &[i32],
@@ -1033,15 +1045,16 @@ mod avx2 {
         out: &mut [i32],
         carry: &mut RowCarry,
     ) -> usize {
+        const TOP: __mmask16 = 1 << 15;
         let flux = Flux::new(fx);
-        let zero = _mm256_setzero_si256();
-        let mut h_prev = _mm256_set_epi32(carry.h_prev, 0, 0, 0, 0, 0, 0, 0);
-        let mut v_prev = zero;
-        // Word 7 holds the carried value; the other words (and `v_prev`) are 0, so that the
+        let zero = _mm512_setzero_si512();
+        // Word 15 holds the carried value; the other words (and `v_prev`) are 0, so that the
         // first block writes the unused `north[0]` exactly as the portable loop does.
-        let mut dr_prev = _mm256_set_epi32(carry.dr_prev, 0, 0, 0, 0, 0, 0, 0);
+        let mut h_prev = _mm512_maskz_set1_epi32(TOP, carry.h_prev);
+        let mut v_prev = zero;
+        let mut dr_prev = _mm512_maskz_set1_epi32(TOP, carry.dr_prev);
         let mut x = 0;
-        while x + 8 <= out.len() {
+        while x + 16 <= out.len() {
             let (Some(pc), Some(pr), Some(ql), Some(qc), Some(qr), Some(n_here)) = (
                 load(p, x + 1),
                 load(p, x + 2),
@@ -1052,39 +1065,40 @@ mod avx2 {
             ) else {
                 break;
             };
-            let h = flux.apply(_mm256_sub_epi16(pr, pc));
-            let v = flux.apply(_mm256_sub_epi16(qc, pc));
-            let dr = flux.apply(_mm256_sub_epi16(qr, pc));
-            let dl = flux.apply(_mm256_sub_epi16(ql, pc));
-            let west = shift_in::<12>(h_prev, h);
-            let t = _mm256_subs_epi16(_mm256_adds_epi16(h, v), west);
-            let s = _mm256_subs_epi16(_mm256_adds_epi16(dr, dl), n_here);
-            let step = _mm256_adds_epi16(_mm256_adds_epi16(t, t), s);
-            let next = _mm256_max_epi16(_mm256_adds_epi16(pc, step), zero);
-            // The north sums of the row below at x − 1 .. x + 6 (pixel indices 0-based):
+            let h = flux.apply(_mm512_sub_epi16(pr, pc));
+            let v = flux.apply(_mm512_sub_epi16(qc, pc));
+            let dr = flux.apply(_mm512_sub_epi16(qr, pc));
+            let dl = flux.apply(_mm512_sub_epi16(ql, pc));
+            // `[prev[16 − k..], cur[..16 − k]]`: `cur` moved up by k words.
+            let west = _mm512_alignr_epi32::<15>(h, h_prev);
+            let t = _mm512_subs_epi16(_mm512_adds_epi16(h, v), west);
+            let s = _mm512_subs_epi16(_mm512_adds_epi16(dr, dl), n_here);
+            let step = _mm512_adds_epi16(_mm512_adds_epi16(t, t), s);
+            let next = _mm512_max_epi16(_mm512_adds_epi16(pc, step), zero);
+            // The north sums of the row below at x − 1 .. x + 14 (pixel indices 0-based):
             // 2·v(k) + dr(k − 1) + dl(k + 1).
-            let v_up = shift_in::<12>(v_prev, v);
-            let dr_up = shift_in::<8>(dr_prev, dr);
-            let below = _mm256_adds_epi16(_mm256_adds_epi16(_mm256_adds_epi16(v_up, v_up), dr_up), dl);
+            let v_up = _mm512_alignr_epi32::<15>(v, v_prev);
+            let dr_up = _mm512_alignr_epi32::<14>(dr, dr_prev);
+            let below = _mm512_adds_epi16(_mm512_adds_epi16(_mm512_adds_epi16(v_up, v_up), dr_up), dl);
             if store(out, x, next).is_none() || store(north, x, below).is_none() {
                 break;
             }
             (h_prev, v_prev, dr_prev) = (h, v, dr);
-            x += 8;
+            x += 16;
         }
         if x > 0 {
-            let word = |a: __m256i, i: usize| {
-                let mut l = [0i32; 8];
-                // SAFETY: writes the 32 bytes of `l`.
-                unsafe { _mm256_storeu_si256(l.as_mut_ptr().cast(), a) };
+            let word = |a: __m512i, i: usize| {
+                let mut l = [0i32; 16];
+                // SAFETY: writes the 64 bytes of `l`.
+                unsafe { _mm512_storeu_si512(l.as_mut_ptr().cast(), a) };
                 l.get(i).copied().unwrap_or(0)
             };
             // The last whole block's fluxes (what the next block would take as `*_prev`).
-            let (v7, dr6) = (word(v_prev, 7), word(dr_prev, 6));
-            let partial = |f: fn(i32) -> i32| 2 * f(v7) + f(dr6);
+            let (v15, dr14) = (word(v_prev, 15), word(dr_prev, 14));
+            let partial = |f: fn(i32) -> i32| 2 * f(v15) + f(dr14);
             *carry = RowCarry {
-                h_prev: word(h_prev, 7),
-                dr_prev: word(dr_prev, 7),
+                h_prev: word(h_prev, 15),
+                dr_prev: word(dr_prev, 15),
                 partial: pack(partial(lo), partial(hi)),
             };
         }
@@ -1122,10 +1136,11 @@ mod tests {
             std::println!(
                 "κ {kappa} Δt {dt}: max |F − Δt/2·∇·exp(−(∇/κ)²)| = {max_err:.3} units ({levels:.5} levels)"
             );
-            // Two roundings (½ unit, ½·Δt/2 unit) and the function's error: the bias of
-            // `1 = 32767` (16·2⁻¹⁵ of c), the truncated `u`, the Taylor remainder z⁴/24 raised
-            // to the 16th power — below 1.2·10⁻³ of the largest flux, Δt/2·κ.
-            let bound = 0.5 + 0.5 * f64::from(dt) / 2000.0 + 1.2e-3 * f64::from(dt) / 2000.0 * kq;
+            // The nodes' rounding (½ unit), the interpolation's rounding (½ unit) and its
+            // error h²/8·max|f''| over a segment of h = 2ᵏ units, with
+            // f'' = Δt/2·exp(−x²)·(4x³ − 6x)/κ_q (x = ∇/κ_q) and |exp(−x²)·(4x³ − 6x)| < 2.
+            let h = f64::from(1u32 << fx.shift);
+            let bound = 1.0 + h * h / 8.0 * 2.0 * f64::from(dt) / 2000.0 / kq;
             assert!(max_err <= bound, "κ {kappa} Δt {dt}: {max_err} > {bound}");
         }
     }
@@ -1149,10 +1164,10 @@ mod tests {
         }
     }
 
-    /// The table and (on x86-64 with AVX2) the sixteen-lane arithmetic give the function's value
+    /// The table and (on x86-64 with AVX-512) the thirty-two-lane form give the function's value
     /// for every difference and every κ class.
     #[test]
-    fn table_and_avx2_equal_the_function_exhaustively() {
+    fn table_and_avx512_equal_the_function_exhaustively() {
         let mut table = std::vec![0i32; TABLE_WORDS];
         for kappa in [1u16, 2, 7, 16, 30, 63, 64, 65, 100, 128, 129, 200, 255] {
             for dt in [1u16, 150, 250] {
@@ -1164,13 +1179,13 @@ mod tests {
                     assert_eq!(t.flux(d), fx.eval(d), "κ {kappa} Δt {dt} ∇ {d}");
                 }
                 #[cfg(target_arch = "x86_64")]
-                if crate::cpu::has_avx2() {
+                if crate::cpu::has_avx512bw() {
                     let all: Vec<i16> = (-32767..=32767i32).map(|d| d as i16).chain([0]).collect();
-                    for block in all.chunks_exact(16) {
-                        let mut lanes = [0i16; 16];
+                    for block in all.chunks_exact(32) {
+                        let mut lanes = [0i16; 32];
                         lanes.copy_from_slice(block);
-                        // SAFETY: the CPU has AVX2 (checked above).
-                        let got = unsafe { avx2::flux16(&fx, lanes) };
+                        // SAFETY: the CPU has AVX-512 F and BW (checked above).
+                        let got = unsafe { avx512::flux32(&fx, lanes) };
                         assert_eq!(got, lanes.map(|d| fx.eval(i32::from(d)) as i16), "κ {kappa} Δt {dt}");
                     }
                 }
@@ -1179,7 +1194,7 @@ mod tests {
     }
 
     /// Every way to run the diffusion gives the same bits: the row pipeline in one group (with
-    /// the table, and on x86-64 with the AVX2 loop) and in several groups without the table,
+    /// the table, and on x86-64 with the AVX-512 loop) and in several groups without the table,
     /// and plain Jacobi sweeps with all eight fluxes per pixel; sizes from one row to one
     /// column, both borders, parameters that saturate the sums.
     #[test]
@@ -1214,14 +1229,14 @@ mod tests {
                         let big = TABLE_WORDS + group_words(w, usize::from(p.iterations));
                         let several = group_words(w, 2);
                         let (vis, tir) = (Band::Frame(fv), Band::Frame(ft));
-                        for (work_len, avx2) in [(big, false), (big, true), (several, false)] {
+                        for (work_len, vector) in [(big, false), (big, true), (several, false)] {
                             let mut d = Diffusion::new(&p);
                             #[cfg(target_arch = "x86_64")]
                             {
-                                d.avx2 = avx2 && crate::cpu::has_avx2();
+                                d.avx512 = vector && crate::cpu::has_avx512bw();
                             }
                             #[cfg(not(target_arch = "x86_64"))]
-                            let _ = (avx2, &mut d);
+                            let _ = (vector, &mut d);
                             let (mut a, mut work) = (std::vec![0i32; w * h], std::vec![0i32; work_len]);
                             diffuse_with(d, vis, tir, (w, h), p.iterations, &mut a, &mut work)?;
                             results.push(a);
@@ -1267,13 +1282,13 @@ mod tests {
         Ok(())
     }
 
-    /// The AVX2 row loop against the portable one (table and function) on random rows: every
-    /// state in range, north sums anywhere in their range, every κ class, widths around the
-    /// block.
+    /// The AVX-512 row loop against the portable one (table and function) on random rows:
+    /// every state in range, north sums anywhere in their range, every κ class, widths around
+    /// the block.
     #[cfg(target_arch = "x86_64")]
     #[test]
-    fn avx2_rows_equal_the_portable_rows() {
-        if !crate::cpu::has_avx2() {
+    fn avx512_rows_equal_the_portable_rows() {
+        if !crate::cpu::has_avx512bw() {
             return;
         }
         let mut seed = 99u32;
@@ -1288,7 +1303,7 @@ mod tests {
                 let Some(t) = table_view(&mut table) else { return };
                 d.fx.tabulate(t);
                 let t: &[i16] = t;
-                for w in [1usize, 7, 8, 9, 16, 23, 64] {
+                for w in [1usize, 7, 15, 16, 17, 32, 47, 64] {
                     let mut state = || pack((next() >> 17) as i32, (next() >> 17) as i32);
                     let p: Vec<i32> = (0..w + 2).map(|_| state()).collect();
                     let q: Vec<i32> = (0..w + 2).map(|_| state()).collect();
@@ -1296,8 +1311,8 @@ mod tests {
                     let mut sum = || (next() % (8 * MAX_FLUX as u32 + 1)) as i32 - 4 * MAX_FLUX;
                     let north: Vec<i32> = (0..w + 2).map(|_| pack(sum(), sum())).collect();
                     let mut results = Vec::new();
-                    for (avx2, table) in [(false, Some(t)), (false, None), (true, None)] {
-                        d.avx2 = avx2;
+                    for (vector, table) in [(false, Some(t)), (false, None), (true, None)] {
+                        d.avx512 = vector;
                         let (mut n, mut o) = (north.clone(), std::vec![0i32; w]);
                         d.row(table, &p, &q, &mut n, &mut o);
                         results.push((n, o));

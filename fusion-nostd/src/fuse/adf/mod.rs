@@ -242,8 +242,24 @@ fn chunk_moments(iv: &[u8], it: &[u8], a: &[i32]) -> Moments {
     let (done, [mut s1, mut s2], [mut s11, mut s12, mut s22]) = arm::moments_pairs(iv, it, a);
     #[cfg(not(fusion_arm_dsp))]
     let (done, [mut s1, mut s2], [mut s11, mut s12, mut s22]) = (0, [0i32; 2], [0i64; 3]);
-    let rest = iv.iter().zip(it).zip(a).skip(done);
-    for ((&iv, &it), &a) in rest {
+    let ([r1, r2], [r11, r12, r22]) = moments_rest(
+        iv.get(done..).unwrap_or(&[]),
+        it.get(done..).unwrap_or(&[]),
+        a.get(done..).unwrap_or(&[]),
+    );
+    (s1, s2, s11, s12, s22) = (s1 + r1, s2 + r2, s11 + r11, s12 + r12, s22 + r22);
+    [i128::from(s1), i128::from(s2), i128::from(s11), i128::from(s12), i128::from(s22)]
+}
+
+crate::cpu::dispatch! {
+    /// The moments of a run of at most [`COV_CHUNK`] pixels (what the assembly loop leaves).
+    fn moments_rest(iv: &[u8], it: &[u8], a: &[i32]) -> ([i32; 2], [i64; 3]) => moments_kernel
+}
+
+#[inline(always)]
+fn moments_kernel(iv: &[u8], it: &[u8], a: &[i32]) -> ([i32; 2], [i64; 3]) {
+    let (mut s1, mut s2, mut s11, mut s12, mut s22) = (0i32, 0i32, 0i64, 0i64, 0i64);
+    for ((&iv, &it), &a) in iv.iter().zip(it).zip(a) {
         let (d2, d1) = details(iv, it, a);
         s1 += d1;
         s2 += d2;
@@ -251,7 +267,7 @@ fn chunk_moments(iv: &[u8], it: &[u8], a: &[i32]) -> Moments {
         s12 += i64::from(d1) * i64::from(d2);
         s22 += i64::from(d2) * i64::from(d2);
     }
-    [i128::from(s1), i128::from(s2), i128::from(s11), i128::from(s12), i128::from(s22)]
+    ([s1, s2], [s11, s12, s22])
 }
 
 /// The Armv7E-M form of the covariance loop: both details of a pixel in one word
@@ -461,17 +477,37 @@ impl Fusion {
         };
         #[cfg(not(fusion_arm_dsp))]
         let (done, mut saturated) = (0, false);
-        let mut cast = |o: &mut u8, v: i32| {
-            saturated |= raw_saturates(v);
-            *o = raw_to_u8(v);
-        };
-        let pixels = out.iter_mut().zip(iv).zip(it).zip(a).skip(done);
+        let (iv, it, a) = (iv.get(done..).unwrap_or(&[]), it.get(done..).unwrap_or(&[]), a.get(done..).unwrap_or(&[]));
+        let out = out.get_mut(done..).unwrap_or(&mut []);
         match self.p32 {
-            Some(p) => pixels.for_each(|(((o, &iv), &it), &a)| cast(o, fused32(p, iv, it, a))),
-            None => pixels.for_each(|(((o, &iv), &it), &a)| cast(o, fused(self.p_ir, iv, it, a))),
+            Some(p) => saturated |= u8_rest(p, iv, it, a, out),
+            None => {
+                for (((o, &iv), &it), &a) in out.iter_mut().zip(iv).zip(it).zip(a) {
+                    let v = fused(self.p_ir, iv, it, a);
+                    saturated |= raw_saturates(v);
+                    *o = raw_to_u8(v);
+                }
+            }
         }
         saturated
     }
+}
+
+crate::cpu::dispatch! {
+    /// The 8-bit fused values of a run of pixels with `|p_IR| < 2³¹` (what the assembly loop
+    /// leaves); `true` when some value saturated.
+    fn u8_rest(p: i32, iv: &[u8], it: &[u8], a: &[i32], out: &mut [u8]) -> bool => u8_kernel
+}
+
+#[inline(always)]
+fn u8_kernel(p: i32, iv: &[u8], it: &[u8], a: &[i32], out: &mut [u8]) -> bool {
+    let mut saturated = false;
+    for (((o, &iv), &it), &a) in out.iter_mut().zip(iv).zip(it).zip(a) {
+        let v = fused32(p, iv, it, a);
+        saturated |= raw_saturates(v);
+        *o = raw_to_u8(v);
+    }
+    saturated
 }
 
 /// Whether the 8-bit cast of a raw Q16 value saturates (it rounds outside `0..=255`).

@@ -329,9 +329,11 @@ fn constant_images_give_the_average_and_the_guard() -> Result<(), Error> {
                 .zip(&want.data)
                 .map(|(r, w)| (f64::from(*r) / 65536.0 - w).abs())
                 .fold(0.0, f64::max);
-            // The base layers' fixed-point error (≲ 0.05 levels here) times the published
-            // weights, which the border's details alone set.
-            let bound = 0.1 * classic_weight_sum(&vis, &tir).max(1.0);
+            // Every border pixel sees the same differences, so the flux function's error
+            // (≤ 0.97 state units a flux at κ = 30) adds up coherently along the border instead
+            // of averaging out: 0.107 levels measured on 40×37 (below 0.1 with the former
+            // 0.59-unit arithmetic flux). A border bug would show as whole levels.
+            let bound = 0.2 * classic_weight_sum(&vis, &tir).max(1.0);
             assert!(err < bound, "{w}x{h}: {err} (bound {bound})");
         }
     }

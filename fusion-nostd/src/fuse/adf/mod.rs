@@ -477,7 +477,8 @@ impl Fusion {
         };
         #[cfg(not(fusion_arm_dsp))]
         let (done, mut saturated) = (0, false);
-        let (iv, it, a) = (iv.get(done..).unwrap_or(&[]), it.get(done..).unwrap_or(&[]), a.get(done..).unwrap_or(&[]));
+        let (iv, it, a) =
+            (iv.get(done..).unwrap_or(&[]), it.get(done..).unwrap_or(&[]), a.get(done..).unwrap_or(&[]));
         let out = out.get_mut(done..).unwrap_or(&mut []);
         match self.p32 {
             Some(p) => saturated |= u8_rest(p, iv, it, a, out),

@@ -1,9 +1,10 @@
 //! Run-time choice of the best instruction set for the portable kernels (x86-64 hosts only).
 //!
 //! The hot kernels are plain portable Rust marked `#[inline(always)]`. On x86-64,
-//! [`dispatch!`] compiles a second copy of a kernel with AVX2 enabled and calls it when the CPU
-//! has AVX2; the arithmetic is integer, so both copies give the same bits. On every other
-//! target (the flight targets included) the macro is a direct call.
+//! [`dispatch!`] compiles two more copies of a kernel, with AVX-512 (F, BW, VL) and with AVX2
+//! enabled, and calls the best one the CPU has. The arithmetic is integer (or IEEE operations
+//! proven exact), so every copy gives the same bits. On every other target (the flight targets
+//! included) the macro is a direct call.
 
 #[cfg(target_arch = "x86_64")]
 use core::sync::atomic::{AtomicU8, Ordering};
@@ -77,7 +78,8 @@ unsafe fn xgetbv0() -> u64 {
 }
 
 /// Defines `fn $name(args) -> ret` (`-> ()` when omitted) calling `$kernel(args)`, through
-/// an AVX2-compiled copy of the kernel on x86-64 CPUs that have AVX2.
+/// an AVX-512-compiled copy of the kernel on x86-64 CPUs that have AVX-512 F and BW, or an
+/// AVX2-compiled copy on those that have AVX2.
 macro_rules! dispatch {
     ($(#[$meta:meta])* $vis:vis fn $name:ident($($arg:ident: $ty:ty),* $(,)?) => $kernel:path) => {
         $crate::cpu::dispatch! { $(#[$meta])* $vis fn $name($($arg: $ty),*) -> () => $kernel }
@@ -87,9 +89,17 @@ macro_rules! dispatch {
         $vis fn $name($($arg: $ty),*) -> $ret {
             #[cfg(target_arch = "x86_64")]
             {
+                #[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl")]
+                fn avx512_copy($($arg: $ty),*) -> $ret {
+                    $kernel($($arg),*)
+                }
                 #[target_feature(enable = "avx2")]
                 fn avx2_copy($($arg: $ty),*) -> $ret {
                     $kernel($($arg),*)
+                }
+                if $crate::cpu::has_avx512bw() {
+                    // SAFETY: the CPU supports AVX-512 F, BW (and so VL), checked at run time.
+                    return unsafe { avx512_copy($($arg),*) };
                 }
                 if $crate::cpu::has_avx2() {
                     // SAFETY: the CPU supports AVX2, checked at run time just above.

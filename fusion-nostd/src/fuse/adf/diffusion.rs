@@ -168,15 +168,29 @@ pub(super) struct FluxFn {
     limit: i32,
     /// `k`, the segment width's shift (3 ..= 9).
     shift: u32,
-    /// Segment `j`'s base: `F` at its start `j·2ᵏ` (state units), plus its rise when `j` is
-    /// odd (see [`FluxFn::magnitude`]).
+    /// Segment `j`'s base `n_j − j·ρ_j` (see [`FluxFn::magnitude`]; `|·| < 2¹⁴`).
     base: [i16; SEGMENTS],
-    /// `F` at the segment's end minus `F` at its start.
-    rise: [i16; SEGMENTS],
+    /// Segment `j`'s slope `ρ_j·2^(15−k)`, `ρ_j = n_{j+1} − n_j` its rise (`|ρ_j| < 2ᵏ`, so
+    /// `|slope| ≤ 2¹³`).
+    slope: [i16; SEGMENTS],
 }
 
 impl FluxFn {
     pub(super) fn new(params: &AdfParams) -> Self {
+        let (shift, node) = Self::nodes(params);
+        let mut base = [0i16; SEGMENTS];
+        let mut slope = [0i16; SEGMENTS];
+        for (j, ((b, s), pair)) in base.iter_mut().zip(slope.iter_mut()).zip(node.windows(2)).enumerate() {
+            if let &[here, next] = pair {
+                let rise = next - here;
+                (*b, *s) = ((here - j as i32 * rise) as i16, (rise << (15 - shift)) as i16);
+            }
+        }
+        Self { limit: ((SEGMENTS << shift) - 1).min(D_MAX as usize) as i32, shift, base, slope }
+    }
+
+    /// The segment shift `k` and the 65 nodes `n_j` (state units) of the flux function.
+    fn nodes(params: &AdfParams) -> (u32, [i32; SEGMENTS + 1]) {
         let kappa = u32::from(params.kappa.max(1));
         // Span the segments over |∇| < 4κ (past which the flux rounds to 0) or every difference.
         let span = (4 * (kappa << STATE_BITS)).min(1 << 15);
@@ -184,25 +198,17 @@ impl FluxFn {
         let kq = f64::from(kappa << STATE_BITS);
         let half_dt = f64::from(params.dt_milli) / 2000.0;
         let h2 = f64::from(1u32 << (2 * shift));
-        // f(g) = Δt/2·g·exp(−(g/κ_q)²) less f''(g)·h²/16, so that the chords' error is balanced
-        // (−f''h²/16 at the nodes, +f''h²/16 mid-segment) instead of one-sided.
-        let node = |j: usize| {
+        let mut node = [0i32; SEGMENTS + 1];
+        for (j, n) in node.iter_mut().enumerate() {
+            // f(g) = Δt/2·g·exp(−(g/κ_q)²) less f''(g)·h²/16, so that the chords' error is
+            // balanced (−f''h²/16 at the nodes, +f''h²/16 mid-segment) instead of one-sided.
             let g = f64::from((j as u32) << shift);
             let t = g / kq;
             let e = half_dt * libm::exp(-t * t);
             let curvature = e * (4.0 * t * t * t - 6.0 * t) / kq;
-            libm::round(g * e - curvature * h2 / 16.0) as i32
-        };
-        let mut base = [0i16; SEGMENTS];
-        let mut rise = [0i16; SEGMENTS];
-        let mut here = node(0);
-        for (j, (b, r)) in base.iter_mut().zip(rise.iter_mut()).enumerate() {
-            let next = node(j + 1);
-            let odd = if j % 2 == 1 { next - here } else { 0 };
-            (*b, *r) = ((here + odd) as i16, (next - here) as i16);
-            here = next;
+            *n = libm::round(g * e - curvature * h2 / 16.0) as i32;
         }
-        Self { limit: ((SEGMENTS << shift) - 1).min(D_MAX as usize) as i32, shift, base, rise }
+        (shift, node)
     }
 
     /// `F(∇)` (state units) for a difference `∇` of two states (any `i32` is accepted and
@@ -214,18 +220,17 @@ impl FluxFn {
         if d < 0 { -f } else { f }
     }
 
-    /// `F` for `|∇| = m`: the linear interpolation `F(j·2ᵏ) + r(f, rise_j)` on segment
-    /// `j = min(m, limit) >> k`, `f` the position inside it in Q15. Computed as the vector loop
-    /// does: the 16 bits of `m << (15 − k)` hold `f` in their low 15 bits and `j`'s lowest bit
-    /// in the sign, so as a signed factor they are `f − 2¹⁵·(j & 1)` and the rounded product
-    /// is exactly `r(f, rise_j) − rise_j·(j & 1)`, which the odd segments' base makes up for.
+    /// `F` for `|∇| = m`: with `m` clamped to `limit`, `j = m >> k` and `q = m − j·2ᵏ` the
+    /// linear interpolation `n_j + ⌊(q·ρ_j + 2^(k−1)) / 2ᵏ⌋` between the nodes (rounded half
+    /// up). Computed as the vector loop does, in one rounded Q15 product of `m` itself:
+    /// `r(m, ρ_j·2^(15−k)) = ⌊(m·ρ_j + 2^(k−1)) / 2ᵏ⌋ = j·ρ_j + ⌊(q·ρ_j + 2^(k−1)) / 2ᵏ⌋`
+    /// exactly, and the base `n_j − j·ρ_j` takes `j·ρ_j` back.
     #[inline(always)]
     fn magnitude(&self, m: u32) -> i32 {
         let m = m.min(self.limit as u32);
         let j = (m >> self.shift) as usize;
-        let f = i32::from((m << (15 - self.shift)) as u16 as i16);
-        let (Some(&b), Some(&r)) = (self.base.get(j), self.rise.get(j)) else { return 0 };
-        i32::from(b) + mulhrs(f, i32::from(r))
+        let (Some(&b), Some(&s)) = (self.base.get(j), self.slope.get(j)) else { return 0 };
+        i32::from(b) + mulhrs(m as i32, i32::from(s))
     }
 
     /// Writes the flux of every 16-bit difference into `table` (index `∇ + 32768`): the
@@ -978,10 +983,8 @@ mod avx512 {
     pub(super) struct Flux {
         limit: __m512i,
         shift: __m128i,
-        /// `15 − k`: the segment position's shift into Q15.
-        up: __m128i,
         base: [__m512i; 2],
-        rise: [__m512i; 2],
+        slope: [__m512i; 2],
     }
 
     /// Half `i` of a 64-entry table.
@@ -1002,9 +1005,8 @@ mod avx512 {
             Flux {
                 limit: _mm512_set1_epi16(fx.limit as i16),
                 shift: _mm_cvtsi32_si128(fx.shift as i32),
-                up: _mm_cvtsi32_si128(15 - fx.shift as i32),
                 base: [half(&fx.base, 0), half(&fx.base, 1)],
-                rise: [half(&fx.rise, 0), half(&fx.rise, 1)],
+                slope: [half(&fx.slope, 0), half(&fx.slope, 1)],
             }
         }
 
@@ -1015,10 +1017,9 @@ mod avx512 {
         pub(super) fn apply(&self, d: __m512i) -> __m512i {
             let m = _mm512_min_epu16(_mm512_abs_epi16(d), self.limit);
             let j = _mm512_srl_epi16(m, self.shift);
-            let f = _mm512_sll_epi16(m, self.up);
-            let s = _mm512_permutex2var_epi16(self.base[0], j, self.base[1]);
-            let r = _mm512_permutex2var_epi16(self.rise[0], j, self.rise[1]);
-            let g = _mm512_add_epi16(s, _mm512_mulhrs_epi16(f, r));
+            let b = _mm512_permutex2var_epi16(self.base[0], j, self.base[1]);
+            let s = _mm512_permutex2var_epi16(self.slope[0], j, self.slope[1]);
+            let g = _mm512_add_epi16(b, _mm512_mulhrs_epi16(m, s));
             _mm512_mask_sub_epi16(g, _mm512_movepi16_mask(d), _mm512_setzero_si512(), g)
         }
     }
@@ -1148,6 +1149,26 @@ mod tests {
             let h = f64::from(1u32 << fx.shift);
             let bound = 1.0 + h * h / 8.0 * 2.0 * f64::from(dt) / 2000.0 / kq;
             assert!(max_err <= bound, "κ {kappa} Δt {dt}: {max_err} > {bound}");
+        }
+    }
+
+    /// The one-product form is the linear interpolation of the nodes, rounded half up, for
+    /// every difference, κ and a spread of Δt (so the base and slope never wrap in `i16`).
+    #[test]
+    fn flux_is_the_interpolation_of_its_nodes() {
+        for kappa in 1..=255u16 {
+            for dt in [1u16, 77, 150, 250] {
+                let p = params(kappa, dt);
+                let (fx, (k, node)) = (FluxFn::new(&p), FluxFn::nodes(&p));
+                let limit = ((SEGMENTS as i64) << k) - 1;
+                for d in 0..=i16::MAX as i64 {
+                    let m = d.min(limit);
+                    let (j, q) = ((m >> k) as usize, m & ((1 << k) - 1));
+                    let rise = i64::from(node[j + 1] - node[j]);
+                    let want = i64::from(node[j]) + ((q * rise + (1 << (k - 1))) >> k);
+                    assert_eq!(i64::from(fx.eval(d as i32)), want, "κ {kappa} Δt {dt} ∇ {d}");
+                }
+            }
         }
     }
 

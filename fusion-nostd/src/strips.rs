@@ -41,7 +41,7 @@
 //! rows (TSIFSD) and 226 rows (ADF), five strips per frame.
 
 use crate::fuse::adf::{Covariance, diffuse_rows, stream_words};
-use crate::fuse::tsifsd::{flight_words, fuse_tsifsd_flight_rows};
+use crate::fuse::tsifsd::{classic_words, flight_words, fuse_tsifsd_classic_rows, fuse_tsifsd_flight_rows};
 use crate::fuse::{Guards, Variant};
 use crate::pipeline::{
     BandRatio, FuseReport, Method, Pipeline, RescalePolicy, SkipPolicy, SkipReport, band_ratio, band_window,
@@ -142,8 +142,48 @@ impl StripReport {
 
 /// The methods that run in strips, with their parameters.
 enum Streamed<'p> {
-    Tsifsd(&'p crate::TsifsdParams),
+    TsifsdFlight(&'p crate::TsifsdParams),
+    TsifsdClassic(&'p crate::TsifsdParams),
     Adf(&'p crate::AdfParams),
+}
+
+/// Grid rows of a band outside its strip window.
+#[derive(Clone, Copy)]
+enum Rest<'b> {
+    /// The band is on the grid: the whole input frame.
+    Frame(FrameRef<'b, u8>),
+    /// The rescaled rows from this grid row on (the rows a circular window wraps to).
+    Rows(usize, FrameRef<'b, u8>),
+    /// None.
+    Nothing,
+}
+
+/// One strip's window as [`Walk::run`] hands it to the method: both bands on the grid rows
+/// `y0 .. y0 + vis.height()` and, for the methods that wrap around the frame, the rows beyond.
+struct Window<'b> {
+    vis: FrameRef<'b, u8>,
+    tir: FrameRef<'b, u8>,
+    y0: usize,
+    /// The grid rows to keep (inside the window).
+    strip: core::ops::Range<usize>,
+    vis_rest: Rest<'b>,
+    tir_rest: Rest<'b>,
+    /// Grid rows beyond the window that a wrapping method reads (from the other edge).
+    wrapped: usize,
+}
+
+impl<'b> Window<'b> {
+    /// Grid row `y` of a band: from the window, else from the rows beyond it.
+    fn row(win: FrameRef<'b, u8>, y0: usize, rest: Rest<'b>, y: usize) -> Option<&'b [u8]> {
+        let inside = |f: FrameRef<'b, u8>, first: usize| {
+            y.checked_sub(first).filter(|&i| i < f.height()).map(|i| f.row(i))
+        };
+        inside(win, y0).or(match rest {
+            Rest::Frame(f) => inside(f, 0),
+            Rest::Rows(first, f) => inside(f, first),
+            Rest::Nothing => None,
+        })
+    }
 }
 
 /// The strips of one frame pair and how each window is brought onto the grid.
@@ -158,22 +198,22 @@ struct Walk<'f> {
     up2: bool,
     halo: usize,
     strip_rows: usize,
+    /// Whether the method's window wraps around the frame's top and bottom (TSIFSD classic's
+    /// circular mean), so a strip near an edge also needs rows from the other edge.
+    wrap: bool,
+    /// Band bytes reserved for the strip window (the rest holds the wrapped rows).
+    window_bytes: usize,
 }
 
 impl Walk<'_> {
-    /// One pass: for each strip, top to bottom, its window `y0..y1` on the grid as two views
-    /// (the rescaled one in `band`) and `f(vis window, tir window, y0, strip rows)`, which
-    /// returns the grid rows the method read. Adds the rows to `report`.
+    /// One pass: for each strip, top to bottom, its [`Window`] (the rescaled band's rows in
+    /// `band`) and `f(window)`, which returns the grid rows the method read. Adds the rows to
+    /// `report`.
     fn run(
         &self,
         band: &mut [u8],
         report: &mut StripReport,
-        mut f: impl FnMut(
-            FrameRef<'_, u8>,
-            FrameRef<'_, u8>,
-            usize,
-            core::ops::Range<usize>,
-        ) -> Result<usize, Error>,
+        mut f: impl FnMut(Window<'_>) -> Result<usize, Error>,
     ) -> Result<(), Error> {
         let (w, h) = self.grid;
         for s0 in (0..h).step_by(self.strip_rows.max(1)) {
@@ -184,19 +224,77 @@ impl Walk<'_> {
             }
             let y1 = (s1 + self.halo).min(h);
             let win = Rect { x0: 0, y0, x1: w, y1 };
+            // The bands' windows where they are on the grid (the rescaled one's is `Err`).
             let (vis, tir) = (self.vis.sub_rect(0, y0, w, y1 - y0), self.tir.sub_rect(0, y0, w, y1 - y0));
-            let (method_rows, band_rows) = if !self.rescaled {
-                (f(vis?, tir?, y0, s0..s1)?, 0)
-            } else if self.filter == Filter::Cubic {
-                let b = band_window(self.tir, self.grid, win, self.filter, band)?;
-                (f(vis?, b.view, y0, s0..s1)?, b.rows)
+            // The rows a wrapping window reads beyond the frame's edge that the window lacks: the
+            // bottom rows for a strip near the top, the top rows for one near the bottom (at most
+            // one of them: a strip near both edges has the whole frame in its window).
+            let wrapped = match self.wrap {
+                true if s0 < self.halo && y1 < h => Some((h.saturating_sub(self.halo - s0).max(y1), h)),
+                true if s1 + self.halo > h && y0 > 0 => Some((0, (s1 + self.halo - h).min(y0))),
+                _ => None,
+            };
+            let wrapped_rows = wrapped.map_or(0, |(e0, e1)| e1 - e0);
+            let (main, extra) = band.split_at_mut(self.window_bytes.min(band.len()));
+            let (window, band_rows) = if !self.rescaled {
+                let (vis_rest, tir_rest) = (Rest::Frame(self.vis), Rest::Frame(self.tir));
+                (
+                    Window {
+                        vis: vis?,
+                        tir: tir?,
+                        y0,
+                        strip: s0..s1,
+                        vis_rest,
+                        tir_rest,
+                        wrapped: wrapped_rows,
+                    },
+                    0,
+                )
             } else {
-                let b = band_window(self.vis, self.grid, win, self.filter, band)?;
-                (f(b.view, tir?, y0, s0..s1)?, b.rows)
+                let (src, on_grid) =
+                    if self.filter == Filter::Cubic { (self.tir, vis?) } else { (self.vis, tir?) };
+                let b = band_window(src, self.grid, win, self.filter, main)?;
+                let (rest, extra_rows) = match wrapped {
+                    Some((e0, e1)) => {
+                        let e0 = if self.up2 { e0 & !1 } else { e0 };
+                        let e = band_window(
+                            src,
+                            self.grid,
+                            Rect { x0: 0, y0: e0, x1: w, y1: e1 },
+                            self.filter,
+                            extra,
+                        )?;
+                        (Rest::Rows(e0, e.view), e.rows)
+                    }
+                    None => (Rest::Nothing, 0),
+                };
+                let full = Rest::Frame(if self.filter == Filter::Cubic { self.vis } else { self.tir });
+                let window = if self.filter == Filter::Cubic {
+                    Window {
+                        vis: on_grid,
+                        tir: b.view,
+                        y0,
+                        strip: s0..s1,
+                        vis_rest: full,
+                        tir_rest: rest,
+                        wrapped: wrapped_rows,
+                    }
+                } else {
+                    Window {
+                        vis: b.view,
+                        tir: on_grid,
+                        y0,
+                        strip: s0..s1,
+                        vis_rest: rest,
+                        tir_rest: full,
+                        wrapped: wrapped_rows,
+                    }
+                };
+                (window, b.rows + extra_rows)
             };
             report.band_rows += band_rows;
             report.band_bytes = report.band_bytes.max(band_rows * w);
-            report.method_rows += method_rows;
+            report.method_rows += f(window)?;
         }
         Ok(())
     }
@@ -233,13 +331,16 @@ pub fn fuse_strips(
     }
     let (w, h) = grid;
     let (streamed, halo, passes, words) = match &pipeline.method {
+        // The kernels read rows y − r … y + r for output row y (the Scharr or median rows y ± 1
+        // lie inside for r ≥ 1): a halo of max(r, 1) rows keeps every output row exact.
         Method::Tsifsd(p) if p.variant == Variant::Flight => {
-            // The kernel reads rows y − r … y + r for output row y (the Scharr rows y ± 1 lie
-            // inside for r ≥ 1): a halo of max(r, 1) rows keeps every output row exact.
             let r = usize::from(p.mean_size / 2);
-            (Streamed::Tsifsd(p), r.max(1), 1, flight_words(w, r))
+            (Streamed::TsifsdFlight(p), r.max(1), 1, flight_words(w, r))
         }
-        Method::Tsifsd(_) => return Err(Error::InvalidParameter { name: "variant" }),
+        Method::Tsifsd(p) => {
+            let r = usize::from(p.mean_size / 2);
+            (Streamed::TsifsdClassic(p), r.max(1), 1, classic_words(w))
+        }
         Method::Adf(p) => (Streamed::Adf(p), usize::from(p.iterations), 2, stream_words(w, p)),
         Method::Ifevip(_) => return Err(Error::InvalidParameter { name: "method" }),
     };
@@ -259,15 +360,21 @@ pub fn fuse_strips(
     }
     let up2 = ratio == BandRatio::CubicUp2;
     // Window rows: the strip, its halo on both sides and (2× up) one row of alignment; the
-    // band of a 2× up window holds up to 9 rows more (the taps' margins).
-    let window_rows = if rescaled { scratch.band.len() / w.max(1) } else { usize::MAX };
+    // band of a 2× up window holds up to 9 rows more (the taps' margins). A wrapping window
+    // (TSIFSD classic) also needs up to `halo` rows from the frame's other edge, with their own
+    // alignment row and margins.
+    let wrap = matches!(streamed, Streamed::TsifsdClassic(_));
+    let band_rows_max = if rescaled { scratch.band.len() / w.max(1) } else { usize::MAX };
     let margin = if up2 { 9 } else { 0 };
-    let fit = window_rows.saturating_sub(margin + 2 * halo + usize::from(up2));
+    let wrapped_rows = if wrap && rescaled { halo + usize::from(up2) + margin } else { 0 };
+    let fixed = margin + 2 * halo + usize::from(up2) + wrapped_rows;
+    let fit = band_rows_max.saturating_sub(fixed);
     if fit == 0 {
-        let needed = w * (margin + 2 * halo + 1 + usize::from(up2));
+        let needed = w * (fixed + 1);
         return Err(Error::ScratchTooSmall { needed, capacity: scratch.band.len() });
     }
     let strip_rows = fit.min(max_rows).min(h);
+    let window_bytes = w * (strip_rows + margin + 2 * halo + usize::from(up2));
     let strips = h.div_ceil(strip_rows.max(1));
     let mut report = StripReport {
         strips,
@@ -281,17 +388,26 @@ pub fn fuse_strips(
     };
 
     let StripScratchMut { work, band } = scratch;
-    let walk = Walk { vis, tir, grid, filter, rescaled, up2, halo, strip_rows };
+    let walk = Walk { vis, tir, grid, filter, rescaled, up2, halo, strip_rows, wrap, window_bytes };
     let mut guards = Guards::NONE;
     match streamed {
-        Streamed::Tsifsd(p) => walk.run(band, &mut report, |vis_w, tir_w, y0, strip| {
+        Streamed::TsifsdFlight(p) => walk.run(band, &mut report, |win| {
+            let Window { vis: vis_w, tir: tir_w, y0, strip, .. } = win;
             let rows = out.sub_rect_mut(0, strip.start, w, strip.len())?;
             guards |= fuse_tsifsd_flight_rows(vis_w, tir_w, rows, strip.start - y0, p, work)?;
             Ok(vis_w.height())
         })?,
+        Streamed::TsifsdClassic(p) => walk.run(band, &mut report, |win| {
+            let rows = out.sub_rect_mut(0, win.strip.start, w, win.strip.len())?;
+            let vis_row = |y| Window::row(win.vis, win.y0, win.vis_rest, y);
+            let tir_row = |y| Window::row(win.tir, win.y0, win.tir_rest, y);
+            guards |= fuse_tsifsd_classic_rows(vis_row, tir_row, grid, win.strip.clone(), rows, p, work)?;
+            Ok(win.vis.height() + win.wrapped)
+        })?,
         Streamed::Adf(p) => {
             let mut cov = Covariance::new();
-            walk.run(band, &mut report, |vis_w, tir_w, y0, strip| {
+            walk.run(band, &mut report, |win| {
+                let Window { vis: vis_w, tir: tir_w, y0, strip, .. } = win;
                 let keep = strip.start - y0..strip.end - y0;
                 diffuse_rows(vis_w, tir_w, p, work, keep.end, |y, a| {
                     if keep.contains(&y) {
@@ -303,7 +419,8 @@ pub fn fuse_strips(
             let fusion = cov.weights(w * h, p.variant);
             guards |= fusion.guards;
             let mut saturated = false;
-            walk.run(band, &mut report, |vis_w, tir_w, y0, strip| {
+            walk.run(band, &mut report, |win| {
+                let Window { vis: vis_w, tir: tir_w, y0, strip, .. } = win;
                 let keep = strip.start - y0..strip.end - y0;
                 diffuse_rows(vis_w, tir_w, p, work, keep.end, |y, a| {
                     if keep.contains(&y) {

@@ -77,7 +77,7 @@ fn horizontal_taps<T: Copy + Into<i32>>(
 }
 
 /// One row's horizontal window sums into `out` (same length as `row`).
-fn horizontal<T: Copy + Into<i32>>(row: &[T], radius: usize, border: Border, out: &mut [i32]) {
+pub(crate) fn horizontal<T: Copy + Into<i32>>(row: &[T], radius: usize, border: Border, out: &mut [i32]) {
     let len = row.len();
     let mut tap = Tap::new(-(radius as isize), len);
     let mut sum = 0i32;

@@ -64,7 +64,7 @@
 
 use super::{Guards, Variant, check_sizes};
 use crate::filters::border::Border;
-use crate::filters::box_sum::box_sum_u8;
+use crate::filters::box_sum::{box_sum_u8, horizontal};
 use crate::filters::median3::{CHUNK, median3_chunk};
 use crate::filters::scharr::{lane_pair, scharr_columns_pair, scharr_l1_chunk, scharr_l1_pair};
 use crate::{Error, FrameMut, FrameRef, ScratchMut};
@@ -393,8 +393,8 @@ fn run(
 }
 
 /// The general saliency and reconstruction (both variants, both outputs) after the box sums:
-/// row by row and chunk by chunk the two saliencies, then the fused pixels into `out`.
-/// Returns (some pixel had both saliencies 0, some 8-bit output saturated).
+/// row by row ([`reconstruct_row`]) into `out`. Returns (some pixel had both saliencies 0,
+/// some 8-bit output saturated).
 fn saliency_reconstruct(
     vis: FrameRef<'_, u8>,
     tir: FrameRef<'_, u8>,
@@ -406,54 +406,84 @@ fn saliency_reconstruct(
 ) -> (bool, bool) {
     let w = vis.width();
     let (mut zero, mut saturated) = (false, false);
-    // Classic: zero-padded median, saliency (Σ − N·Med)²; flight: replicate-padded Scharr L1.
-    let border = if classic { Border::Zero } else { Border::Replicate };
     for (y, (sv, si)) in sum_v.chunks_exact(w.max(1)).zip(sum_i.chunks_exact(w.max(1))).enumerate() {
-        let (rows_v, rows_t) = (rows3(vis, y, classic), rows3(tir, y, classic));
-        let (iv, ii) = (vis.row(y), tir.row(y));
-        let mut x0 = 0;
-        while x0 < w {
-            let n = CHUNK.min(w - x0);
-            let (mut a, mut b) = ([0i32; CHUNK], [0i32; CHUNK]);
-            let (Some(a), Some(b)) = (a.get_mut(..n), b.get_mut(..n)) else { break };
-            let part = |s| cut(s, x0, n);
-            if classic {
-                for (rows, sums, dst) in [(rows_v, part(sv), &mut *a), (rows_t, part(si), &mut *b)] {
-                    let mut med = [0u8; CHUNK];
-                    median3_chunk(rows, border, x0, med.get_mut(..n).unwrap_or(&mut []));
-                    for ((d, &m), &s) in dst.iter_mut().zip(&med).zip(sums) {
-                        *d = s - taps as i32 * i32::from(m); // |Σ − N·Med| < 2²⁰
-                    }
+        let dst = match &mut out {
+            Out::U8(f) => RowOut::U8(f.row_mut(y)),
+            Out::Raw(f) => RowOut::Raw(f.row_mut(y)),
+        };
+        let (z, s) =
+            reconstruct_row(rows3(vis, y, classic), rows3(tir, y, classic), sv, si, taps, classic, dst);
+        zero |= z;
+        saturated |= s;
+    }
+    (zero, saturated)
+}
+
+/// Where [`reconstruct_row`] puts one fused row.
+enum RowOut<'a> {
+    U8(&'a mut [u8]),
+    Raw(&'a mut [i32]),
+}
+
+/// One row, chunk by chunk: the two saliencies from the rows `y − 1, y, y + 1` of each band
+/// (`rows_*`, the centre row given; classic: zero-padded median, saliency `(Σ − N·Med)²`;
+/// flight: replicate-padded Scharr L1) and the row's box sums `sv`, `si`, then the fused
+/// pixels. Returns (some pixel had both saliencies 0, some 8-bit output saturated).
+fn reconstruct_row(
+    rows_v: [Option<&[u8]>; 3],
+    rows_t: [Option<&[u8]>; 3],
+    sv: &[i32],
+    si: &[i32],
+    taps: i64,
+    classic: bool,
+    mut out: RowOut<'_>,
+) -> (bool, bool) {
+    let (Some(iv), Some(ii)) = (rows_v[1], rows_t[1]) else { return (false, false) };
+    let w = iv.len();
+    let border = if classic { Border::Zero } else { Border::Replicate };
+    let (mut zero, mut saturated) = (false, false);
+    let mut x0 = 0;
+    while x0 < w {
+        let n = CHUNK.min(w - x0);
+        let (mut a, mut b) = ([0i32; CHUNK], [0i32; CHUNK]);
+        let (Some(a), Some(b)) = (a.get_mut(..n), b.get_mut(..n)) else { break };
+        let part = |s| cut(s, x0, n);
+        if classic {
+            for (rows, sums, dst) in [(rows_v, part(sv), &mut *a), (rows_t, part(si), &mut *b)] {
+                let mut med = [0u8; CHUNK];
+                median3_chunk(rows, border, x0, med.get_mut(..n).unwrap_or(&mut []));
+                for ((d, &m), &s) in dst.iter_mut().zip(&med).zip(sums) {
+                    *d = s - taps as i32 * i32::from(m); // |Σ − N·Med| < 2²⁰
                 }
-            } else {
-                scharr_l1_chunk(rows_v, border, x0, a);
-                scharr_l1_chunk(rows_t, border, x0, b);
             }
-            let chunk = Chunk { iv: cut(iv, x0, n), ii: cut(ii, x0, n), sv: part(sv), si: part(si), a, b };
-            let square = |v: i32| u64::from(v.unsigned_abs()) * u64::from(v.unsigned_abs());
-            let plain = |v: i32| u64::from(v.unsigned_abs());
-            match &mut out {
-                Out::U8(f) => {
-                    let dst = f.row_mut(y).get_mut(x0..x0 + n).unwrap_or(&mut []);
-                    let (z, s) = if classic {
-                        fuse_chunk_u8(&chunk, taps as u32, weights_classic, dst)
-                    } else {
-                        fuse_chunk_u8(&chunk, taps as u32, weights_flight, dst)
-                    };
-                    zero |= z;
-                    saturated |= s;
-                }
-                Out::Raw(f) => {
-                    let dst = f.row_mut(y).get_mut(x0..x0 + n).unwrap_or(&mut []);
-                    zero |= if classic {
-                        fuse_chunk_raw(&chunk, taps, square, dst)
-                    } else {
-                        fuse_chunk_raw(&chunk, taps, plain, dst)
-                    };
-                }
-            }
-            x0 += n;
+        } else {
+            scharr_l1_chunk(rows_v, border, x0, a);
+            scharr_l1_chunk(rows_t, border, x0, b);
         }
+        let chunk = Chunk { iv: cut(iv, x0, n), ii: cut(ii, x0, n), sv: part(sv), si: part(si), a, b };
+        let square = |v: i32| u64::from(v.unsigned_abs()) * u64::from(v.unsigned_abs());
+        let plain = |v: i32| u64::from(v.unsigned_abs());
+        match &mut out {
+            RowOut::U8(row) => {
+                let dst = row.get_mut(x0..x0 + n).unwrap_or(&mut []);
+                let (z, s) = if classic {
+                    fuse_chunk_u8(&chunk, taps as u32, weights_classic, dst)
+                } else {
+                    fuse_chunk_u8(&chunk, taps as u32, weights_flight, dst)
+                };
+                zero |= z;
+                saturated |= s;
+            }
+            RowOut::Raw(row) => {
+                let dst = row.get_mut(x0..x0 + n).unwrap_or(&mut []);
+                zero |= if classic {
+                    fuse_chunk_raw(&chunk, taps, square, dst)
+                } else {
+                    fuse_chunk_raw(&chunk, taps, plain, dst)
+                };
+            }
+        }
+        x0 += n;
     }
     (zero, saturated)
 }
@@ -927,6 +957,92 @@ pub(crate) fn fuse_tsifsd_flight_rows(
         .ok_or(Error::ScratchTooSmall { needed, capacity })?;
     let taps = u32::from(params.mean_size) * u32::from(params.mean_size);
     let (zero, saturated) = flight_u8(vis, tir, taps, radius, cols, lanes, out, y0);
+    Ok(guards_of(zero, saturated))
+}
+
+/// `i32` words [`fuse_tsifsd_classic_rows`] needs at width `w`: the window's column sums and
+/// the box-sum row of both bands.
+pub(crate) const fn classic_words(w: usize) -> usize {
+    4 * w
+}
+
+/// The classic variant's 8-bit rows `rows` of the TSIFSD fusion of a `grid`-sized pair, the
+/// same bytes as those rows of [`fuse_tsifsd`] on the whole pair, from `work` alone
+/// ([`classic_words`]`(W)` words whatever the height; the strip pipeline, [`crate::strips`]).
+/// `vis_row(y)` and `tir_row(y)` give grid row `y` (`W` pixels) of each band. The kernel asks
+/// for the rows `y − r ..= y + r` of its output rows wrapped around the frame (the circular
+/// mean: the top rows' windows read the bottom rows) and for `y ± 1` inside it (the
+/// zero-padded median). It keeps the window's column sums and slides them one row at a time;
+/// the horizontal circular sums of those columns are the box sums, exactly. Returns the guards
+/// those rows fired.
+///
+/// Errors: [`Error::InvalidParameter`] (`"variant"` for the flight variant, bad parameters),
+/// [`Error::SizeMismatch`] (`out` not `W × rows.len()`, `rows` past the frame, or a band row
+/// the callbacks do not give at width `W`), [`Error::ScratchTooSmall`].
+pub(crate) fn fuse_tsifsd_classic_rows<'a>(
+    vis_row: impl Fn(usize) -> Option<&'a [u8]>,
+    tir_row: impl Fn(usize) -> Option<&'a [u8]>,
+    grid: (usize, usize),
+    rows: core::ops::Range<usize>,
+    mut out: FrameMut<'_, u8>,
+    params: &TsifsdParams,
+    work: &mut [i32],
+) -> Result<Guards, Error> {
+    params.validate()?;
+    if params.variant != Variant::Classic {
+        return Err(Error::InvalidParameter { name: "variant" });
+    }
+    let (w, h) = grid;
+    if out.width() != w || out.height() != rows.len() || rows.end > h {
+        return Err(Error::SizeMismatch { expected: (w, rows.len()), got: out.size() });
+    }
+    let needed = classic_words(w);
+    let capacity = work.len();
+    let work = work.get_mut(..needed).ok_or(Error::ScratchTooSmall { needed, capacity })?;
+    let (cols, sums) = work.split_at_mut(2 * w);
+    let ((col_v, col_i), (sum_v, sum_i)) = (cols.split_at_mut(w), sums.split_at_mut(w));
+    let band = |f: &dyn Fn(usize) -> Option<&'a [u8]>, y: usize| {
+        f(y).filter(|r| r.len() == w).ok_or(Error::SizeMismatch { expected: (w, h), got: (0, y) })
+    };
+    let both = |y: usize| Ok::<_, Error>((band(&vis_row, y)?, band(&tir_row, y)?));
+    let wrap = |y: isize| y.rem_euclid(h.max(1) as isize) as usize;
+    let radius = usize::from(params.mean_size / 2);
+    let r = radius as isize;
+    let taps = i64::from(params.mean_size) * i64::from(params.mean_size);
+    // The column sums of the first row's window.
+    col_v.fill(0);
+    col_i.fill(0);
+    for k in -r..=r {
+        let (v, t) = both(wrap(rows.start as isize + k))?;
+        col_v.iter_mut().zip(v).for_each(|(c, &p)| *c += i32::from(p));
+        col_i.iter_mut().zip(t).for_each(|(c, &p)| *c += i32::from(p));
+    }
+    let (mut zero, mut saturated) = (false, false);
+    for (i, y) in rows.clone().enumerate() {
+        if i > 0 {
+            // Slide the window down one row: row y + r enters, row y − 1 − r leaves.
+            let ((ev, et), (lv, lt)) = (both(wrap(y as isize + r))?, both(wrap(y as isize - 1 - r))?);
+            for (c, (&e, &l)) in col_v.iter_mut().zip(ev.iter().zip(lv)) {
+                *c += i32::from(e) - i32::from(l);
+            }
+            for (c, (&e, &l)) in col_i.iter_mut().zip(et.iter().zip(lt)) {
+                *c += i32::from(e) - i32::from(l);
+            }
+        }
+        horizontal(col_v, radius, Border::Circular, sum_v);
+        horizontal(col_i, radius, Border::Circular, sum_i);
+        // The median's rows: zero outside the frame (as `rows3`).
+        let near = |k: isize| match y.checked_add_signed(k).filter(|&yy| yy < h) {
+            Some(yy) => both(yy).map(Some),
+            None => Ok(None),
+        };
+        let split = |p: Option<(&'a [u8], &'a [u8])>| (p.map(|p| p.0), p.map(|p| p.1));
+        let ((v0, t0), (v1, t1), (v2, t2)) = (split(near(-1)?), split(near(0)?), split(near(1)?));
+        let (z, s) =
+            reconstruct_row([v0, v1, v2], [t0, t1, t2], sum_v, sum_i, taps, true, RowOut::U8(out.row_mut(i)));
+        zero |= z;
+        saturated |= s;
+    }
     Ok(guards_of(zero, saturated))
 }
 

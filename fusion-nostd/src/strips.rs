@@ -235,7 +235,9 @@ impl Walk<'_> {
                 _ => None,
             };
             let wrapped_rows = wrapped.map_or(0, |(e0, e1)| e1 - e0);
-            let (main, extra) = band.split_at_mut(self.window_bytes.min(band.len()));
+            let at = self.window_bytes.min(band.len());
+            let (main, extra) =
+                band.split_at_mut_checked(at).ok_or(Error::ScratchTooSmall { needed: at, capacity: 0 })?;
             let (window, band_rows) = if !self.rescaled {
                 let (vis_rest, tir_rest) = (Rest::Frame(self.vis), Rest::Frame(self.tir));
                 (

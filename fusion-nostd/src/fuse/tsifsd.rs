@@ -998,14 +998,21 @@ pub(crate) fn fuse_tsifsd_classic_rows<'a>(
     }
     let needed = classic_words(w);
     let capacity = work.len();
-    let work = work.get_mut(..needed).ok_or(Error::ScratchTooSmall { needed, capacity })?;
-    let (cols, sums) = work.split_at_mut(2 * w);
-    let ((col_v, col_i), (sum_v, sum_i)) = (cols.split_at_mut(w), sums.split_at_mut(w));
+    let too_small = Error::ScratchTooSmall { needed, capacity };
+    let work = work.get_mut(..needed).ok_or(too_small)?;
+    let (cols, sums) = work.split_at_mut_checked(2 * w).ok_or(too_small)?;
+    let ((col_v, col_i), (sum_v, sum_i)) =
+        (cols.split_at_mut_checked(w).ok_or(too_small)?, sums.split_at_mut_checked(w).ok_or(too_small)?);
     let band = |f: &dyn Fn(usize) -> Option<&'a [u8]>, y: usize| {
         f(y).filter(|r| r.len() == w).ok_or(Error::SizeMismatch { expected: (w, h), got: (0, y) })
     };
     let both = |y: usize| Ok::<_, Error>((band(&vis_row, y)?, band(&tir_row, y)?));
-    let wrap = |y: isize| y.rem_euclid(h.max(1) as isize) as usize;
+    // Row `y + k` wrapped into the frame, in unsigned arithmetic (no overflow case).
+    let hh = h.max(1);
+    let wrap = |y: usize, k: isize| {
+        let (y, step) = (y % hh, k.unsigned_abs() % hh);
+        if k < 0 { (y + hh - step) % hh } else { (y + step) % hh }
+    };
     let radius = usize::from(params.mean_size / 2);
     let r = radius as isize;
     let taps = i64::from(params.mean_size) * i64::from(params.mean_size);
@@ -1013,7 +1020,7 @@ pub(crate) fn fuse_tsifsd_classic_rows<'a>(
     col_v.fill(0);
     col_i.fill(0);
     for k in -r..=r {
-        let (v, t) = both(wrap(rows.start as isize + k))?;
+        let (v, t) = both(wrap(rows.start, k))?;
         col_v.iter_mut().zip(v).for_each(|(c, &p)| *c += i32::from(p));
         col_i.iter_mut().zip(t).for_each(|(c, &p)| *c += i32::from(p));
     }
@@ -1021,7 +1028,7 @@ pub(crate) fn fuse_tsifsd_classic_rows<'a>(
     for (i, y) in rows.clone().enumerate() {
         if i > 0 {
             // Slide the window down one row: row y + r enters, row y − 1 − r leaves.
-            let ((ev, et), (lv, lt)) = (both(wrap(y as isize + r))?, both(wrap(y as isize - 1 - r))?);
+            let ((ev, et), (lv, lt)) = (both(wrap(y, r))?, both(wrap(y, -1 - r))?);
             for (c, (&e, &l)) in col_v.iter_mut().zip(ev.iter().zip(lv)) {
                 *c += i32::from(e) - i32::from(l);
             }

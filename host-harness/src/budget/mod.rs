@@ -72,7 +72,7 @@ fn method_region(m: MethodArg) -> &'static str {
     }
 }
 
-/// Whether the method runs in strips ([`fusion_nostd::strips`]: TSIFSD flight and ADF).
+/// Whether the method runs in strips ([`fusion_nostd::strips`]: TSIFSD and ADF, both variants).
 pub fn has_strips(m: MethodArg) -> bool {
     matches!(m, MethodArg::Adf | MethodArg::Tsifsd)
 }
@@ -324,8 +324,25 @@ pub struct Outcome {
     pub wall: Vec<(Target, String, f64)>,
     /// Targets on which a deliberate fault was checked to end the run with status 1.
     pub fault_exit: Vec<Target>,
-    /// The strip runs' reports: `(target, grid, method, report)`.
-    pub strips: Vec<(Target, Grid, MethodArg, fusion_nostd::strips::StripReport)>,
+    /// The strip runs, each beside its whole-frame run.
+    pub strips: Vec<StripRun>,
+}
+
+/// One strip run of the budget job and the whole-frame run of the same pipeline.
+#[derive(Debug, Clone)]
+pub struct StripRun {
+    /// Target.
+    pub target: Target,
+    /// Grid.
+    pub grid: Grid,
+    /// Method and variant, as the table shows them.
+    pub label: String,
+    /// The core's strip report.
+    pub report: fusion_nostd::strips::StripReport,
+    /// Instructions of the strip run and of the whole-frame run (`pipeline` regions).
+    pub count: u64,
+    /// Instructions of the whole-frame run.
+    pub whole: u64,
 }
 
 /// Compares every run of `report` with the host's result for the same job; returns how many
@@ -442,7 +459,17 @@ pub fn run(opts: &Options) -> Result<Outcome> {
                 strips: true,
                 ..RunSpec::plain(method, VariantArg::Flight, grid.policy())
             });
-            let job = Job { vis: pair.0.clone(), tir: pair.1.clone(), runs: staged.chain(strips).collect() };
+            // TSIFSD classic, whole frame and in strips (its circular window wraps around the
+            // frame; no budget entry: the targets are the flight variant's).
+            let classic = opts.methods.iter().filter(|&&m| m == MethodArg::Tsifsd).flat_map(|&method| {
+                let whole = RunSpec::plain(method, VariantArg::Classic, grid.policy());
+                [whole, RunSpec { strips: true, ..whole }]
+            });
+            let job = Job {
+                vis: pair.0.clone(),
+                tir: pair.1.clone(),
+                runs: staged.chain(strips).chain(classic).collect(),
+            };
             let mut first: Option<FwReport> = None;
             for rep in 0..opts.repeat.max(1) {
                 progress(&format!(
@@ -482,13 +509,33 @@ pub fn run(opts: &Options) -> Result<Outcome> {
                 &format!("{target} {}² budget pair", grid.side()),
             )?;
             out.exact.push((
-                format!("{target}: budget pair, {}² grid, flight (whole frame and strips)", grid.side()),
+                format!(
+                    "{target}: budget pair, {}² grid, flight (whole frame and strips), TSIFSD classic (whole frame and strips)",
+                    grid.side()
+                ),
                 job.runs.len(),
                 same,
             ));
             out.stacks.push((target, grid, report.stack_bytes));
             out.overheads.push((target, grid, report.overhead));
+            let mut classic_whole = None;
             for (spec, run) in job.runs.iter().zip(&report.runs) {
+                if spec.variant == VariantArg::Classic {
+                    let count = run.region("pipeline").context("no pipeline region in a classic run")?;
+                    if !spec.strips {
+                        classic_whole = Some(count);
+                        continue;
+                    }
+                    out.strips.push(StripRun {
+                        target,
+                        grid,
+                        label: format!("{} classic", method_key(spec.method)),
+                        report: run.strips.context("no strip report")?,
+                        count,
+                        whole: classic_whole.context("a classic strip run without its whole-frame run")?,
+                    });
+                    continue;
+                }
                 if !spec.strips {
                     out.measured.push(Measured {
                         target,
@@ -510,7 +557,15 @@ pub fn run(opts: &Options) -> Result<Outcome> {
                     what: "whole pipeline in strips (512 KiB working set, bit-identical)",
                     count,
                 });
-                out.strips.push((target, grid, spec.method, strips));
+                let whole = m.pipeline();
+                out.strips.push(StripRun {
+                    target,
+                    grid,
+                    label: method_key(spec.method).to_string(),
+                    report: strips,
+                    count,
+                    whole,
+                });
             }
         }
         if opts.exactness {
@@ -760,19 +815,11 @@ fn strip_table(out: &Outcome) -> String {
          working set (work + band) | instructions, strips | whole frame | strips / whole |\n\
          |---|---|---|---|---:|---:|---:|---:|---|---:|---:|---:|\n",
     );
-    for (target, grid, method, r) in &out.strips {
-        let Some(m) =
-            out.measured.iter().find(|m| m.target == *target && m.grid == *grid && m.method == *method)
-        else {
-            continue;
-        };
-        let strips = m.stages.iter().find(|st| st.key == "strips").map_or(0, |st| st.count);
-        let whole = m.pipeline();
+    for StripRun { target, grid, label, report: r, count: strips, whole } in &out.strips {
         let side = grid.side();
         let _ = writeln!(
             s,
-            "| {target} | {side}² | {} | {} × {} | {} | {} | {:.3} | {} | {:.1} + {:.1} = {:.1} KiB | {strips} | {whole} | {:.3} |",
-            method_key(*method),
+            "| {target} | {side}² | {label} | {} × {} | {} | {} | {:.3} | {} | {:.1} + {:.1} = {:.1} KiB | {strips} | {whole} | {:.3} |",
             r.strips,
             r.strip_rows,
             r.halo_rows,
@@ -782,7 +829,7 @@ fn strip_table(out: &Outcome) -> String {
             (r.work_words * 4) as f64 / 1024.0,
             r.band_bytes as f64 / 1024.0,
             r.working_set_bytes() as f64 / 1024.0,
-            strips as f64 / whole.max(1) as f64,
+            *strips as f64 / (*whole).max(1) as f64,
         );
     }
     s.push_str(

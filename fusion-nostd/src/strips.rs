@@ -15,6 +15,7 @@
 //! | method | streaming form | halo (grid rows) | passes | work memory at width W |
 //! |---|---|---|---|---|
 //! | TSIFSD flight | the flight kernel started at the strip's first row: column sums of the 35×35 window and a ring of `2r + 3` rows of lane words | `max(r, 1)` = 17 (the mean's radius; the Scharr rows `y ± 1` lie inside it) | 1 | `(W + 2r + 1) + (2r + 3)·W` words (152.1 KiB at W = 1024) |
+//! | TSIFSD classic | the column sums of the circular 35×35 window slid down the strip, the box row by the circular horizontal pass, the zero-padded median's rows | `max(r, 1)` = 17, plus up to `r` rows from the frame's other edge for the strips near the top and bottom (the circular window wraps; the band keeps a tail for them) | 1 | `4·W` words: column sums and box row of both bands (16 KiB at W = 1024) |
 //! | ADF (both variants) | the diffusion's row pipeline of both bands (all iterations in one group) | `iterations` = 10 | 2: the covariance (global KL weights), then the output | `32 768 + iterations·3·(W + 2) + W` words: the flux table, the pipeline and its output row (252.2 KiB at W = 1024, 10 iterations) |
 //!
 //! ADF's weights come from the covariance of the whole frame's detail layers, which no strip
@@ -23,9 +24,6 @@
 //! output. The diffusion therefore runs twice; [`StripReport`] counts the rows.
 //!
 //! Not in strips (an `Err`, never a different result):
-//! * TSIFSD classic ([`Error::InvalidParameter`] `"variant"`): its circular 35×35 mean reads
-//!   the opposite edge of the frame and its median is zero-padded, a mix the row kernel does
-//!   not stream (it is the published-reproduction variant; flight is the one that flies).
 //! * IFEVIP ([`Error::InvalidParameter`] `"method"`): its background comes from a quadtree over
 //!   the whole IR frame, eroded and smoothed as planes, and its gain from whole-frame
 //!   histograms; a strip form would evaluate the background from the leaves' Bézier patches
@@ -38,7 +36,8 @@
 //! Memory: [`StripScratch`] (`static` on the firmware): [`STRIP_WORK_WORDS`] `i32` words for the
 //! method and [`STRIP_BAND_BYTES`] bytes for the window of the rescaled band. The strip height
 //! is the largest the band holds (or `max_rows`, if smaller): at W = 1024 with TIR up, 212
-//! rows (TSIFSD) and 226 rows (ADF), five strips per frame.
+//! rows (TSIFSD flight) and 226 rows (ADF), five strips per frame; 185 rows, six strips, for
+//! TSIFSD classic (the band's tail holds the wrapped rows).
 
 use crate::fuse::adf::{Covariance, diffuse_rows, stream_words};
 use crate::fuse::tsifsd::{classic_words, flight_words, fuse_tsifsd_classic_rows, fuse_tsifsd_flight_rows};
@@ -67,7 +66,7 @@ pub struct StripScratch<const WORDS: usize, const BAND: usize> {
     band: [u8; BAND],
 }
 
-/// The 512 KiB strip scratch: fuses grids up to 1024 wide (TSIFSD flight and ADF with up to
+/// The 512 KiB strip scratch: fuses grids up to 1024 wide (TSIFSD and ADF with up to
 /// 10 iterations; wider grids or more iterations need more work words).
 pub type StripScratch512K = StripScratch<STRIP_WORK_WORDS, STRIP_BAND_BYTES>;
 
@@ -308,7 +307,7 @@ impl Walk<'_> {
 /// scratch allows; smaller strips cost more halo rows).
 ///
 /// Errors: those of [`crate::pipeline::fuse`]; [`Error::InvalidParameter`] for what strips do
-/// not run (`"skip"`, `"variant"` for TSIFSD classic, `"method"` for IFEVIP, `"max_rows"` for
+/// not run (`"skip"`, `"method"` for IFEVIP, `"max_rows"` for
 /// 0); [`Error::UnsupportedRatio`] for a rescale that is not an exact 2× of the policy's filter;
 /// [`Error::ScratchTooSmall`] (in bytes of band or words of work) when not even a one-row strip
 /// and its halos fit. Nothing is written to `out` before these checks pass.

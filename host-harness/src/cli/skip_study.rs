@@ -2,12 +2,15 @@
 //! method and skip level, host time, window (ROI + halo) fraction and the error against the
 //! unskipped result; a Markdown table, a CSV and a chart.
 
+use crate::io::Gray;
 use crate::plot::{Labels, Series, Style, chart};
 use crate::skip::{fuse_once, skip_error};
-use crate::study::{Dataset, core_methods, version};
+use crate::study::{Dataset, core_methods, source_on_grid, version};
 use anyhow::{Result, bail};
 use clap::Args;
+use fusion_nostd::Filter;
 use fusion_nostd::pipeline::{Pipeline, RescalePolicy, SkipPolicy, Skips};
+use fusion_nostd::scene::Rect;
 use fusion_nostd::scene::{SceneParams, analyze};
 use std::fmt::Write as _;
 use std::path::PathBuf;
@@ -37,6 +40,10 @@ pub struct SkipStudyArgs {
 /// (set, version, method, skip level).
 type Key<'a> = (String, &'a str, &'a str, &'a str);
 
+/// Per (set, method): the background-rule bounds `(best constant, input mean)` in dB of the
+/// declined noisy frames.
+type Bounds<'a> = Vec<((&'a str, &'a str), Vec<(f64, f64)>)>;
+
 #[derive(Default)]
 struct Acc {
     times: Vec<f64>,
@@ -60,6 +67,45 @@ fn min(v: &[f64]) -> f64 {
     v.iter().copied().fold(f64::INFINITY, f64::min)
 }
 
+/// The whole-frame PSNR (dB) of `full` against itself with every pixel outside `window` replaced
+/// by `fill(i)` — what a background rule `fill` would cost.
+fn background_rule_psnr(full: &Gray<u8>, window: Rect, fill: impl Fn(usize) -> f64) -> f64 {
+    let mut se = 0.0;
+    for (i, &v) in full.data.iter().enumerate() {
+        let (x, y) = (i % full.width, i / full.width);
+        if !(x >= window.x0 && x < window.x1 && y >= window.y0 && y < window.y1) {
+            let d = f64::from(v) - fill(i);
+            se += d * d;
+        }
+    }
+    let mse = se / full.data.len().max(1) as f64;
+    if mse == 0.0 { f64::INFINITY } else { 10.0 * (255.0 * 255.0 / mse).log10() }
+}
+
+/// What the best background rules would cost on a frame the analysis declined, with the window
+/// the ROI plan took on the clean version of the same frame: `(best constant, mean of the two
+/// inputs)` as whole-frame PSNR against the unskipped result, in dB. The best constant is the
+/// mean of the fused background itself (an oracle no cheap rule beats with a constant).
+fn declined_bounds(full: &Gray<u8>, window: Rect, vis: &Gray<u8>, tir_up: &Gray<u8>) -> (f64, f64) {
+    let outside: Vec<f64> = full
+        .data
+        .iter()
+        .enumerate()
+        .filter(|(i, _)| {
+            let (x, y) = (i % full.width, i / full.width);
+            !(x >= window.x0 && x < window.x1 && y >= window.y0 && y < window.y1)
+        })
+        .map(|(_, &v)| f64::from(v))
+        .collect();
+    let level = mean(&outside).round();
+    let best_constant = background_rule_psnr(full, window, |_| level);
+    let average = background_rule_psnr(full, window, |i| {
+        let (a, b) = (vis.data.get(i).copied().unwrap_or(0), tir_up.data.get(i).copied().unwrap_or(0));
+        ((f64::from(a) + f64::from(b)) / 2.0).round()
+    });
+    (best_constant, average)
+}
+
 /// Runs the study.
 pub fn run(args: &SkipStudyArgs) -> Result<()> {
     let ds = Dataset::open(&args.dataset)?;
@@ -76,8 +122,13 @@ pub fn run(args: &SkipStudyArgs) -> Result<()> {
     std::fs::create_dir_all(&args.out)?;
     let levels = [("none", SkipPolicy::None), ("roi", SkipPolicy::Roi), ("all", SkipPolicy::All)];
     let mut csv = String::from(
-        "set,version,frame,method,skip,seconds,window_fraction,roi_fraction,max_abs,psnr_db,taken,declined,illumination,vis_bg,vis_spread_q8,tir_bg,tir_spread_q8\n",
+        "set,version,frame,method,skip,seconds,window_fraction,roi_fraction,max_abs,psnr_db,taken,declined,illumination,vis_bg,vis_spread_q8,tir_bg,tir_spread_q8,declined_best_constant_psnr_db,declined_input_mean_psnr_db\n",
     );
+    // The ROI windows the clean frames got, for the bounds on their declined noisy versions:
+    // (set, frame, method) → window.
+    let mut clean_windows: Vec<((&str, usize, &str), Rect)> = Vec::new();
+    // (set, method) → the bounds over the declined noisy frames.
+    let mut bounds: Bounds<'_> = Vec::new();
     // (set, version, method, level) → accumulator
     let mut acc: Vec<(Key<'_>, Acc)> = Vec::new();
     for set in ["vis_light", "vis_eclipse"] {
@@ -85,6 +136,7 @@ pub fn run(args: &SkipStudyArgs) -> Result<()> {
             for frame in 0..frames {
                 let vis = ds.image(set, frame, noisy)?;
                 let tir = ds.image(&args.tir, frame, noisy)?;
+                let tir_up = source_on_grid(&tir, (vis.width, vis.height), Filter::Cubic)?;
                 let scene =
                     analyze(vis.view()?, tir.view()?, (vis.width, vis.height), &SceneParams::default())?;
                 for m in core_methods() {
@@ -115,9 +167,24 @@ pub fn run(args: &SkipStudyArgs) -> Result<()> {
                             Some(f) => skip_error(&img, f),
                         };
                         let declined = report.skip.declined.map(|d| format!("{d:?}")).unwrap_or_default();
+                        if !noisy && lname == "roi" && report.skip.taken.contains(Skips::ROI) {
+                            clean_windows.push(((set, frame, m.name), report.skip.computed));
+                        }
+                        let clean = clean_windows.iter().find(|(k, _)| *k == (set, frame, m.name));
+                        let bound = match (&full, clean) {
+                            (Some(f), Some((_, win))) if noisy && lname == "roi" && !declined.is_empty() => {
+                                let b = declined_bounds(f, *win, &vis, &tir_up);
+                                match bounds.iter_mut().find(|(k, _)| *k == (set, m.name)) {
+                                    Some((_, v)) => v.push(b),
+                                    None => bounds.push(((set, m.name), vec![b])),
+                                }
+                                format!("{:.2},{:.2}", b.0, b.1)
+                            }
+                            _ => ",".to_string(),
+                        };
                         writeln!(
                             csv,
-                            "{set},{},{frame},{},{lname},{best:.6},{window:.5},{roi:.5},{},{:.2},{},{declined},{:?},{},{},{},{}",
+                            "{set},{},{frame},{},{lname},{best:.6},{window:.5},{roi:.5},{},{:.2},{},{declined},{:?},{},{},{},{},{bound}",
                             version(noisy),
                             m.name,
                             e.max_abs,
@@ -179,6 +246,28 @@ pub fn run(args: &SkipStudyArgs) -> Result<()> {
             if psnr.is_infinite() { "∞ (identical)".to_string() } else { format!("{psnr:.1}") },
             a.declined.join(", ")
         )?;
+    }
+    if !bounds.is_empty() {
+        md.push_str(
+            "\nDeclined noisy frames: what a background rule would have cost, with the ROI window the \
+             clean version of the same frame got (whole-frame PSNR against the unskipped noisy result; \
+             the bound is 50 dB). *Best constant* fills the background with the fused background's \
+             own mean, the best any constant can do; *input mean* fills it with `(VIS + TIR)/2`.\n\n\
+             | set | method | frames | best constant: mean / best dB | input mean: mean / best dB |\n\
+             |---|---|---:|---:|---:|\n",
+        );
+        for ((set, method), v) in &bounds {
+            let (c, a): (Vec<f64>, Vec<f64>) = v.iter().copied().unzip();
+            writeln!(
+                md,
+                "| {set} | {method} | {} | {:.1} / {:.1} | {:.1} / {:.1} |",
+                v.len(),
+                mean(&c),
+                max(&c),
+                mean(&a),
+                max(&a)
+            )?;
+        }
     }
     std::fs::write(args.out.join("skip_study.md"), &md)?;
     std::fs::write(args.out.join("skip_study.csv"), &csv)?;

@@ -44,8 +44,8 @@ fn detect_avx2() -> bool {
 #[cfg(target_arch = "x86_64")]
 static AVX512BW: AtomicU8 = AtomicU8::new(0); // 0 unknown, 1 no, 2 yes
 
-/// Whether this x86-64 CPU and OS support AVX-512 F and BW on 512-bit registers (CPUID leaf 7
-/// and the XCR0 opmask and ZMM states).
+/// Whether this x86-64 CPU and OS support AVX-512 F, BW and VL on 512-bit registers (CPUID leaf
+/// 7 and the XCR0 opmask and ZMM states).
 #[cfg(target_arch = "x86_64")]
 pub(crate) fn has_avx512bw() -> bool {
     match AVX512BW.load(Ordering::Relaxed) {
@@ -63,11 +63,11 @@ pub(crate) fn has_avx512bw() -> bool {
 fn detect_avx512bw() -> bool {
     use core::arch::x86_64::__cpuid_count;
     let ebx = __cpuid_count(7, 0).ebx;
-    let (f, bw) = (ebx & (1 << 16) != 0, ebx & (1 << 30) != 0);
+    let (f, bw, vl) = (ebx & (1 << 16) != 0, ebx & (1 << 30) != 0, ebx & (1 << 31) != 0);
     // SAFETY: `has_avx2` (called first) saw OSXSAVE, so XGETBV is available.
     let xcr0 = unsafe { xgetbv0() };
     // SSE, AVX, opmask, ZMM_Hi256 and Hi16_ZMM state enabled by the OS.
-    f && bw && xcr0 & 0b1110_0110 == 0b1110_0110
+    f && bw && vl && xcr0 & 0b1110_0110 == 0b1110_0110
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -98,7 +98,7 @@ macro_rules! dispatch {
                     $kernel($($arg),*)
                 }
                 if $crate::cpu::has_avx512bw() {
-                    // SAFETY: the CPU supports AVX-512 F, BW (and so VL), checked at run time.
+                    // SAFETY: the CPU supports AVX-512 F, BW and VL, checked at run time.
                     return unsafe { avx512_copy($($arg),*) };
                 }
                 if $crate::cpu::has_avx2() {

@@ -10,7 +10,7 @@
 //! work planes. When both frames already share a grid the rescale is skipped whatever the
 //! policy says (and [`FuseReport::rescaled`] says so). The same pipeline runs strip by strip in
 //! a 512 KiB working set instead of these planes: [`crate::strips::fuse_strips`] (TSIFSD
-//! flight and ADF, the same bytes).
+//! and ADF, both variants, the same bytes).
 //!
 //! # Scene skipping
 //!

@@ -504,9 +504,6 @@ pub fn pipeline(data: &[u8]) {
     let ratio_ok = (vw, vh) == (tw, th) || if filter_up { two_x(grid, src) } else { two_x(src, grid) };
     match (&r, method) {
         (Err(e), Method::Ifevip(_)) => assert_eq!(*e, Error::InvalidParameter { name: "method" }),
-        (Err(e), Method::Tsifsd(tp)) if tp.variant == Variant::Classic => {
-            assert_eq!(*e, Error::InvalidParameter { name: "variant" })
-        }
         (Err(e), _) if !ratio_ok => assert_eq!(*e, Error::UnsupportedRatio, "{p:?} vis {gv:?} tir {gt:?}"),
         // Many iterations (ADF) or a wide mean (TSIFSD) can outgrow the 512 KiB scratch.
         (Err(Error::ScratchTooSmall { needed, capacity }), _) => assert!(needed > capacity),

@@ -977,8 +977,9 @@ pub(crate) const fn classic_words(w: usize) -> usize {
 /// those rows fired.
 ///
 /// Errors: [`Error::InvalidParameter`] (`"variant"` for the flight variant, bad parameters),
-/// [`Error::SizeMismatch`] (`out` not `W × rows.len()`, `rows` past the frame, or a band row
-/// the callbacks do not give at width `W`), [`Error::ScratchTooSmall`].
+/// [`Error::SizeMismatch`] (`out` not `W × rows.len()`, `rows` past the frame; or a band row
+/// the callbacks do not give at width `W`, reported as `got: (0, y)` for row `y` — a caller's
+/// bug, which the strip walk never makes), [`Error::ScratchTooSmall`].
 pub(crate) fn fuse_tsifsd_classic_rows<'a>(
     vis_row: impl Fn(usize) -> Option<&'a [u8]>,
     tir_row: impl Fn(usize) -> Option<&'a [u8]>,

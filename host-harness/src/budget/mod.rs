@@ -339,7 +339,7 @@ pub struct StripRun {
     pub label: String,
     /// The core's strip report.
     pub report: fusion_nostd::strips::StripReport,
-    /// Instructions of the strip run and of the whole-frame run (`pipeline` regions).
+    /// Instructions of the strip run (its `pipeline` region).
     pub count: u64,
     /// Instructions of the whole-frame run.
     pub whole: u64,

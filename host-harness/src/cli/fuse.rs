@@ -125,7 +125,7 @@ pub struct FuseArgs {
     #[arg(long, value_enum, default_value_t = SkipArg::None)]
     pub skip: SkipArg,
     /// Fuse strip by strip in the flight core's 512 KiB strip scratch (core engine, TSIFSD
-    /// flight and ADF; no --skip, no --raw): bit-identical to the whole-frame run. The value
+    /// and ADF, both variants; no --skip, no --raw): bit-identical to the whole-frame run. The value
     /// caps the strip height in grid rows (`max`: as tall as the scratch allows). The strip
     /// report is printed.
     #[arg(long, value_name = "ROWS|max")]

@@ -29,21 +29,23 @@
 //!    `n_j = round(f(g) − f''(g)·2²ᵏ/16)` at `g = j·2ᵏ`, with `f(g) = Δt/2·g·exp(−(g/κ_q)²)`.
 //!    The curvature term balances the chords' error (−f''h²/16 at the nodes, +f''h²/16
 //!    mid-segment) instead of leaving it one-sided.
-//! 2. `F = sign(∇)·(n_j + r(f, n_{j+1} − n_j))` with `m` clamped to `64·2ᵏ − 1`,
-//!    `j = m >> k`, `f` the position inside the segment in Q15 and
-//!    `r(a, b) = (a·b + 2¹⁴) >> 15` (`vpmulhrsw`).
+//! 2. `F = sign(∇)·(n_j + ⌊(q·ρ_j + 2^(k−1)) / 2ᵏ⌋)`, the linear interpolation rounded half
+//!    up, with `m = min(|∇|, 64·2ᵏ − 1)`, `j = m >> k`, `q = m − j·2ᵏ`, `ρ_j = n_{j+1} − n_j`.
+//!    Computed as `base_j + r(m, slope_j)` with `base_j = n_j − j·ρ_j`, `slope_j = ρ_j·2^(15−k)`
+//!    and `r(a, b) = (a·b + 2¹⁴) >> 15` (`vpmulhrsw`): the same value, exactly (see
+//!    [`FluxFn::magnitude`]).
 //!
 //! Error of `F` against `Δt/2·∇·exp(−(∇/κ)²)`: ≤ 0.97 state units (0.0075 grey levels) at the
 //! published κ = 30, Δt = 0.15. That is the node's and the product's rounding plus ≤ 0.16 of
 //! interpolation (unit test `flux_function_error_is_within_its_bound`, every difference). This
 //! form replaced a fixed-point `exp` (0.59 units, but 18 vector operations with 11 multiplies
-//! against 10 with one), which tripled the host's speed; the VIFB accuracy stays at max 1 level.
+//! against 9 with one), which tripled the host's speed; the VIFB accuracy stays at max 1 level.
 //!
 //! Where a table read is cheaper than the arithmetic (Cortex-M, RV32, x86-64 without AVX-512),
 //! the function is tabulated once per call for all 65 535 differences (128 KiB of the work
 //! plane, [`TABLE_WORDS`]). A pair flux is then one subtraction and one read: no index
 //! arithmetic and no clamp (the states are clamped instead). The AVX-512 row loop keeps the
-//! 64 nodes and rises in four registers and reads them with `vpermi2w`, 32 lanes at a time.
+//! 64 bases and slopes in four registers and reads them with `vpermi2w`, 32 lanes at a time.
 //! Both give the same bits (checked exhaustively).
 //!
 //! **Both bands at once.** A work word holds one pixel of both bands; the Armv7E-M loop takes
@@ -168,10 +170,10 @@ pub(super) struct FluxFn {
     limit: i32,
     /// `k`, the segment width's shift (3 ..= 9).
     shift: u32,
-    /// Segment `j`'s base `n_j − j·ρ_j` (see [`FluxFn::magnitude`]; `|·| < 2¹⁴`).
+    /// Segment `j`'s base `n_j − j·ρ_j` (see [`FluxFn::magnitude`]; `|·|` below about 3.4·10³).
     base: [i16; SEGMENTS],
-    /// Segment `j`'s slope `ρ_j·2^(15−k)`, `ρ_j = n_{j+1} − n_j` its rise (`|ρ_j| < 2ᵏ`, so
-    /// `|slope| ≤ 2¹³`).
+    /// Segment `j`'s slope `ρ_j·2^(15−k)`, `ρ_j = n_{j+1} − n_j` its rise (`|ρ_j| ≤ Δt/2·2ᵏ +
+    /// 1`, so `|slope| ≤ 2¹³`; test `flux_is_the_interpolation_of_its_nodes` would see a wrap).
     slope: [i16; SEGMENTS],
 }
 
@@ -313,7 +315,7 @@ pub(super) struct Diffusion {
 /// (exact: no rounding, so it is odd in the fluxes — a band and its negative `255 − I` diffuse
 /// to exact negatives while no state is clamped, see the module docs). No partial sum here or in the north sums
 /// exceeds `12·|F|max ≤ 12·1760 < 2¹⁵` ([`MAX_FLUX`]), so the 16-bit lanes of the Armv7E-M and
-/// AVX2 loops (saturating instructions, for defence) compute the same values as these plain
+/// AVX-512 loops (saturating instructions, for defence) compute the same values as these plain
 /// sums.
 #[inline(always)]
 fn update_band(c: i32, [h, v, dr, dl]: [i32; 4], h_prev: i32, n: i32) -> i32 {
@@ -944,7 +946,7 @@ mod arm {
 
 /// The AVX-512 copy of the row loop (x86-64 hosts with AVX-512 F and BW): sixteen pixels × two
 /// bands (32 lanes of `i16`) at a time. The flux's two 64-entry tables sit in four registers and
-/// are read by `vpermi2w`, so a flux is ten operations (one multiply). The same values as the
+/// are read by `vpermi2w`, so a flux is nine operations (one multiply). The same values as the
 /// portable loop, so the same bits (checked by `avx512_rows_equal_the_portable_rows` and
 /// `table_and_avx512_equal_the_function_exhaustively`).
 #[cfg(target_arch = "x86_64")]

@@ -9,21 +9,46 @@
 #[cfg(target_arch = "x86_64")]
 use core::sync::atomic::{AtomicU8, Ordering};
 
+/// A CPU feature detected once: 0 unknown, 1 no, 2 yes.
 #[cfg(target_arch = "x86_64")]
-static AVX2: AtomicU8 = AtomicU8::new(0); // 0 unknown, 1 no, 2 yes
+struct Feature(AtomicU8);
+
+#[cfg(target_arch = "x86_64")]
+impl Feature {
+    const fn new() -> Self {
+        Self(AtomicU8::new(0))
+    }
+
+    /// The cached answer, or `detect()`'s, cached.
+    fn get(&self, detect: fn() -> bool) -> bool {
+        match self.0.load(Ordering::Relaxed) {
+            1 => false,
+            2 => true,
+            _ => {
+                let yes = detect();
+                self.0.store(if yes { 2 } else { 1 }, Ordering::Relaxed);
+                yes
+            }
+        }
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+static AVX2: Feature = Feature::new();
+#[cfg(target_arch = "x86_64")]
+static AVX512BW: Feature = Feature::new();
 
 /// Whether this x86-64 CPU and OS support AVX2 (CPUID leaf 7 and the XCR0 YMM state).
 #[cfg(target_arch = "x86_64")]
 pub(crate) fn has_avx2() -> bool {
-    match AVX2.load(Ordering::Relaxed) {
-        1 => false,
-        2 => true,
-        _ => {
-            let yes = detect_avx2();
-            AVX2.store(if yes { 2 } else { 1 }, Ordering::Relaxed);
-            yes
-        }
-    }
+    AVX2.get(detect_avx2)
+}
+
+/// Whether this x86-64 CPU and OS support AVX-512 F, BW and VL on 512-bit registers (CPUID leaf
+/// 7 and the XCR0 opmask and ZMM states).
+#[cfg(target_arch = "x86_64")]
+pub(crate) fn has_avx512bw() -> bool {
+    AVX512BW.get(|| has_avx2() && detect_avx512bw())
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -39,24 +64,6 @@ fn detect_avx2() -> bool {
     // SAFETY: OSXSAVE is set, so XGETBV is available.
     let xcr0 = unsafe { xgetbv0() };
     avx2 && xcr0 & 0b110 == 0b110
-}
-
-#[cfg(target_arch = "x86_64")]
-static AVX512BW: AtomicU8 = AtomicU8::new(0); // 0 unknown, 1 no, 2 yes
-
-/// Whether this x86-64 CPU and OS support AVX-512 F, BW and VL on 512-bit registers (CPUID leaf
-/// 7 and the XCR0 opmask and ZMM states).
-#[cfg(target_arch = "x86_64")]
-pub(crate) fn has_avx512bw() -> bool {
-    match AVX512BW.load(Ordering::Relaxed) {
-        1 => false,
-        2 => true,
-        _ => {
-            let yes = has_avx2() && detect_avx512bw();
-            AVX512BW.store(if yes { 2 } else { 1 }, Ordering::Relaxed);
-            yes
-        }
-    }
 }
 
 #[cfg(target_arch = "x86_64")]

@@ -72,8 +72,7 @@ fn min(v: &[f64]) -> f64 {
 fn background_rule_psnr(full: &Gray<u8>, window: Rect, fill: impl Fn(usize) -> f64) -> f64 {
     let mut se = 0.0;
     for (i, &v) in full.data.iter().enumerate() {
-        let (x, y) = (i % full.width, i / full.width);
-        if !(x >= window.x0 && x < window.x1 && y >= window.y0 && y < window.y1) {
+        if !window.contains(i % full.width, i / full.width) {
             let d = f64::from(v) - fill(i);
             se += d * d;
         }
@@ -91,10 +90,7 @@ fn declined_bounds(full: &Gray<u8>, window: Rect, vis: &Gray<u8>, tir_up: &Gray<
         .data
         .iter()
         .enumerate()
-        .filter(|(i, _)| {
-            let (x, y) = (i % full.width, i / full.width);
-            !(x >= window.x0 && x < window.x1 && y >= window.y0 && y < window.y1)
-        })
+        .filter(|(i, _)| !window.contains(i % full.width, i / full.width))
         .map(|(_, &v)| f64::from(v))
         .collect();
     let level = mean(&outside).round();

@@ -40,6 +40,8 @@
 //! TSIFSD classic (the band's tail holds the wrapped rows).
 
 use crate::fuse::adf::{Covariance, diffuse_rows, stream_words};
+use crate::fuse::ifevip::stream::{Analysis, Keys, OUTPUT_CHUNK, crossing_words, output_rows};
+use crate::fuse::ifevip::{EntropyRatio, Gains, top_k};
 use crate::fuse::tsifsd::{classic_words, flight_words, fuse_tsifsd_classic_rows, fuse_tsifsd_flight_rows};
 use crate::fuse::{Guards, Variant};
 use crate::pipeline::{
@@ -144,6 +146,7 @@ enum Streamed<'p> {
     TsifsdFlight(&'p crate::TsifsdParams),
     TsifsdClassic(&'p crate::TsifsdParams),
     Adf(&'p crate::AdfParams),
+    Ifevip(&'p crate::IfevipParams),
 }
 
 /// Grid rows of a band outside its strip window.
@@ -301,6 +304,65 @@ impl Walk<'_> {
     }
 }
 
+/// IFEVIP's three passes (see [`crate::fuse::ifevip::stream`]): the analysis walk with the
+/// step-1 halo, then keys and output over halo-free strips (`rest`). Returns the work words
+/// used and the guards, and whether an output saturated.
+fn fuse_ifevip_strips(
+    walk: &Walk<'_>,
+    rest: &Walk<'_>,
+    band: &mut [u8],
+    work: &mut [i32],
+    out: &mut FrameMut<'_, u8>,
+    p: &crate::IfevipParams,
+    report: &mut StripReport,
+) -> Result<((usize, Guards), bool), Error> {
+    let (w, h) = walk.grid;
+    let capacity = work.len();
+    let (cross, work) = work
+        .split_at_mut_checked(crossing_words(p))
+        .ok_or(Error::ScratchTooSmall { needed: crossing_words(p), capacity })?;
+    let mut analysis = Analysis::new(walk.grid, p, cross, work)?;
+    walk.run(band, report, |win| {
+        analysis.add_window(win.vis, win.tir, win.y0, win.strip.clone())?;
+        Ok(win.vis.height())
+    })?;
+    let used_analysis = analysis.words();
+    let tree = analysis.finish()?;
+    let mut guards = Guards::NONE;
+    let Some(ratio) = EntropyRatio::of(&tree.hist_ir, &tree.hist_vis, p, &mut guards) else {
+        // Classic with a constant visible image: F = VIS.
+        rest.run(band, report, |win| {
+            let rel = win.strip.start - win.y0;
+            let mut rows = out.sub_rect_mut(0, win.strip.start, w, win.strip.len())?;
+            for (o, v) in rows.rows_mut().zip(win.vis.rows().skip(rel)) {
+                for (o, v) in o.iter_mut().zip(v) {
+                    *o = *v;
+                }
+            }
+            Ok(win.strip.len())
+        })?;
+        return Ok(((crossing_words(p) + used_analysis, guards), false));
+    };
+    let k = top_k((w * h) as u64, p, &mut guards);
+    let mut keys = Keys::new(&tree, walk.grid, p, ratio.q24, k, work)?;
+    rest.run(band, report, |win| {
+        let rows = out.sub_rect_mut(0, win.strip.start, w, win.strip.len())?;
+        keys.add_rows(win.vis, win.tir, win.y0, win.strip.clone(), rows)?;
+        Ok(win.strip.len())
+    })?;
+    let used_keys = keys.words();
+    let gains = Gains::new(keys.top_sum(), k, ratio.q32, p, &mut guards);
+
+    let mut saturated = false;
+    rest.run(band, report, |win| {
+        let rows = out.sub_rect_mut(0, win.strip.start, w, win.strip.len())?;
+        saturated |= output_rows(win.vis, win.tir, win.y0, win.strip.clone(), rows, &gains, work)?;
+        Ok(win.strip.len())
+    })?;
+    let used_output = w * rest.strip_rows.min(h).min(OUTPUT_CHUNK);
+    Ok(((crossing_words(p) + used_analysis.max(used_keys).max(used_output), guards), saturated))
+}
+
 /// Fuses a VIS/TIR pair like [`crate::pipeline::fuse`] with `pipeline.skip` =
 /// [`SkipPolicy::None`], but strip by strip in `scratch` (see the module docs): the same
 /// bytes, the same guards. `max_rows` caps the strip height (`usize::MAX`: as tall as the
@@ -343,7 +405,9 @@ pub fn fuse_strips(
             (Streamed::TsifsdClassic(p), r.max(1), 1, classic_words(w))
         }
         Method::Adf(p) => (Streamed::Adf(p), usize::from(p.iterations), 2, stream_words(w, p)),
-        Method::Ifevip(_) => return Err(Error::InvalidParameter { name: "method" }),
+        // Pass 1's halo holds the vertical taps of the IR onto the quadtree grid; passes 2
+        // and 3 read the strip's own rows only.
+        Method::Ifevip(p) => (Streamed::Ifevip(p), Analysis::halo(grid, p), 3, 0),
     };
     if scratch.work.len() < words {
         return Err(Error::ScratchTooSmall { needed: words, capacity: scratch.work.len() });
@@ -367,19 +431,23 @@ pub fn fuse_strips(
     let wrap = matches!(streamed, Streamed::TsifsdClassic(_));
     let band_rows_max = if rescaled { scratch.band.len() / w.max(1) } else { usize::MAX };
     let margin = if up2 { 9 } else { 0 };
-    let wrapped_rows = if wrap && rescaled { halo + usize::from(up2) + margin } else { 0 };
-    let fixed = margin + 2 * halo + usize::from(up2) + wrapped_rows;
-    let fit = band_rows_max.saturating_sub(fixed);
-    if fit == 0 {
-        let needed = w * (fixed + 1);
-        return Err(Error::ScratchTooSmall { needed, capacity: scratch.band.len() });
-    }
-    let strip_rows = fit.min(max_rows).min(h);
-    let window_bytes = w * (strip_rows + margin + 2 * halo + usize::from(up2));
-    let strips = h.div_ceil(strip_rows.max(1));
+    // The strips of a walk with `halo` rows on each side: as tall as the band holds.
+    let walk = |halo: usize| -> Result<Walk<'_>, Error> {
+        let wrapped_rows = if wrap && rescaled { halo + usize::from(up2) + margin } else { 0 };
+        let fixed = margin + 2 * halo + usize::from(up2) + wrapped_rows;
+        let fit = band_rows_max.saturating_sub(fixed);
+        if fit == 0 {
+            let needed = w * (fixed + 1);
+            return Err(Error::ScratchTooSmall { needed, capacity: scratch.band.len() });
+        }
+        let strip_rows = fit.min(max_rows).min(h);
+        let window_bytes = w * (strip_rows + margin + 2 * halo + usize::from(up2));
+        Ok(Walk { vis, tir, grid, filter, rescaled, up2, halo, strip_rows, wrap, window_bytes })
+    };
+    let first = walk(halo)?;
     let mut report = StripReport {
-        strips,
-        strip_rows,
+        strips: h.div_ceil(first.strip_rows.max(1)),
+        strip_rows: first.strip_rows,
         halo_rows: halo,
         passes,
         method_rows: 0,
@@ -387,9 +455,9 @@ pub fn fuse_strips(
         work_words: words,
         band_bytes: 0,
     };
-
+    let rest = walk(0)?;
+    let walk = first;
     let StripScratchMut { work, band } = scratch;
-    let walk = Walk { vis, tir, grid, filter, rescaled, up2, halo, strip_rows, wrap, window_bytes };
     let mut guards = Guards::NONE;
     match streamed {
         Streamed::TsifsdFlight(p) => walk.run(band, &mut report, |win| {
@@ -431,6 +499,14 @@ pub fn fuse_strips(
                 })?;
                 Ok(vis_w.height())
             })?;
+            if saturated {
+                guards |= Guards::OUTPUT_SATURATED;
+            }
+        }
+        Streamed::Ifevip(p) => {
+            let (used, saturated) = fuse_ifevip_strips(&walk, &rest, band, work, &mut out, p, &mut report)?;
+            report.work_words = used.0;
+            guards |= used.1;
             if saturated {
                 guards |= Guards::OUTPUT_SATURATED;
             }

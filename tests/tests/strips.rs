@@ -27,6 +27,21 @@ fn methods() -> Vec<(&'static str, Method)> {
         ("adf", Method::Adf(AdfParams::default())),
         ("adf-classic", Method::Adf(AdfParams { variant: Variant::Classic, ..AdfParams::default() })),
         ("adf-3it", Method::Adf(AdfParams { iterations: 3, ..AdfParams::default() })),
+        ("ifevip", Method::Ifevip(IfevipParams::default())),
+        (
+            "ifevip-classic",
+            Method::Ifevip(IfevipParams { variant: Variant::Classic, ..IfevipParams::default() }),
+        ),
+        // A small quadtree grid: the IR is shrunk on both axes, rows first when wider.
+        (
+            "ifevip-d64",
+            Method::Ifevip(IfevipParams {
+                quad_norm_dim: 64,
+                quad_min_dim: 8,
+                erode_size: 7,
+                ..IfevipParams::default()
+            }),
+        ),
     ]
 }
 
@@ -35,8 +50,18 @@ fn methods() -> Vec<(&'static str, Method)> {
 fn check(name: &str, vis: &Gray<u8>, tir: &Gray<u8>, pipeline: &Pipeline, max_rows: usize) -> Result<usize> {
     let (want, want_report, _) = fuse_once(vis, tir, pipeline)?;
     let mut scratch = HostStripScratch::default();
-    let (got, report, strips, _) = fuse_strips_once(vis, tir, pipeline, max_rows, &mut scratch)?;
     let h = want.height;
+    let (got, report, strips, _) = match fuse_strips_once(vis, tir, pipeline, max_rows, &mut scratch) {
+        // IFEVIP on a grid less than D/4 high: each background row reads more than 4·D
+        // quadtree rows (the documented limit of the 512 KiB scratch).
+        Err(e)
+            if matches!(pipeline.method, Method::Ifevip(p) if 4 * h < usize::from(p.quad_norm_dim))
+                && matches!(e.downcast_ref::<Error>(), Some(Error::ScratchTooSmall { .. })) =>
+        {
+            return Ok(0);
+        }
+        r => r?,
+    };
     if let Some(i) = got.data.iter().zip(&want.data).position(|(a, b)| a != b) {
         panic!(
             "{name} rows {max_rows}: pixel ({}, {}) is {} in strips, {} whole ({strips:?})",
@@ -103,7 +128,8 @@ fn synthetic_frames_are_bit_identical_in_strips() -> Result<()> {
 fn design_point_1024_fuses_in_five_strips() -> Result<()> {
     let vis = textured(1024, 1024, 5);
     let tir = textured(512, 512, 6);
-    for (name, method) in methods().into_iter().filter(|(n, _)| !n.contains("n7") && !n.contains("3it")) {
+    let design = |n: &str| !n.contains("n7") && !n.contains("3it") && !n.contains("d64");
+    for (name, method) in methods().into_iter().filter(|(n, _)| design(n)) {
         let p = Pipeline { method, ..Pipeline::default() };
         let (want, _, _) = fuse_once(&vis, &tir, &p)?;
         let mut scratch = HostStripScratch::default();
@@ -194,13 +220,8 @@ fn what_strips_do_not_run_is_an_error() -> Result<()> {
         anyhow::Ok(r.err())
     };
     let tsifsd = Pipeline::default();
-    let ifevip = Pipeline { method: Method::Ifevip(IfevipParams::default()), ..Pipeline::default() };
     let skip = Pipeline { skip: SkipPolicy::Roi, ..Pipeline::default() };
     let grid = (64, 48);
-    assert_eq!(
-        run(&vis, &tir, &ifevip, 8, grid, &mut work, &mut band)?,
-        Some(Error::InvalidParameter { name: "method" })
-    );
     assert_eq!(
         run(&vis, &tir, &skip, 8, grid, &mut work, &mut band)?,
         Some(Error::InvalidParameter { name: "skip" })

@@ -43,27 +43,73 @@ pub fn control_lines(leaves: &[Leaf], d: usize, rows: &mut [bool], cols: &mut [b
     }
 }
 
+/// Marks in `lines` (at least `d` long) every grid line that holds a control point of *some*
+/// quadtree a `d×d` grid with smallest side `min_dim` can have: the [`control_lines`] of every
+/// block of every side from `min_dim` to `d`. The strip form erodes at these lines' crossings
+/// while the grid streams by, before the tree is known (≈ 79 lines per axis for the published
+/// 512 / 32, against ≈ 49 for a typical tree).
+pub fn candidate_lines(d: usize, min_dim: usize, lines: &mut [bool]) {
+    let mut n = min_dim.max(1);
+    while n <= d {
+        for r0 in (0..d).step_by(n) {
+            for off in control_offsets(n) {
+                if let Some(l) = lines.get_mut((r0 + off).min(d.saturating_sub(1))) {
+                    *l = true;
+                }
+            }
+        }
+        n *= 2;
+    }
+}
+
 /// Writes every leaf's `(n+1)×(n+1)` patch into `bg` (Q20) in the given order, dropping what
 /// falls outside (the one-pixel pad). Control points come from `minimum` at the local offsets
 /// [`control_offsets`], clamped into the grid (the replicate pad); nothing else of `minimum`
 /// is read (the crossings of [`control_lines`]).
-pub fn render(leaves: &[Leaf], minimum: FrameRef<'_, i32>, mut bg: FrameMut<'_, i32>) -> Result<(), Error> {
+pub fn render(leaves: &[Leaf], minimum: FrameRef<'_, i32>, bg: FrameMut<'_, i32>) -> Result<(), Error> {
     let d = minimum.width();
     if minimum.size() != bg.size() || minimum.height() != d {
         return Err(Error::SizeMismatch { expected: minimum.size(), got: bg.size() });
     }
+    let control = |r: usize, c: usize| minimum.row(r).get(c).copied().unwrap_or(0);
+    render_rows(leaves, d, control, 0, bg)
+}
+
+/// Rows `first .. first + bg.height()` of the `d×d` background (`bg` is `d` wide): what
+/// [`render`] writes there, leaf by leaf in the given order, so every pixel keeps the last
+/// patch that covers it. `control(row, col)` is the minimum image at a control point (row and
+/// column already clamped into the grid). [`render`] is this over all rows; the strip form
+/// renders the rows its background window needs.
+pub fn render_rows(
+    leaves: &[Leaf],
+    d: usize,
+    control: impl Fn(usize, usize) -> i32,
+    first: usize,
+    mut bg: FrameMut<'_, i32>,
+) -> Result<(), Error> {
+    if bg.width() != d {
+        return Err(Error::SizeMismatch { expected: (d, bg.height()), got: bg.size() });
+    }
+    let end = (first + bg.height()).min(d);
     for leaf in leaves {
         let (r0, c0, n) = (usize::from(leaf.row), usize::from(leaf.col), usize::from(leaf.side));
         if !n.is_power_of_two() || !(4..=512).contains(&n) {
             return Err(Error::InvalidParameter { name: "quad_min_dim" });
         }
+        // The patch's rows r0 ..= r0 + n inside the grid and inside the requested rows.
+        let (lo, hi) = (r0.max(first), (r0 + n + 1).min(end));
+        if lo >= hi {
+            continue;
+        }
         let bits = 6 * n.trailing_zeros();
         let offsets = control_offsets(n);
         let mut p = [[0i64; 4]; 4];
         for (pa, &oa) in p.iter_mut().zip(&offsets) {
-            let row = minimum.row((r0 + oa).min(d - 1));
             for (v, &ob) in pa.iter_mut().zip(&offsets) {
-                *v = i64::from(row.get((c0 + ob).min(d - 1)).copied().unwrap_or(0));
+                *v = i64::from(control(
+                    (r0 + oa).min(d.saturating_sub(1)),
+                    (c0 + ob).min(d.saturating_sub(1)),
+                ));
             }
         }
         let to_q = |f: i64| -> i32 {
@@ -74,8 +120,8 @@ pub fn render(leaves: &[Leaf], minimum: FrameRef<'_, i32>, mut bg: FrameMut<'_, 
             }
         };
         let ni = n as i64;
-        for i in 0..=n.min(d.saturating_sub(r0 + 1)) {
-            let bi = basis(ni, i as i64);
+        for y in lo..hi {
+            let bi = basis(ni, (y - r0) as i64);
             let mut q = [0i64; 4];
             for (qb, b) in q.iter_mut().zip(0..4) {
                 *qb = bi.iter().zip(&p).map(|(&ba, pa)| ba * pa.get(b).copied().unwrap_or(0)).sum();
@@ -86,7 +132,7 @@ pub fn render(leaves: &[Leaf], minimum: FrameRef<'_, i32>, mut bg: FrameMut<'_, 
             let mut d1 = f1.wrapping_sub(f0);
             let mut d2 = f2.wrapping_sub(f1.wrapping_mul(2)).wrapping_add(f0);
             let d3 = f3.wrapping_sub(f2.wrapping_mul(3)).wrapping_add(f1.wrapping_mul(3)).wrapping_sub(f0);
-            let out = bg.row_mut(r0 + i);
+            let out = bg.row_mut(y - first);
             let seg = out.get_mut(c0..).unwrap_or(&mut []);
             let len = seg.len().min(n + 1);
             #[cfg(fusion_arm_dsp)]

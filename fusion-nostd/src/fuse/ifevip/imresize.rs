@@ -77,7 +77,7 @@ pub fn table_len(in_len: usize, out_len: usize) -> usize {
 }
 
 /// Taps per output sample after merging: `min(in, ⌈4·max(in,out)/out⌉ + 2)`.
-fn max_taps(in_len: usize, out_len: usize) -> usize {
+pub fn max_taps(in_len: usize, out_len: usize) -> usize {
     let big = in_len.max(out_len);
     let p = (4 * big).div_ceil(out_len.max(1)) + 2;
     p.min(in_len)
@@ -224,6 +224,52 @@ impl Taps<'_> {
         Ok(Taps { table, stride: self.stride })
     }
 
+    /// Number of output samples.
+    pub fn outputs(&self) -> usize {
+        self.table.len() / self.stride.max(1)
+    }
+
+    /// Input samples every output reads (the widest merged run; shorter ones are padded with
+    /// zero weights, and no run reaches past the input).
+    pub fn taps(&self) -> usize {
+        self.stride.saturating_sub(2)
+    }
+
+    /// The first input sample output `x` reads (`None` past the last output).
+    pub fn start(&self, x: usize) -> Option<usize> {
+        self.table.get(x * self.stride).map(|&s| s as usize)
+    }
+
+    /// The table of outputs `outputs` alone, read from an input that begins at input sample
+    /// `first` (every start moved back by `first`), in `buf`: a pass over a window of the
+    /// input gives these outputs with the whole input's bits, provided the window holds their
+    /// runs. Errors when a run begins before `first` or `buf` is short.
+    pub fn window<'b>(
+        &self,
+        outputs: core::ops::Range<usize>,
+        first: usize,
+        buf: &'b mut [i32],
+    ) -> Result<Taps<'b>, Error> {
+        let stride = self.stride.max(1);
+        let rows = self
+            .table
+            .get(outputs.start * stride..outputs.end * stride)
+            .ok_or(Error::InvalidParameter { name: "rows" })?;
+        let (needed, capacity) = (rows.len(), buf.len());
+        let table = buf.get_mut(..needed).ok_or(Error::ScratchTooSmall { needed, capacity })?;
+        for (dst, src) in table.chunks_exact_mut(stride).zip(rows.chunks_exact(stride)) {
+            for (d, &v) in dst.iter_mut().zip(src) {
+                *d = v;
+            }
+            let start = src.first().map_or(0, |&v| v as usize);
+            let shifted = start.checked_sub(first).ok_or(Error::InvalidParameter { name: "rows" })?;
+            if let Some(d) = dst.first_mut() {
+                *d = shifted as i32;
+            }
+        }
+        Ok(Taps { table, stride: self.stride })
+    }
+
     /// `(start, weights)` of output sample `x`.
     fn get(&self, x: usize) -> Option<(usize, &[i32])> {
         let row = self.table.get(x * self.stride..(x + 1) * self.stride)?;
@@ -293,6 +339,29 @@ pub fn build_smoothed<'a>(
         }
     }
     Ok(Taps { table, stride })
+}
+
+/// [`build_smoothed`] with the combined table moved to the front of `buf`; returns it and
+/// the rest of `buf` (free again: the plain table is dropped).
+pub fn build_smoothed_front<'a>(
+    in_len: usize,
+    out_len: usize,
+    gauss: &[i32],
+    buf: &'a mut [i32],
+) -> Result<(Taps<'a>, &'a mut [i32]), Error> {
+    let (offset, len, stride) = {
+        let base = buf.as_ptr() as usize;
+        let taps = build_smoothed(in_len, out_len, gauss, buf)?;
+        ((taps.table.as_ptr() as usize - base) / 4, taps.table.len(), taps.stride)
+    };
+    let capacity = buf.len();
+    if offset + len > capacity {
+        return Err(Error::ScratchTooSmall { needed: offset + len, capacity });
+    }
+    buf.copy_within(offset..offset + len, 0);
+    let (table, rest) =
+        buf.split_at_mut_checked(len).ok_or(Error::ScratchTooSmall { needed: len, capacity })?;
+    Ok((Taps { table, stride }, rest))
 }
 
 /// What a pass does with its Q30 sums.

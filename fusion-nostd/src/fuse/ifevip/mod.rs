@@ -50,6 +50,7 @@ pub mod entropy;
 pub mod imresize;
 pub mod peak;
 pub mod quadtree;
+pub(crate) mod stream;
 
 use super::{Guards, Variant};
 use crate::filters::{erode, gauss};
@@ -217,7 +218,7 @@ fn part(i: usize) -> usize {
 }
 
 /// Grey-level histogram ([`PARTS`] interleaved partial histograms, summed at the end).
-fn histogram(frame: FrameRef<'_, u8>) -> [u32; 256] {
+pub(crate) fn histogram(frame: FrameRef<'_, u8>) -> [u32; 256] {
     let mut parts = [[0u32; 256]; PARTS];
     for row in frame.rows() {
         for (i, &v) in row.iter().enumerate() {
@@ -278,7 +279,7 @@ pub fn background(
 /// tie). Backgrounds stay below 2²⁹ in magnitude (see `imresize::finish`), so the rounding
 /// add cannot overflow; the clamp is one `usat` on the Cortex-M.
 #[inline(always)]
-fn bg_u8(bg: i32) -> i32 {
+pub(crate) fn bg_u8(bg: i32) -> i32 {
     (bg.wrapping_add(1 << (BG_BITS - 1)) >> BG_BITS).clamp(0, 255)
 }
 
@@ -290,7 +291,7 @@ const ADD_TABLE_LEN: usize = 256 * 511;
 /// every pixel; returns whether some output saturated. The added value depends on
 /// `(R, IR − VIS)` only; with a `table` of [`ADD_TABLE_LEN`] it is computed once per pair
 /// instead of once per pixel (the same values).
-fn output_pass(
+pub(crate) fn output_pass(
     vis: FrameRef<'_, u8>,
     tir: FrameRef<'_, u8>,
     r_plane: &[i32],
@@ -494,6 +495,83 @@ mod output_avx2 {
     }
 }
 
+/// Step 8: the entropy ratio `r_H = H(IR)/H(VIS)` in Q32 and Q24 (shared by the whole-frame
+/// and the strip forms).
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct EntropyRatio {
+    pub(crate) q32: u64,
+    pub(crate) q24: i64,
+}
+
+impl EntropyRatio {
+    /// The ratio from the grey-level histograms of both frames; `None` when the classic variant
+    /// returns `F = VIS` (a constant visible image). Adds the guard that fired to `guards`.
+    pub(crate) fn of(
+        hist_ir: &[u32; 256],
+        hist_vis: &[u32; 256],
+        params: &IfevipParams,
+        guards: &mut Guards,
+    ) -> Option<Self> {
+        let (nh_ir, _) = entropy::weighted_entropy(hist_ir);
+        let (nh_vis, vis_bins) = entropy::weighted_entropy(hist_vis);
+        let q32 = if vis_bins <= 1 {
+            *guards |= Guards::IFEVIP_ZERO_ENTROPY;
+            if params.variant != Variant::Flight {
+                return None;
+            }
+            1u64 << 32
+        } else {
+            entropy::ratio_q32(nh_ir, nh_vis)
+        };
+        let q24 = i64::try_from(((q32 >> 7) + 1) >> 1).unwrap_or(i64::MAX);
+        Some(Self { q32, q24 })
+    }
+}
+
+/// Step 10's `k = round(N·ppm / 10⁶)` for `n` pixels (flight: at least 1); adds
+/// [`Guards::IFEVIP_FEW_PIXELS`].
+pub(crate) fn top_k(n: u64, params: &IfevipParams, guards: &mut Guards) -> u64 {
+    let ppm = u64::from(params.top_ppm);
+    if n * ppm < 1_000_000 {
+        *guards |= Guards::IFEVIP_FEW_PIXELS;
+    }
+    let k = (n * ppm + 500_000) / 1_000_000;
+    if params.variant == Variant::Flight { k.max(1) } else { k }
+}
+
+/// Step 11: the gains `G = g·2⁴⁰` and `B = g·r_H·2⁴⁰` from the sum of the top `k` keys.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Gains {
+    pub(crate) g_q: i64,
+    pub(crate) b_q: i64,
+}
+
+impl Gains {
+    /// The gains (adds [`Guards::IFEVIP_ZERO_PEAK`] when the peak is 0).
+    pub(crate) fn new(top: i128, k: u64, ratio_q32: u64, params: &IfevipParams, guards: &mut Guards) -> Self {
+        let cap = u128::from(params.gain_cap_percent);
+        let gain_q40: u128 = if k == 0 || top <= 0 {
+            if k > 0 {
+                *guards |= Guards::IFEVIP_ZERO_PEAK;
+            }
+            ((cap << GAIN_BITS) + 50) / 100
+        } else {
+            let top = top as u128;
+            // g = 255·k/m' with m' = top/2²⁴; capped when that is ≥ cap/100.
+            let num = (255u128 * u128::from(k)) << peak::KEY_BITS;
+            if num * 100 >= cap * top {
+                ((cap << GAIN_BITS) + 50) / 100
+            } else {
+                ((num << GAIN_BITS) + top / 2) / top
+            }
+        };
+        let ratio_gain = ((gain_q40 * u128::from(ratio_q32)) + (1 << 31)) >> 32;
+        let g_q = i64::try_from(gain_q40).unwrap_or(i64::MAX);
+        let b_q = i64::try_from(ratio_gain.min(1 << 52)).unwrap_or(1 << 52);
+        Self { g_q, b_q }
+    }
+}
+
 /// IFEVIP of an aligned VIS/TIR pair into `out` (see the module docs). Returns the guards that
 /// fired. Errors: invalid parameters, frames of different sizes, scratch planes shorter than
 /// [`scratch_pixels`].
@@ -516,29 +594,19 @@ pub fn fuse_ifevip(
     if scratch.capacity() < needed {
         return Err(Error::ScratchTooSmall { needed, capacity: scratch.capacity() });
     }
-    let flight = params.variant == Variant::Flight;
     let mut guards = Guards::NONE;
     let n = (w * h) as u64;
 
     // Entropy ratio (step 8) first: classic with H(VIS) = 0 needs nothing else.
-    let (nh_ir, _) = entropy::weighted_entropy(&histogram(tir));
-    let (nh_vis, vis_bins) = entropy::weighted_entropy(&histogram(vis));
-    let ratio_q32 = if vis_bins <= 1 {
-        guards |= Guards::IFEVIP_ZERO_ENTROPY;
-        if !flight {
-            for (o, v) in out.rows_mut().zip(vis.rows()) {
-                for (o, v) in o.iter_mut().zip(v) {
-                    *o = *v;
-                }
+    let Some(ratio) = EntropyRatio::of(&histogram(tir), &histogram(vis), params, &mut guards) else {
+        for (o, v) in out.rows_mut().zip(vis.rows()) {
+            for (o, v) in o.iter_mut().zip(v) {
+                *o = *v;
             }
-            return Ok(guards);
         }
-        1u64 << 32
-    } else {
-        entropy::ratio_q32(nh_ir, nh_vis)
+        return Ok(guards);
     };
-    let ratio_q24 = ((ratio_q32 >> 7) + 1) >> 1;
-    let ratio_q24 = i64::try_from(ratio_q24).unwrap_or(i64::MAX);
+    let EntropyRatio { q32: ratio_q32, q24: ratio_q24 } = ratio;
 
     background(tir, params, scratch)?;
     let [a, b, c] = scratch.planes(needed)?;
@@ -585,37 +653,10 @@ pub fn fuse_ifevip(
     }
     let r_plane: &[i32] = c;
 
-    // 10. Peak m·k: sum of the top k keys.
-    let ppm = u64::from(params.top_ppm);
-    if n * ppm < 1_000_000 {
-        guards |= Guards::IFEVIP_FEW_PIXELS;
-    }
-    let mut k = (n * ppm + 500_000) / 1_000_000;
-    if flight {
-        k = k.max(1);
-    }
+    // 10 + 11. Peak m·k (the sum of the top k keys) and the gains.
+    let k = top_k(n, params, &mut guards);
     let top = peak::top_k_sum(counts, &classes, k, b);
-
-    // 11. Gains in Q40.
-    let cap = u128::from(params.gain_cap_percent);
-    let gain_q40: u128 = if k == 0 || top <= 0 {
-        if k > 0 {
-            guards |= Guards::IFEVIP_ZERO_PEAK;
-        }
-        ((cap << GAIN_BITS) + 50) / 100
-    } else {
-        let top = top as u128;
-        // g = 255·k/m' with m' = top/2²⁴; capped when that is ≥ cap/100.
-        let num = (255u128 * u128::from(k)) << peak::KEY_BITS;
-        if num * 100 >= cap * top {
-            ((cap << GAIN_BITS) + 50) / 100
-        } else {
-            ((num << GAIN_BITS) + top / 2) / top
-        }
-    };
-    let ratio_gain = ((gain_q40 * u128::from(ratio_q32)) + (1 << 31)) >> 32;
-    let g_q = i64::try_from(gain_q40).unwrap_or(i64::MAX);
-    let b_q = i64::try_from(ratio_gain.min(1 << 52)).unwrap_or(1 << 52);
+    let Gains { g_q, b_q } = Gains::new(top, k, ratio_q32, params, &mut guards);
 
     // 12. F = VIS ⊕ uint8(g·Feat), tabulated for large frames in plane A (free after step 10).
     let table = a.get_mut(..ADD_TABLE_LEN).filter(|_| w * h >= 8 * ADD_TABLE_LEN);

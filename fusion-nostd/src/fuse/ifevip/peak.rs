@@ -66,6 +66,20 @@ impl Classes {
         (pair & mask) | (single & !mask)
     }
 
+    /// The key (Q24) of a pixel with visible value `v`, IR value `t` and feature `r`
+    /// (`0..=255`): `self.key(self.class(v, t, r))` without the division by 511.
+    #[inline(always)]
+    pub fn key_of(&self, v: u8, t: u8, r: i32) -> i64 {
+        let di = usize::from(t) + 255 - usize::from(v);
+        let least = self.r_min.get(di).copied().unwrap_or(u16::MAX);
+        if r >= i32::from(least) {
+            (i64::from(i32::from(v) + r) << KEY_BITS)
+                .saturating_add((di as i64 - 255).saturating_mul(self.ratio_q24))
+        } else {
+            i64::from(v) << KEY_BITS
+        }
+    }
+
     /// The key (Q24) of every pixel of class `c`.
     #[inline]
     pub fn key(&self, c: usize) -> i64 {
@@ -152,6 +166,136 @@ pub fn top_k_sum(counts: &[i32], classes: &Classes, k: u64, work: &mut [i32]) ->
     sum
 }
 
+/// The `k`-th largest key (`1 ≤ k ≤ entries.len()`) of the classes in `entries`, one pixel
+/// each: the histogram rounds of [`top_k_sum`] without moving anything (each round scans all
+/// entries, at most six rounds).
+fn kth_key(entries: &[i32], classes: &Classes, k: usize) -> i64 {
+    let key = |c: i32| classes.key(c as usize);
+    let (mut lo, mut hi) =
+        entries.iter().fold((i64::MAX, i64::MIN), |(lo, hi), &c| (lo.min(key(c)), hi.max(key(c))));
+    let mut need = k as u64;
+    while hi > lo {
+        let span = (hi - lo) as u64;
+        let shift = (64 - span.leading_zeros()).saturating_sub(BINS.trailing_zeros());
+        let bin = |key: i64| ((key - lo) as u64 >> shift) as usize;
+        let mut hist = [0u64; BINS];
+        for &c in entries {
+            let key = key(c);
+            if (lo..=hi).contains(&key)
+                && let Some(h) = hist.get_mut(bin(key))
+            {
+                *h += 1;
+            }
+        }
+        let (t, above) = select(&hist, need);
+        need -= above;
+        let (mut new_lo, mut new_hi) = (i64::MAX, i64::MIN);
+        for &c in entries {
+            let key = key(c);
+            if (lo..=hi).contains(&key) && bin(key) == t {
+                new_lo = new_lo.min(key);
+                new_hi = new_hi.max(key);
+            }
+        }
+        (lo, hi) = (new_lo, new_hi);
+    }
+    lo
+}
+
+/// The `k` largest keys of a stream of pixels, in a caller buffer of class indices: the strip
+/// form of steps 9–10, which cannot hold the [`CLASSES`] counts. A pixel is kept while its
+/// key exceeds the threshold; when the buffer fills, it is cut to the `k` largest (those above
+/// the `k`-th largest key `T`, then copies of a class with key `T`) and `T` becomes the
+/// threshold. Ties are interchangeable, so [`TopK::sum`] is the [`top_k_sum`] of all pushed
+/// pixels, exactly. A buffer of `c > k` entries cuts at most once per `c − k` kept pixels.
+#[derive(Debug)]
+pub struct TopK<'w> {
+    entries: &'w mut [i32],
+    len: usize,
+    k: usize,
+    threshold: Option<i64>,
+}
+
+impl<'w> TopK<'w> {
+    /// Keeps the `k` largest keys in `buf`, which must hold more than `k` entries.
+    pub fn new(buf: &'w mut [i32], k: usize) -> Result<Self, crate::Error> {
+        if buf.len() <= k {
+            return Err(crate::Error::ScratchTooSmall { needed: k + 1, capacity: buf.len() });
+        }
+        Ok(Self { entries: buf, len: 0, k, threshold: None })
+    }
+
+    /// Whether a pixel of key `key` would be kept (cheaper than forming its class).
+    #[inline(always)]
+    pub fn wants(&self, key: i64) -> bool {
+        self.k > 0 && self.threshold.is_none_or(|t| key > t)
+    }
+
+    /// Adds a pixel of class `class` and key `key` (= `classes.key(class)`).
+    #[inline(always)]
+    pub fn push(&mut self, class: usize, key: i64, classes: &Classes) {
+        if self.k == 0 || self.threshold.is_some_and(|t| key <= t) {
+            return;
+        }
+        if self.len == self.entries.len() {
+            self.cut(classes);
+        }
+        if let Some(slot) = self.entries.get_mut(self.len) {
+            *slot = class as i32;
+            self.len += 1;
+        }
+    }
+
+    /// Cuts the entries to the `k` largest keys.
+    fn cut(&mut self, classes: &Classes) {
+        let Some(entries) = self.entries.get_mut(..self.len) else { return };
+        if entries.len() <= self.k {
+            return;
+        }
+        let t = kth_key(entries, classes, self.k);
+        let mut kept = 0usize;
+        let mut at_t = None;
+        for i in 0..entries.len() {
+            let Some(&c) = entries.get(i) else { break };
+            let key = classes.key(c as usize);
+            if key > t {
+                if let Some(slot) = entries.get_mut(kept) {
+                    *slot = c;
+                }
+                kept += 1;
+            } else if key == t {
+                at_t = Some(c);
+            }
+        }
+        if let Some(c) = at_t {
+            for slot in entries.iter_mut().take(self.k).skip(kept) {
+                *slot = c;
+            }
+        }
+        self.len = self.k.max(kept);
+        self.threshold = Some(t);
+    }
+
+    /// Sum (Q24) of the `k` largest keys pushed (all of them when fewer were pushed).
+    pub fn sum(&self, classes: &Classes) -> i128 {
+        let entries = self.entries.get(..self.len).unwrap_or(&[]);
+        let need = self.k.min(entries.len());
+        if need == 0 {
+            return 0;
+        }
+        let t = kth_key(entries, classes, need);
+        let (mut sum, mut above) = (0i128, 0usize);
+        for &c in entries {
+            let key = classes.key(c as usize);
+            if key > t {
+                sum += i128::from(key);
+                above += 1;
+            }
+        }
+        sum + (need - above) as i128 * i128::from(t)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -174,6 +318,7 @@ mod tests {
                     for r in [0i32, 1, 17, 128, 254, 255] {
                         let c = classes.class(v, t, r);
                         assert!(c < CLASSES);
+                        assert_eq!(classes.key_of(v, t, r), classes.key(c));
                         assert_eq!(
                             classes.key(c),
                             pixel_key(v, t, r, ratio),
@@ -207,6 +352,7 @@ mod tests {
             let n = 1 + (next() as usize % 3000);
             counts.fill(0);
             let mut keys = Vec::new();
+            let mut pushed = Vec::new();
             for _ in 0..n {
                 // Many ties (a few grey levels) in half the rounds.
                 let (v, t, r) = if round % 2 == 0 {
@@ -216,8 +362,21 @@ mod tests {
                 };
                 counts[classes.class(v, t, r)] += 1;
                 keys.push(pixel_key(v, t, r, ratio));
+                pushed.push((classes.class(v, t, r), classes.key_of(v, t, r)));
             }
             keys.sort_unstable_by(|a, b| b.cmp(a));
+            for k in [0usize, 1, 2, n / 1000 + 1, n / 2, n] {
+                // The stream in a buffer from barely above k (a cut every push) to roomy.
+                for cap in [k + 1, k + 7, 2 * k + 64] {
+                    let mut buf = std::vec![0i32; cap];
+                    let mut top = TopK::new(&mut buf, k).expect("cap > k");
+                    for &(c, key) in &pushed {
+                        top.push(c, key, &classes);
+                    }
+                    let want: i128 = keys.iter().take(k).map(|&x| i128::from(x)).sum();
+                    assert_eq!(top.sum(&classes), want, "stream: round {round} n {n} k {k} cap {cap}");
+                }
+            }
             for k in [0usize, 1, 2, n / 1000 + 1, n / 2, n, n + 3] {
                 let want: i128 = keys.iter().take(k).map(|&x| i128::from(x)).sum();
                 assert_eq!(

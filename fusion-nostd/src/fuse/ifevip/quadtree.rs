@@ -26,6 +26,73 @@ pub struct Leaf {
     pub side: u16,
 }
 
+/// `(min, max)` of every smallest block (`min_dim` side) of a `D×D` grid, gathered row by
+/// row: the whole-frame [`decompose`] adds every row at once, the strip form adds the rows as
+/// they are produced. The tree needs nothing else of the grid.
+#[derive(Debug, Clone)]
+pub struct BlockRanges {
+    range: [[(i32, i32); MAX_GRID]; MAX_GRID],
+    d: usize,
+    min_dim: usize,
+}
+
+impl BlockRanges {
+    /// Empty ranges of a `d×d` grid in blocks of `min_dim` (`d / min_dim` in `1..=16`, exact).
+    pub fn new(d: usize, min_dim: usize) -> Result<Self, Error> {
+        let cells = d / min_dim.max(1);
+        if min_dim == 0 || cells == 0 || cells > MAX_GRID || cells * min_dim != d {
+            return Err(Error::InvalidParameter { name: "quad_min_dim" });
+        }
+        Ok(Self { range: [[(i32::MAX, i32::MIN); MAX_GRID]; MAX_GRID], d, min_dim })
+    }
+
+    /// Adds grid row `y` (`d` values; rows past the grid are refused).
+    pub fn add_row(&mut self, y: usize, row: &[i32]) -> Result<(), Error> {
+        let cells_row =
+            self.range.get_mut(y / self.min_dim).ok_or(Error::InvalidParameter { name: "quad_min_dim" })?;
+        for (cell, seg) in cells_row.iter_mut().zip(row.chunks_exact(self.min_dim)) {
+            let (lo, hi) = seg.iter().fold(*cell, |(lo, hi), &v| (lo.min(v), hi.max(v)));
+            *cell = (lo, hi);
+        }
+        Ok(())
+    }
+
+    /// The leaves, split while `max − min > threshold` and the side is at least `2·min_dim`,
+    /// in write order.
+    pub fn leaves(&self, threshold: i32) -> Result<Vec<Leaf, MAX_LEAVES>, Error> {
+        let (range, d, min_dim) = (&self.range, self.d, self.min_dim);
+        let block_range = |r: usize, c: usize, n: usize| {
+            let (r0, c0, k) = (r / min_dim, c / min_dim, n / min_dim);
+            range
+                .iter()
+                .skip(r0)
+                .take(k)
+                .flat_map(|row| row.iter().skip(c0).take(k))
+                .fold((i32::MAX, i32::MIN), |(lo, hi), &(a, b)| (lo.min(a), hi.max(b)))
+        };
+        let mut leaves: Vec<Leaf, MAX_LEAVES> = Vec::new();
+        let mut stack: Vec<(usize, usize, usize), 16> = Vec::new();
+        let overflow = Error::InvalidParameter { name: "quad_min_dim" };
+        stack.push((0, 0, d)).map_err(|_| overflow)?;
+        while let Some((r, c, n)) = stack.pop() {
+            let (lo, hi) = block_range(r, c, n);
+            if hi - lo > threshold && n / 2 >= min_dim {
+                let h = n / 2;
+                for (dr, dc) in [(h, h), (0, h), (h, 0), (0, 0)] {
+                    stack.push((r + dr, c + dc, h)).map_err(|_| overflow)?;
+                }
+            } else {
+                let leaf = Leaf { row: r as u16, col: c as u16, side: n as u16 };
+                leaves.push(leaf).map_err(|_| overflow)?;
+            }
+        }
+        heapsort_by_key(&mut leaves, |l| {
+            (u64::from(u16::MAX - l.side) << 32) | (u64::from(l.col) << 16) | u64::from(l.row)
+        });
+        Ok(leaves)
+    }
+}
+
 /// Leaves of the quadtree of the square `grid` (values 0..=255), split while
 /// `max − min > threshold` and the side is at least `2·min_dim`, in write order.
 pub fn decompose(
@@ -34,48 +101,14 @@ pub fn decompose(
     threshold: i32,
 ) -> Result<Vec<Leaf, MAX_LEAVES>, Error> {
     let d = grid.width();
-    let cells = d / min_dim.max(1);
-    if grid.height() != d || min_dim == 0 || cells == 0 || cells > MAX_GRID || cells * min_dim != d {
+    if grid.height() != d {
         return Err(Error::InvalidParameter { name: "quad_min_dim" });
     }
-    // (min, max) of every smallest block.
-    let mut range = [[(i32::MAX, i32::MIN); MAX_GRID]; MAX_GRID];
+    let mut ranges = BlockRanges::new(d, min_dim)?;
     for (y, row) in grid.rows().enumerate() {
-        let cells_row = range.get_mut(y / min_dim).ok_or(Error::InvalidParameter { name: "quad_min_dim" })?;
-        for (cell, seg) in cells_row.iter_mut().zip(row.chunks_exact(min_dim)) {
-            let (lo, hi) = seg.iter().fold(*cell, |(lo, hi), &v| (lo.min(v), hi.max(v)));
-            *cell = (lo, hi);
-        }
+        ranges.add_row(y, row)?;
     }
-    let block_range = |r: usize, c: usize, n: usize| {
-        let (r0, c0, k) = (r / min_dim, c / min_dim, n / min_dim);
-        range
-            .iter()
-            .skip(r0)
-            .take(k)
-            .flat_map(|row| row.iter().skip(c0).take(k))
-            .fold((i32::MAX, i32::MIN), |(lo, hi), &(a, b)| (lo.min(a), hi.max(b)))
-    };
-    let mut leaves: Vec<Leaf, MAX_LEAVES> = Vec::new();
-    let mut stack: Vec<(usize, usize, usize), 16> = Vec::new();
-    let overflow = Error::InvalidParameter { name: "quad_min_dim" };
-    stack.push((0, 0, d)).map_err(|_| overflow)?;
-    while let Some((r, c, n)) = stack.pop() {
-        let (lo, hi) = block_range(r, c, n);
-        if hi - lo > threshold && n / 2 >= min_dim {
-            let h = n / 2;
-            for (dr, dc) in [(h, h), (0, h), (h, 0), (0, 0)] {
-                stack.push((r + dr, c + dc, h)).map_err(|_| overflow)?;
-            }
-        } else {
-            let leaf = Leaf { row: r as u16, col: c as u16, side: n as u16 };
-            leaves.push(leaf).map_err(|_| overflow)?;
-        }
-    }
-    heapsort_by_key(&mut leaves, |l| {
-        (u64::from(u16::MAX - l.side) << 32) | (u64::from(l.col) << 16) | u64::from(l.row)
-    });
-    Ok(leaves)
+    ranges.leaves(threshold)
 }
 
 /// Sorts `v` by ascending `key` (here: side descending, then column, then row) in place.

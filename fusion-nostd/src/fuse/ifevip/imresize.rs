@@ -358,7 +358,14 @@ pub fn build_smoothed_front<'a>(
     if offset + len > capacity {
         return Err(Error::ScratchTooSmall { needed: offset + len, capacity });
     }
-    buf.copy_within(offset..offset + len, 0);
+    // Toward the front: a forward copy never reads what it already overwrote.
+    for i in 0..len {
+        if let Some(&v) = buf.get(offset + i)
+            && let Some(o) = buf.get_mut(i)
+        {
+            *o = v;
+        }
+    }
     let (table, rest) =
         buf.split_at_mut_checked(len).ok_or(Error::ScratchTooSmall { needed: len, capacity })?;
     Ok((Taps { table, stride }, rest))

@@ -48,9 +48,11 @@ impl BlockRanges {
 
     /// Adds grid row `y` (`d` values; rows past the grid are refused).
     pub fn add_row(&mut self, y: usize, row: &[i32]) -> Result<(), Error> {
-        let cells_row =
-            self.range.get_mut(y / self.min_dim).ok_or(Error::InvalidParameter { name: "quad_min_dim" })?;
-        for (cell, seg) in cells_row.iter_mut().zip(row.chunks_exact(self.min_dim)) {
+        let cells_row = self
+            .range
+            .get_mut(y / self.min_dim.max(1))
+            .ok_or(Error::InvalidParameter { name: "quad_min_dim" })?;
+        for (cell, seg) in cells_row.iter_mut().zip(row.chunks_exact(self.min_dim.max(1))) {
             let (lo, hi) = seg.iter().fold(*cell, |(lo, hi), &v| (lo.min(v), hi.max(v)));
             *cell = (lo, hi);
         }
@@ -60,7 +62,7 @@ impl BlockRanges {
     /// The leaves, split while `max − min > threshold` and the side is at least `2·min_dim`,
     /// in write order.
     pub fn leaves(&self, threshold: i32) -> Result<Vec<Leaf, MAX_LEAVES>, Error> {
-        let (range, d, min_dim) = (&self.range, self.d, self.min_dim);
+        let (range, d, min_dim) = (&self.range, self.d, self.min_dim.max(1));
         let block_range = |r: usize, c: usize, n: usize| {
             let (r0, c0, k) = (r / min_dim, c / min_dim, n / min_dim);
             range

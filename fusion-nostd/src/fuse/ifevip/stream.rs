@@ -312,7 +312,7 @@ impl<'c, 'w> Analysis<'c, 'w> {
     /// The quadtree ranges and the erosion of `D`-rows `rows` (now in `out`).
     fn consume(&mut self, rows: core::ops::Range<usize>) -> Result<(), Error> {
         let d = self.d;
-        let size = usize::from(self.params.erode_size);
+        let size = usize::from(self.params.erode_size).max(1);
         for (k, i) in rows.enumerate() {
             let row = self.out.get(k * d..(k + 1) * d).ok_or(Error::InvalidParameter { name: "rows" })?;
             self.ranges.add_row(i, row)?;
@@ -337,7 +337,7 @@ impl<'c, 'w> Analysis<'c, 'w> {
         if !self.lines.marked.get(r).copied().unwrap_or(false) {
             return Ok(());
         }
-        let (d, size) = (self.d, usize::from(self.params.erode_size));
+        let (d, size) = (self.d, usize::from(self.params.erode_size).max(1));
         let origin = size.div_ceil(2).max(1);
         let (before, after) = (origin - 1, size - origin);
         let ring: &[i32] = self.ring;
@@ -359,7 +359,7 @@ impl<'c, 'w> Analysis<'c, 'w> {
             return Err(Error::InvalidParameter { name: "rows" });
         }
         let d = self.d;
-        let size = usize::from(self.params.erode_size);
+        let size = usize::from(self.params.erode_size).max(1);
         let after = size - size.div_ceil(2).max(1);
         for r in d.saturating_sub(after)..d {
             self.erode_row(r, d - 1)?;
@@ -415,8 +415,13 @@ impl<'t, 'r> Background<'t, 'r> {
         };
         let capacity = self.bez.len();
         let from = (first - self.bez_rows.start.min(first)) * d;
-        if kept > 0 && from + kept * d <= capacity {
-            self.bez.copy_within(from..from + kept * d, 0);
+        // Moved toward the front, so a forward copy never reads what it already overwrote.
+        for i in 0..kept * d {
+            if let Some(&v) = self.bez.get(from + i)
+                && let Some(o) = self.bez.get_mut(i)
+            {
+                *o = v;
+            }
         }
         let fresh = first + kept..end;
         let needed = (end - first) * d;

@@ -34,38 +34,51 @@ pub fn min_at_crossings(
     for (y, _) in rows.iter().take(h).enumerate().filter(|&(_, &marked)| marked) {
         let (lo, hi) = (y.saturating_sub(before), (y + after).min(h - 1));
         let out = dst.row_mut(y);
-        min_at_row((lo..=hi).map(|yy| src.row(yy)), cols, before, after, acc, |x, v| {
-            if let Some(o) = out.get_mut(x) {
-                *o = v;
-            }
-        });
+        min_at_row(
+            |yy| src.row(yy),
+            lo..=hi,
+            cols,
+            before,
+            after,
+            acc,
+            |x, v| {
+                if let Some(o) = out.get_mut(x) {
+                    *o = v;
+                }
+            },
+        );
     }
     Ok(())
 }
 
-/// One marked row of [`min_at_crossings`] from the rows of its window (`window`: the rows
-/// `y − before ..= y + after` inside the image, in any order, each `acc.len()` wide): the column
-/// minima into `acc`, then `emit(x, min)` for every marked column `x` (window clipped to the
-/// row). The strip form calls it from a ring of rows as they stream by.
+/// One marked row of [`min_at_crossings`] from the rows `window` of its window (the rows
+/// `y − before ..= y + after` inside the image; `row(y)` gives row `y`, `acc.len()` wide): the
+/// column minima into `acc`, then `emit(x, min)` for every marked column `x` (window clipped
+/// to the row). The strip form calls it with the rows in a ring as they stream by.
 pub fn min_at_row<'r>(
-    mut window: impl Iterator<Item = &'r [i32]>,
+    row: impl Fn(usize) -> &'r [i32],
+    window: core::ops::RangeInclusive<usize>,
     cols: &[bool],
     before: usize,
     after: usize,
     acc: &mut [i32],
-    mut emit: impl FnMut(usize, i32),
+    emit: impl FnMut(usize, i32),
 ) {
-    let w = acc.len();
-    if let Some(first) = window.next() {
-        for (a, &v) in acc.iter_mut().zip(first) {
-            *a = v;
-        }
+    let (lo, hi) = window.into_inner();
+    for (a, &v) in acc.iter_mut().zip(row(lo)) {
+        *a = v;
     }
-    for row in window {
-        for (a, &v) in acc.iter_mut().zip(row) {
+    for yy in lo + 1..=hi {
+        for (a, &v) in acc.iter_mut().zip(row(yy)) {
             *a = (*a).min(v);
         }
     }
+    row_minima(acc, cols, before, after, emit);
+}
+
+/// `emit(x, min(acc[x − before ..= x + after]))` (clipped) for every marked column `x`.
+fn row_minima(acc: &[i32], cols: &[bool], before: usize, after: usize, mut emit: impl FnMut(usize, i32)) {
+    let w = acc.len();
     for (x, _) in cols.iter().take(w).enumerate().filter(|&(_, &marked)| marked) {
         let window = acc.get(x.saturating_sub(before)..=(x + after).min(w - 1)).unwrap_or(&[]);
         emit(x, window.iter().copied().min().unwrap_or(i32::MAX));

@@ -74,7 +74,7 @@ fn method_region(m: MethodArg) -> &'static str {
 
 /// Whether the method runs in strips ([`fusion_nostd::strips`]: TSIFSD and ADF, both variants).
 pub fn has_strips(m: MethodArg) -> bool {
-    matches!(m, MethodArg::Adf | MethodArg::Tsifsd)
+    matches!(m, MethodArg::Adf | MethodArg::Tsifsd | MethodArg::Ifevip)
 }
 
 /// One row of the stage table.

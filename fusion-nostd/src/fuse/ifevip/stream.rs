@@ -341,15 +341,22 @@ impl<'c, 'w> Analysis<'c, 'w> {
         let origin = size.div_ceil(2).max(1);
         let (before, after) = (origin - 1, size - origin);
         let ring: &[i32] = self.ring;
-        let window =
-            (r.saturating_sub(before)..=last).filter_map(|y| ring.get((y % size) * d..(y % size + 1) * d));
+        let row = |y: usize| ring.get((y % size) * d..(y % size + 1) * d).unwrap_or(&[]);
         let base = self.lines.index(r) * self.lines.count;
         let (lines, crossings) = (&self.lines, &mut *self.crossings);
-        erode::min_at_row(window, lines.marked.get(..d).unwrap_or(&[]), before, after, self.acc, |x, v| {
-            if let Some(c) = crossings.get_mut(base + lines.index(x)) {
-                *c = v;
-            }
-        });
+        erode::min_at_row(
+            row,
+            r.saturating_sub(before)..=last,
+            lines.marked.get(..d).unwrap_or(&[]),
+            before,
+            after,
+            self.acc,
+            |x, v| {
+                if let Some(c) = crossings.get_mut(base + lines.index(x)) {
+                    *c = v;
+                }
+            },
+        );
         Ok(())
     }
 

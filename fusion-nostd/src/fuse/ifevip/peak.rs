@@ -37,7 +37,8 @@ const BINS: usize = 1024;
 pub struct Classes {
     /// `r_min(d)` at index `d + 255`: the least `R` (0..=256) with `R·2²⁴ + d·r_H > 0`.
     r_min: [u16; SPAN],
-    ratio_q24: i64,
+    /// `d·r_H` (Q24, saturating) at index `d + 255`.
+    d_term: [i64; SPAN],
 }
 
 impl Classes {
@@ -45,13 +46,17 @@ impl Classes {
     pub fn new(ratio_q24: i64) -> Self {
         let ratio_q24 = ratio_q24.max(0);
         let mut r_min = [0u16; SPAN];
+        let mut d_term = [0i64; SPAN];
+        for (di, t) in d_term.iter_mut().enumerate() {
+            *t = (di as i64 - 255).saturating_mul(ratio_q24);
+        }
         for (di, r) in r_min.iter_mut().enumerate() {
             let d = di as i64 - 255;
             // Least R with R·2²⁴ > −d·r_H: 0 when d·r_H > 0, else ⌊−d·r_H / 2²⁴⌋ + 1.
             let deficit = d.saturating_mul(ratio_q24).saturating_neg();
             *r = if deficit < 0 { 0 } else { ((deficit >> KEY_BITS) + 1).min(256) as u16 };
         }
-        Self { r_min, ratio_q24 }
+        Self { r_min, d_term }
     }
 
     /// The class of a pixel with visible value `v`, IR value `t` and feature `r` (`0..=255`).
@@ -74,7 +79,7 @@ impl Classes {
         let least = self.r_min.get(di).copied().unwrap_or(u16::MAX);
         if r >= i32::from(least) {
             (i64::from(i32::from(v) + r) << KEY_BITS)
-                .saturating_add((di as i64 - 255).saturating_mul(self.ratio_q24))
+                .saturating_add(self.d_term.get(di).copied().unwrap_or(0))
         } else {
             i64::from(v) << KEY_BITS
         }
@@ -87,7 +92,7 @@ impl Classes {
             ((c - PAIRS) as i64) << KEY_BITS
         } else {
             let (s, di) = (c / SPAN, c % SPAN);
-            ((s as i64) << KEY_BITS).saturating_add((di as i64 - 255).saturating_mul(self.ratio_q24))
+            ((s as i64) << KEY_BITS).saturating_add(self.d_term.get(di).copied().unwrap_or(0))
         }
     }
 }
@@ -166,6 +171,43 @@ pub fn top_k_sum(counts: &[i32], classes: &Classes, k: u64, work: &mut [i32]) ->
     sum
 }
 
+/// Which pixels have a key above a threshold `T`, in 32-bit integers: a pixel of pair class
+/// `(s, d)` has key `s·2²⁴ + d·r_H > T` exactly when `s > ⌊(T − d·r_H) / 2²⁴⌋` (s is an integer),
+/// one of class `v` when `v > ⌊T / 2²⁴⌋`. The strip form forms the 64-bit key only for the
+/// pixels that pass, and rebuilds the gate when [`TopK`] raises its threshold. It never turns
+/// away a key above `T`; it lets through keys saturated at `i64::MAX` (their unsaturated value
+/// is above), which [`TopK::push`] then weighs itself.
+#[derive(Debug, Clone)]
+pub struct Gate {
+    /// The least-exceeded `s` per `d + 255`, clamped to `−1..=511`.
+    s_limit: [i16; SPAN],
+    v_limit: i16,
+}
+
+impl Gate {
+    /// The gate for threshold `threshold`.
+    pub fn new(classes: &Classes, threshold: i64) -> Self {
+        let clamp = |l: i64, hi: i64| l.clamp(-1, hi) as i16;
+        let mut s_limit = [0i16; SPAN];
+        for (lim, &t) in s_limit.iter_mut().zip(&classes.d_term) {
+            *lim = clamp(threshold.saturating_sub(t) >> KEY_BITS, 511);
+        }
+        Self { s_limit, v_limit: clamp(threshold >> KEY_BITS, 256) }
+    }
+
+    /// Whether the pixel `(v, t, r)` has a key above the threshold.
+    #[inline(always)]
+    pub fn passes(&self, classes: &Classes, v: u8, t: u8, r: i32) -> bool {
+        let di = usize::from(t) + 255 - usize::from(v);
+        let least = classes.r_min.get(di).copied().unwrap_or(u16::MAX);
+        if r >= i32::from(least) {
+            i32::from(v) + r > i32::from(self.s_limit.get(di).copied().unwrap_or(i16::MAX))
+        } else {
+            i16::from(v) > self.v_limit
+        }
+    }
+}
+
 /// The `k`-th largest key (`1 ≤ k ≤ entries.len()`) of the classes in `entries`, one pixel
 /// each: the histogram rounds of [`top_k_sum`] without moving anything (each round scans all
 /// entries, at most six rounds).
@@ -213,7 +255,8 @@ pub struct TopK<'w> {
     entries: &'w mut [i32],
     len: usize,
     k: usize,
-    threshold: Option<i64>,
+    /// Keys at or below it are not kept: −1 at first (every key is ≥ 0), `i64::MAX` for k = 0.
+    threshold: i64,
 }
 
 impl<'w> TopK<'w> {
@@ -222,19 +265,24 @@ impl<'w> TopK<'w> {
         if buf.len() <= k {
             return Err(crate::Error::ScratchTooSmall { needed: k + 1, capacity: buf.len() });
         }
-        Ok(Self { entries: buf, len: 0, k, threshold: None })
+        Ok(Self { entries: buf, len: 0, k, threshold: if k == 0 { i64::MAX } else { -1 } })
+    }
+
+    /// Keys at or below this are not kept.
+    pub fn threshold(&self) -> i64 {
+        self.threshold
     }
 
     /// Whether a pixel of key `key` would be kept (cheaper than forming its class).
     #[inline(always)]
     pub fn wants(&self, key: i64) -> bool {
-        self.k > 0 && self.threshold.is_none_or(|t| key > t)
+        key > self.threshold
     }
 
     /// Adds a pixel of class `class` and key `key` (= `classes.key(class)`).
     #[inline(always)]
     pub fn push(&mut self, class: usize, key: i64, classes: &Classes) {
-        if self.k == 0 || self.threshold.is_some_and(|t| key <= t) {
+        if key <= self.threshold {
             return;
         }
         if self.len == self.entries.len() {
@@ -273,7 +321,7 @@ impl<'w> TopK<'w> {
             }
         }
         self.len = self.k.max(kept);
-        self.threshold = Some(t);
+        self.threshold = t;
     }
 
     /// Sum (Q24) of the `k` largest keys pushed (all of them when fewer were pushed).
@@ -324,6 +372,31 @@ mod tests {
                             pixel_key(v, t, r, ratio),
                             "ratio {ratio} v {v} t {t} r {r}"
                         );
+                    }
+                }
+            }
+        }
+    }
+
+    /// The 32-bit gate against comparing the 64-bit keys, at thresholds around every kind of key.
+    #[test]
+    fn gate_passes_exactly_the_keys_above_the_threshold() {
+        for ratio in [0i64, 1, (1 << 24) + 12345, 3 << 25, 1 << 44, i64::MAX] {
+            let classes = Classes::new(ratio);
+            for threshold in
+                [-1i64, 0, 1, 77 << 24, (77 << 24) - 1, (300 << 24) + 5, 1 << 40, i64::MAX - 1, i64::MAX]
+            {
+                let gate = Gate::new(&classes, threshold);
+                for t in (0..=255u8).step_by(5) {
+                    for v in (0..=255u8).step_by(3) {
+                        for r in [0i32, 1, 17, 128, 255] {
+                            let key = classes.key_of(v, t, r);
+                            let passes = gate.passes(&classes, v, t, r);
+                            // Every key above passes; of the rest only keys saturated at i64::MAX.
+                            let what = std::format!("ratio {ratio} threshold {threshold} v {v} t {t} r {r}");
+                            assert!(passes || key <= threshold, "{what}: turned away");
+                            assert!(!passes || key > threshold || key == i64::MAX, "{what}: let through");
+                        }
                     }
                 }
             }

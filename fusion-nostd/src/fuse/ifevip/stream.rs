@@ -32,7 +32,7 @@
 
 use super::bezier;
 use super::imresize::{self, Output, Taps};
-use super::peak::{Classes, TopK};
+use super::peak::{Classes, Gate, TopK};
 use super::quadtree::{BlockRanges, Leaf, MAX_LEAVES};
 use super::{IfevipParams, MAX_NORM_DIM, bg_u8};
 use crate::filters::{erode, gauss};
@@ -422,12 +422,23 @@ impl<'t, 'r> Background<'t, 'r> {
         };
         let capacity = self.bez.len();
         let from = (first - self.bez_rows.start.min(first)) * d;
-        // Moved toward the front, so a forward copy never reads what it already overwrote.
-        for i in 0..kept * d {
-            if let Some(&v) = self.bez.get(from + i)
-                && let Some(o) = self.bez.get_mut(i)
-            {
-                *o = v;
+        // Toward the front: a forward copy never reads what it already overwrote; apart (the
+        // usual case) the halves are two slices and the copy is a `memcpy`.
+        let n = kept * d;
+        match self.bez.split_at_mut_checked(from) {
+            Some((head, tail)) if from >= n => {
+                for (o, &v) in head.iter_mut().zip(tail.iter().take(n)) {
+                    *o = v;
+                }
+            }
+            _ => {
+                for i in 0..n {
+                    if let Some(&v) = self.bez.get(from + i)
+                        && let Some(o) = self.bez.get_mut(i)
+                    {
+                        *o = v;
+                    }
+                }
             }
         }
         let fresh = first + kept..end;
@@ -460,6 +471,8 @@ pub(crate) struct Keys<'t, 'r> {
     chunk: usize,
     classes: Classes,
     top: TopK<'r>,
+    /// The top-k threshold in 32-bit form, rebuilt when it rises.
+    gate: Gate,
     words: usize,
 }
 
@@ -511,12 +524,14 @@ impl<'t, 'r> Keys<'t, 'r> {
         let col = take(&mut rest, chunk * d)?;
         let bg = take(&mut rest, chunk * w)?;
         let top = TopK::new(take(&mut rest, top_words)?, k)?;
+        let classes = Classes::new(ratio_q24);
         let words = total - rest.len();
         Ok(Self {
             background: Background { tree, d, w, taps_v, taps_h, chunk_taps, bez, bez_rows: 0..0, col },
             bg,
             chunk,
-            classes: Classes::new(ratio_q24),
+            gate: Gate::new(&classes, top.threshold()),
+            classes,
             top,
             words,
         })
@@ -549,13 +564,16 @@ impl<'t, 'r> Keys<'t, 'r> {
                 let i = g.checked_sub(y0).filter(|&i| i < vis.height() && i < tir.height()).ok_or(bad)?;
                 let o = g.checked_sub(strip.start).filter(|&o| o < out.height()).ok_or(bad)?;
                 let bg = self.bg.get(k * w..(k + 1) * w).unwrap_or(&[]);
-                let (classes, top) = (&self.classes, &mut self.top);
+                let (classes, top, gate) = (&self.classes, &mut self.top, &mut self.gate);
                 for (((o, &v), &t), &b) in out.row_mut(o).iter_mut().zip(vis.row(i)).zip(tir.row(i)).zip(bg) {
                     let r = (i32::from(t) - bg_u8(b)).max(0);
                     *o = r as u8;
-                    let key = classes.key_of(v, t, r);
-                    if top.wants(key) {
-                        top.push(classes.class(v, t, r), key, classes);
+                    if gate.passes(classes, v, t, r) {
+                        let threshold = top.threshold();
+                        top.push(classes.class(v, t, r), classes.key_of(v, t, r), classes);
+                        if top.threshold() != threshold {
+                            *gate = Gate::new(classes, top.threshold());
+                        }
                     }
                 }
             }

@@ -40,8 +40,8 @@
 //! TSIFSD classic (the band's tail holds the wrapped rows).
 
 use crate::fuse::adf::{Covariance, diffuse_rows, stream_words};
-use crate::fuse::ifevip::stream::{Analysis, Keys, OUTPUT_CHUNK, crossing_words, output_rows};
-use crate::fuse::ifevip::{EntropyRatio, Gains, top_k};
+use crate::fuse::ifevip::stream::{Analysis, Keys, crossing_words, output_rows};
+use crate::fuse::ifevip::{EntropyRatio, GainTables, Gains, top_k};
 use crate::fuse::tsifsd::{classic_words, flight_words, fuse_tsifsd_classic_rows, fuse_tsifsd_flight_rows};
 use crate::fuse::{Guards, Variant};
 use crate::pipeline::{
@@ -353,14 +353,14 @@ fn fuse_ifevip_strips(
     let used_keys = keys.words();
     let gains = Gains::new(keys.top_sum(), k, ratio.q32, p, &mut guards);
 
+    let tables = GainTables::new(gains.g_q, gains.b_q);
     let mut saturated = false;
     rest.run(band, report, |win| {
         let rows = out.sub_rect_mut(0, win.strip.start, w, win.strip.len())?;
-        saturated |= output_rows(win.vis, win.tir, win.y0, win.strip.clone(), rows, &gains, work)?;
+        saturated |= output_rows(win.vis, win.tir, win.y0, win.strip.clone(), rows, &tables)?;
         Ok(win.strip.len())
     })?;
-    let used_output = w * rest.strip_rows.min(h).min(OUTPUT_CHUNK);
-    Ok(((crossing_words(p) + used_analysis.max(used_keys).max(used_output), guards), saturated))
+    Ok(((crossing_words(p) + used_analysis.max(used_keys), guards), saturated))
 }
 
 /// Fuses a VIS/TIR pair like [`crate::pipeline::fuse`] with `pipeline.skip` =

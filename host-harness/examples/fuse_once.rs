@@ -10,7 +10,9 @@
 //! optionally `--repeat R` (fuse R times; prints the minimum and median time per fusion) and `--write DIR` (also write the synthetic pair as
 //! `DIR/synth<n>_VIS.png`, `DIR/synth<n>_IR.png`, and raw 8-bit `.gray` twins for the firmware),
 //! or `--pair VIS.png TIR.png` (a real pair instead of the synthetic one: the TIR frame is
-//! bicubic-rescaled onto the VIS grid first, outside the timing, and `n` is ignored). Only [`fuse_region`] does the fusion, so
+//! bicubic-rescaled onto the VIS grid first, outside the timing, and `n` is ignored), and
+//! `--strips` (fuse in strips, `fusion_nostd::strips`, in the 512 KiB strip scratch: the pair
+//! is on one grid, so the count is the method's strip overhead without band rescales). Only [`fuse_region`] does the fusion, so
 //! `--toggle-collect` on it counts the fusion alone (frame synthesis excluded). The frames are
 //! the ones of the criterion benches (`benches/fuse_adf_tsifsd.rs`).
 
@@ -19,16 +21,19 @@ use fusion_nostd::fuse::Variant;
 use fusion_nostd::fuse::adf::AdfParams;
 use fusion_nostd::fuse::ifevip::{IfevipParams, scratch_pixels};
 use fusion_nostd::fuse::tsifsd::TsifsdParams;
-use fusion_nostd::pipeline::{Method, fuse_method};
+use fusion_nostd::pipeline::{Method, Pipeline, RescalePolicy, fuse_method};
 use fusion_nostd::rescale::{Filter, rescale};
+use fusion_nostd::strips::fuse_strips;
 use fusion_nostd::{FrameMut, FrameRef, Guards};
 use host_harness::CoreScratch;
 use host_harness::io::{ColorPolicy, Gray, load_gray_u8, save_gray_u8};
+use host_harness::strips::HostStripScratch;
 use host_harness::study::bench_frame as frame;
 use std::hint::black_box;
 use std::path::PathBuf;
 
-/// The measured region: one fusion.
+/// The measured region: one fusion (whole frame, or in strips in the 512 KiB strip scratch
+/// when `strips` is given: the same pair on one grid, so no band is rescaled).
 #[inline(never)]
 fn fuse_region(
     vis: &[u8],
@@ -37,11 +42,19 @@ fn fuse_region(
     n: usize,
     method: &Method,
     scratch: &mut CoreScratch,
+    strips: Option<&mut HostStripScratch>,
 ) -> Guards {
-    let mut run = || -> Result<Guards> {
+    let run = || -> Result<Guards> {
         let v = FrameRef::new(black_box(vis), n, n)?;
         let t = FrameRef::new(black_box(tir), n, n)?;
-        Ok(fuse_method(v, t, FrameMut::new(out, n, n)?, method, &mut scratch.view_mut())?)
+        let o = FrameMut::new(out, n, n)?;
+        Ok(match strips {
+            Some(s) => {
+                let p = Pipeline { method: *method, rescale: RescalePolicy::None, ..Pipeline::default() };
+                fuse_strips(v, t, o, &mut s.view_mut(), &p, usize::MAX)?.0.guards
+            }
+            None => fuse_method(v, t, o, method, &mut scratch.view_mut())?,
+        })
     };
     run().unwrap_or(Guards(u32::MAX))
 }
@@ -66,10 +79,12 @@ fn main() -> Result<()> {
     let mut repeat = 1usize;
     let mut write: Option<PathBuf> = None;
     let mut pair: Option<(PathBuf, PathBuf)> = None;
+    let mut strips: Option<HostStripScratch> = None;
     let mut rest = args.iter().skip(3);
     while let Some(a) = rest.next() {
         match a.as_str() {
             "--repeat" => repeat = rest.next().context("--repeat R")?.parse()?,
+            "--strips" => strips = Some(HostStripScratch::default()),
             "--write" => write = Some(PathBuf::from(rest.next().context("--write DIR")?)),
             "--pair" => {
                 let vis = PathBuf::from(rest.next().context("--pair VIS TIR")?);
@@ -108,7 +123,7 @@ fn main() -> Result<()> {
     let mut times = Vec::with_capacity(repeat);
     for _ in 0..repeat {
         let start = std::time::Instant::now();
-        guards = fuse_region(&vis, &tir, &mut out, n, &method, &mut scratch);
+        guards = fuse_region(&vis, &tir, &mut out, n, &method, &mut scratch, strips.as_mut());
         times.push(start.elapsed().as_secs_f64() * 1e3);
     }
     times.sort_by(f64::total_cmp);

@@ -358,29 +358,65 @@ pub(crate) fn output_pass(
             }
         }
         None => {
-            // The two products from tables of R·G and (IR − VIS)·B (6 KiB of stack): the same
-            // exact i64 sum as `add`, without the two 64-bit multiplies per pixel.
-            let mut r_term = [0i64; 256];
-            for (r, t) in r_term.iter_mut().enumerate() {
-                *t = r as i64 * g_q;
-            }
-            let mut d_term = [0i64; 511];
-            for (d, t) in d_term.iter_mut().enumerate() {
-                *t = (d as i64 - 255) * b_q;
-            }
+            let tables = GainTables::new(g_q, b_q);
             for (((o, v), t), rr) in rows {
                 for (((o, &v), &t), &r) in o.iter_mut().zip(v).zip(t).zip(rr) {
-                    let di = usize::from(t) + 255 - usize::from(v);
                     // R = max(IR − uint8(bg), 0) ∈ 0..=255 (the cast keeps it).
-                    let val = r_term.get(usize::from(r as u8)).copied().unwrap_or(0)
-                        + d_term.get(di).copied().unwrap_or(0);
-                    let add = if val <= 0 { 0 } else { ((val + half) >> GAIN_BITS).min(256) as i32 };
-                    put(o, v, add);
+                    put(o, v, tables.add(r as u8, v, t));
                 }
             }
         }
     }
     saturated || rows_saturated
+}
+
+/// Step 12 without the 511 KiB table: `R·G + ½` and `(IR − VIS)·B` (Q40) tabulated per `R`
+/// and per `IR − VIS` (6 KiB), so the added value is one 64-bit addition and a shift — the
+/// exact sum the per-pixel products give. Small frames and the strip form use it.
+pub(crate) struct GainTables {
+    r_term: [i64; 256],
+    d_term: [i64; 511],
+}
+
+impl GainTables {
+    /// The tables of the gains `G`, `B` (Q40, as [`Gains`]).
+    pub(crate) fn new(g_q: i64, b_q: i64) -> Self {
+        let half = 1i64 << (GAIN_BITS - 1);
+        let mut r_term = [0i64; 256];
+        for (r, t) in r_term.iter_mut().enumerate() {
+            *t = r as i64 * g_q + half;
+        }
+        let mut d_term = [0i64; 511];
+        for (d, t) in d_term.iter_mut().enumerate() {
+            *t = (d as i64 - 255) * b_q;
+        }
+        Self { r_term, d_term }
+    }
+
+    /// `uint8(R·G + (IR − VIS)·B)` with the saturated values folded: any value in 256..=511
+    /// stands for "256 or more", which [`output_pass`]'s `put` treats alike (the sum with VIS
+    /// exceeds 255 either way). Values ≤ 0 round to 0 (branch-free: |sum| < 2⁶¹, so the
+    /// rounded value fits an `i32`).
+    #[inline(always)]
+    pub(crate) fn add(&self, r: u8, v: u8, t: u8) -> i32 {
+        let di = usize::from(t) + 255 - usize::from(v);
+        let val =
+            self.r_term.get(usize::from(r)).copied().unwrap_or(0) + self.d_term.get(di).copied().unwrap_or(0);
+        ((val >> GAIN_BITS) as i32).clamp(0, 511)
+    }
+
+    /// One row in place for the strip form: `out` holds `R` and receives `F = VIS ⊕ add`;
+    /// returns whether a sum exceeded 255.
+    pub(crate) fn row_in_place(&self, out: &mut [u8], vis: &[u8], tir: &[u8]) -> bool {
+        let mut any = 0u32;
+        for ((o, &v), &t) in out.iter_mut().zip(vis).zip(tir) {
+            let sum = (i32::from(v) + self.add(*o, v, t)) as u32;
+            any |= sum;
+            *o = sum.min(255) as u8;
+        }
+        // Sums are below 767: one exceeded 255 exactly when bit 8 or 9 is set in some sum.
+        any & 0x300 != 0
+    }
 }
 
 /// One row of the tabulated step 12 on the Cortex-M4/M7, in assembly (12 instructions per

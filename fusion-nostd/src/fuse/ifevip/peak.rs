@@ -208,21 +208,35 @@ impl Gate {
     }
 }
 
-/// The `k`-th largest key (`1 ≤ k ≤ entries.len()`) of the classes in `entries`, one pixel
-/// each: the histogram rounds of [`top_k_sum`] without moving anything (each round scans all
-/// entries, at most six rounds).
-fn kth_key(entries: &[i32], classes: &Classes, k: usize) -> i64 {
-    let key = |c: i32| classes.key(c as usize);
-    let (mut lo, mut hi) =
-        entries.iter().fold((i64::MAX, i64::MIN), |(lo, hi), &c| (lo.min(key(c)), hi.max(key(c))));
+/// Key `i` of a buffer of keys stored as `(low, high)` word pairs.
+#[inline(always)]
+fn key_at(words: &[i32], i: usize) -> Option<i64> {
+    let lo = *words.get(2 * i)?;
+    let hi = *words.get(2 * i + 1)?;
+    Some((i64::from(hi) << 32) | i64::from(lo as u32))
+}
+
+/// Stores key `i`.
+#[inline(always)]
+fn set_key(words: &mut [i32], i: usize, key: i64) {
+    if let Some([lo, hi]) = words.get_mut(2 * i..2 * i + 2) {
+        *lo = key as i32;
+        *hi = (key >> 32) as i32;
+    }
+}
+
+/// The `k`-th largest (`1 ≤ k ≤ n`) of the first `n` keys in `words`: the histogram rounds of
+/// [`top_k_sum`] without moving anything (each round scans all keys, at most six rounds).
+fn kth_key(words: &[i32], n: usize, k: usize) -> i64 {
+    let keys = || (0..n).filter_map(|i| key_at(words, i));
+    let (mut lo, mut hi) = keys().fold((i64::MAX, i64::MIN), |(lo, hi), key| (lo.min(key), hi.max(key)));
     let mut need = k as u64;
     while hi > lo {
         let span = (hi - lo) as u64;
         let shift = (64 - span.leading_zeros()).saturating_sub(BINS.trailing_zeros());
         let bin = |key: i64| ((key - lo) as u64 >> shift) as usize;
         let mut hist = [0u64; BINS];
-        for &c in entries {
-            let key = key(c);
+        for key in keys() {
             if (lo..=hi).contains(&key)
                 && let Some(h) = hist.get_mut(bin(key))
             {
@@ -232,8 +246,7 @@ fn kth_key(entries: &[i32], classes: &Classes, k: usize) -> i64 {
         let (t, above) = select(&hist, need);
         need -= above;
         let (mut new_lo, mut new_hi) = (i64::MAX, i64::MIN);
-        for &c in entries {
-            let key = key(c);
+        for key in keys() {
             if (lo..=hi).contains(&key) && bin(key) == t {
                 new_lo = new_lo.min(key);
                 new_hi = new_hi.max(key);
@@ -244,15 +257,15 @@ fn kth_key(entries: &[i32], classes: &Classes, k: usize) -> i64 {
     lo
 }
 
-/// The `k` largest keys of a stream of pixels, in a caller buffer of class indices: the strip
-/// form of steps 9–10, which cannot hold the [`CLASSES`] counts. A pixel is kept while its
-/// key exceeds the threshold; when the buffer fills, it is cut to the `k` largest (those above
-/// the `k`-th largest key `T`, then copies of a class with key `T`) and `T` becomes the
-/// threshold. Ties are interchangeable, so [`TopK::sum`] is the [`top_k_sum`] of all pushed
-/// pixels, exactly. A buffer of `c > k` entries cuts at most once per `c − k` kept pixels.
+/// The `k` largest keys of a stream of pixels, in a caller buffer (two words per key): the strip
+/// form of steps 9–10, which cannot hold the [`CLASSES`] counts. A pixel is kept while its key
+/// exceeds the threshold; when the buffer fills, it is cut to the `k` largest (those above the
+/// `k`-th largest key `T`, then copies of `T`) and `T` becomes the threshold. Equal keys are
+/// interchangeable, so [`TopK::sum`] is the [`top_k_sum`] of all pushed pixels, exactly. A
+/// buffer of `c > k` keys cuts at most once per `c − k` kept pixels.
 #[derive(Debug)]
 pub struct TopK<'w> {
-    entries: &'w mut [i32],
+    words: &'w mut [i32],
     len: usize,
     k: usize,
     /// Keys at or below it are not kept: −1 at first (every key is ≥ 0), `i64::MAX` for k = 0.
@@ -260,81 +273,71 @@ pub struct TopK<'w> {
 }
 
 impl<'w> TopK<'w> {
-    /// Keeps the `k` largest keys in `buf`, which must hold more than `k` entries.
+    /// Keeps the `k` largest keys in `buf` (two words per key), which must hold more than `k`.
     pub fn new(buf: &'w mut [i32], k: usize) -> Result<Self, crate::Error> {
-        if buf.len() <= k {
-            return Err(crate::Error::ScratchTooSmall { needed: k + 1, capacity: buf.len() });
+        if buf.len() / 2 <= k {
+            return Err(crate::Error::ScratchTooSmall { needed: 2 * (k + 1), capacity: buf.len() });
         }
-        Ok(Self { entries: buf, len: 0, k, threshold: if k == 0 { i64::MAX } else { -1 } })
+        Ok(Self { words: buf, len: 0, k, threshold: if k == 0 { i64::MAX } else { -1 } })
     }
+
+    /// Words per key in the buffer.
+    pub const WORDS_PER_KEY: usize = 2;
 
     /// Keys at or below this are not kept.
     pub fn threshold(&self) -> i64 {
         self.threshold
     }
 
-    /// Whether a pixel of key `key` would be kept (cheaper than forming its class).
+    /// Whether a pixel of key `key` would be kept.
     #[inline(always)]
     pub fn wants(&self, key: i64) -> bool {
         key > self.threshold
     }
 
-    /// Adds a pixel of class `class` and key `key` (= `classes.key(class)`).
+    /// Adds a pixel's key.
     #[inline(always)]
-    pub fn push(&mut self, class: usize, key: i64, classes: &Classes) {
+    pub fn push(&mut self, key: i64) {
         if key <= self.threshold {
             return;
         }
-        if self.len == self.entries.len() {
-            self.cut(classes);
+        if self.len == self.words.len() / 2 {
+            self.cut();
         }
-        if let Some(slot) = self.entries.get_mut(self.len) {
-            *slot = class as i32;
-            self.len += 1;
-        }
+        set_key(self.words, self.len, key);
+        self.len += 1;
     }
 
-    /// Cuts the entries to the `k` largest keys.
-    fn cut(&mut self, classes: &Classes) {
-        let Some(entries) = self.entries.get_mut(..self.len) else { return };
-        if entries.len() <= self.k {
+    /// Cuts the keys to the `k` largest.
+    fn cut(&mut self) {
+        if self.len <= self.k {
             return;
         }
-        let t = kth_key(entries, classes, self.k);
+        let t = kth_key(self.words, self.len, self.k);
         let mut kept = 0usize;
-        let mut at_t = None;
-        for i in 0..entries.len() {
-            let Some(&c) = entries.get(i) else { break };
-            let key = classes.key(c as usize);
+        for i in 0..self.len {
+            let Some(key) = key_at(self.words, i) else { break };
             if key > t {
-                if let Some(slot) = entries.get_mut(kept) {
-                    *slot = c;
-                }
+                set_key(self.words, kept, key);
                 kept += 1;
-            } else if key == t {
-                at_t = Some(c);
             }
         }
-        if let Some(c) = at_t {
-            for slot in entries.iter_mut().take(self.k).skip(kept) {
-                *slot = c;
-            }
+        for i in kept..self.k {
+            set_key(self.words, i, t);
         }
         self.len = self.k.max(kept);
         self.threshold = t;
     }
 
     /// Sum (Q24) of the `k` largest keys pushed (all of them when fewer were pushed).
-    pub fn sum(&self, classes: &Classes) -> i128 {
-        let entries = self.entries.get(..self.len).unwrap_or(&[]);
-        let need = self.k.min(entries.len());
+    pub fn sum(&self) -> i128 {
+        let need = self.k.min(self.len);
         if need == 0 {
             return 0;
         }
-        let t = kth_key(entries, classes, need);
+        let t = kth_key(self.words, self.len, need);
         let (mut sum, mut above) = (0i128, 0usize);
-        for &c in entries {
-            let key = classes.key(c as usize);
+        for key in (0..self.len).filter_map(|i| key_at(self.words, i)) {
             if key > t {
                 sum += i128::from(key);
                 above += 1;
@@ -435,19 +438,19 @@ mod tests {
                 };
                 counts[classes.class(v, t, r)] += 1;
                 keys.push(pixel_key(v, t, r, ratio));
-                pushed.push((classes.class(v, t, r), classes.key_of(v, t, r)));
+                pushed.push(classes.key_of(v, t, r));
             }
             keys.sort_unstable_by(|a, b| b.cmp(a));
             for k in [0usize, 1, 2, n / 1000 + 1, n / 2, n] {
                 // The stream in a buffer from barely above k (a cut every push) to roomy.
                 for cap in [k + 1, k + 7, 2 * k + 64] {
-                    let mut buf = std::vec![0i32; cap];
+                    let mut buf = std::vec![0i32; 2 * cap];
                     let mut top = TopK::new(&mut buf, k).expect("cap > k");
-                    for &(c, key) in &pushed {
-                        top.push(c, key, &classes);
+                    for &key in &pushed {
+                        top.push(key);
                     }
                     let want: i128 = keys.iter().take(k).map(|&x| i128::from(x)).sum();
-                    assert_eq!(top.sum(&classes), want, "stream: round {round} n {n} k {k} cap {cap}");
+                    assert_eq!(top.sum(), want, "stream: round {round} n {n} k {k} cap {cap}");
                 }
             }
             for k in [0usize, 1, 2, n / 1000 + 1, n / 2, n, n + 3] {

@@ -18,7 +18,8 @@
 //!    the *output frame* (free until pass 3), and every key into a [`TopK`] buffer, which gives
 //!    the exact sum of the `k` largest (steps 9–10).
 //! 3. **Output** ([`output_rows`]): the gains (step 11), then `F` from `VIS`, `IR` and the
-//!    stored `R`, in place (step 12, untabulated: its 511 KiB table does not fit).
+//!    stored `R`, in place (step 12 through [`super::GainTables`]: the whole frame's 511 KiB
+//!    table does not fit).
 //!
 //! Every number is the one the whole-frame run computes: the passes' sums are exact integers
 //! whatever rows they are split into, the patches are written leaf by leaf in the same order,
@@ -41,9 +42,6 @@ use heapless::Vec;
 
 /// Grid rows a pass handles at a time: more needs more memory for the same work.
 const MAX_CHUNK: usize = 32;
-
-/// Grid rows pass 3 converts at a time (its work: this many `i32` rows).
-pub(crate) const OUTPUT_CHUNK: usize = MAX_CHUNK;
 
 /// Takes the first `n` words of `rest`.
 fn take<'a>(rest: &mut &'a mut [i32], n: usize) -> Result<&'a mut [i32], Error> {
@@ -511,8 +509,8 @@ impl<'t, 'r> Keys<'t, 'r> {
                 .unwrap_or(run)
         };
         let k = usize::try_from(k).map_err(|_| Error::InvalidParameter { name: "top_ppm" })?;
-        // The top-k buffer: at least twice k (a cut per k kept pixels at worst), 4096 entries.
-        let top_words = (2 * k + 2).max(4096);
+        // The top-k buffer: at least twice k keys (a cut per k kept pixels at worst), 4096.
+        let top_words = TopK::WORDS_PER_KEY * (2 * k + 2).max(4096);
         let words = |c: usize| c * stride + span(c) * d + c * d + c * w;
         let avail = rest.len().saturating_sub(top_words);
         let chunk = (1..=MAX_CHUNK.min(h))
@@ -570,7 +568,7 @@ impl<'t, 'r> Keys<'t, 'r> {
                     *o = r as u8;
                     if gate.passes(classes, v, t, r) {
                         let threshold = top.threshold();
-                        top.push(classes.class(v, t, r), classes.key_of(v, t, r), classes);
+                        top.push(classes.key_of(v, t, r));
                         if top.threshold() != threshold {
                             *gate = Gate::new(classes, top.threshold());
                         }
@@ -584,40 +582,27 @@ impl<'t, 'r> Keys<'t, 'r> {
 
     /// The sum (Q24) of the `k` largest keys of every pixel added.
     pub(crate) fn top_sum(&self) -> i128 {
-        self.top.sum(&self.classes)
+        self.top.sum()
     }
 }
 
 /// Pass 3 for one strip: `F` from the bands (grid rows `y0 ..`) and the `R` bytes pass 2 left
-/// in `out` (the strip's rows), in place, through `work` (`i32` rows of `R`). Returns whether
-/// some output saturated.
+/// in `out` (the strip's rows), in place. Returns whether some output saturated.
 pub(crate) fn output_rows(
     vis: FrameRef<'_, u8>,
     tir: FrameRef<'_, u8>,
     y0: usize,
     strip: core::ops::Range<usize>,
     mut out: FrameMut<'_, u8>,
-    gains: &super::Gains,
-    work: &mut [i32],
+    tables: &super::GainTables,
 ) -> Result<bool, Error> {
-    let w = out.width();
-    let chunk = (work.len() / w.max(1)).min(strip.len()).clamp(1, MAX_CHUNK);
     let rel = strip.start.checked_sub(y0).ok_or(Error::InvalidParameter { name: "rows" })?;
+    if rel + out.height() > vis.height().min(tir.height()) {
+        return Err(Error::InvalidParameter { name: "rows" });
+    }
     let mut saturated = false;
-    let mut g0 = 0;
-    while g0 < strip.len() {
-        let c = chunk.min(strip.len() - g0);
-        let capacity = work.len();
-        let r = work.get_mut(..w * c).ok_or(Error::ScratchTooSmall { needed: w, capacity })?;
-        let mut rows = out.sub_rect_mut(0, g0, w, c)?;
-        for (dst, src) in r.chunks_exact_mut(w.max(1)).zip(rows.rows_mut()) {
-            for (d, &s) in dst.iter_mut().zip(src.iter()) {
-                *d = i32::from(s);
-            }
-        }
-        let (v, t) = (vis.sub_rect(0, rel + g0, w, c)?, tir.sub_rect(0, rel + g0, w, c)?);
-        saturated |= super::output_pass(v, t, r, rows, gains.g_q, gains.b_q, None);
-        g0 += c;
+    for (i, o) in out.rows_mut().enumerate() {
+        saturated |= tables.row_in_place(o, vis.row(rel + i), tir.row(rel + i));
     }
     Ok(saturated)
 }

@@ -410,9 +410,10 @@ impl GainTables {
     pub(crate) fn row_in_place(&self, out: &mut [u8], vis: &[u8], tir: &[u8]) -> bool {
         let mut any = 0u32;
         for ((o, &v), &t) in out.iter_mut().zip(vis).zip(tir) {
-            let sum = (i32::from(v) + self.add(*o, v, t)) as u32;
-            any |= sum;
-            *o = sum.min(255) as u8;
+            let sum = i32::from(v) + self.add(*o, v, t);
+            any |= sum as u32;
+            // sum ≥ 0: the clamp is one `usat` on the Cortex-M.
+            *o = sum.clamp(0, 255) as u8;
         }
         // Sums are below 767: one exceeded 255 exactly when bit 8 or 9 is set in some sum.
         any & 0x300 != 0

@@ -33,20 +33,22 @@ pub fn min_at_crossings(
     let acc = tmp.get_mut(..w).ok_or(Error::ScratchTooSmall { needed: w, capacity })?;
     for (y, _) in rows.iter().take(h).enumerate().filter(|&(_, &marked)| marked) {
         let (lo, hi) = (y.saturating_sub(before), (y + after).min(h - 1));
+        // The column minima written out here rather than through `min_at_row`: its row closure
+        // cost 2 % more instructions on the Cortex-M7 (budget job, 512² IFEVIP background).
+        for (a, &v) in acc.iter_mut().zip(src.row(lo)) {
+            *a = v;
+        }
+        for yy in lo + 1..=hi {
+            for (a, &v) in acc.iter_mut().zip(src.row(yy)) {
+                *a = (*a).min(v);
+            }
+        }
         let out = dst.row_mut(y);
-        min_at_row(
-            |yy| src.row(yy),
-            lo..=hi,
-            cols,
-            before,
-            after,
-            acc,
-            |x, v| {
-                if let Some(o) = out.get_mut(x) {
-                    *o = v;
-                }
-            },
-        );
+        row_minima(acc, cols, before, after, |x, v| {
+            if let Some(o) = out.get_mut(x) {
+                *o = v;
+            }
+        });
     }
     Ok(())
 }

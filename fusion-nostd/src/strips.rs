@@ -40,7 +40,7 @@
 //! TSIFSD classic (the band's tail holds the wrapped rows).
 
 use crate::fuse::adf::{Covariance, diffuse_rows, stream_words};
-use crate::fuse::ifevip::stream::{Analysis, Keys, crossing_words, output_rows};
+use crate::fuse::ifevip::stream::{Analysis, Keys, Tree, crossing_words, output_rows};
 use crate::fuse::ifevip::{EntropyRatio, GainTables, Gains, top_k};
 use crate::fuse::tsifsd::{classic_words, flight_words, fuse_tsifsd_classic_rows, fuse_tsifsd_flight_rows};
 use crate::fuse::{Guards, Variant};
@@ -306,7 +306,8 @@ impl Walk<'_> {
 
 /// IFEVIP's three passes (see [`crate::fuse::ifevip::stream`]): the analysis walk with the
 /// step-1 halo, then keys and output over halo-free strips (`rest`). Returns the work words
-/// used and the guards, and whether an output saturated.
+/// used and the guards, and whether an output saturated. Each pass is a function of its own
+/// (never inlined), so their state — a few KiB each — never shares one stack frame.
 fn fuse_ifevip_strips(
     walk: &Walk<'_>,
     rest: &Walk<'_>,
@@ -321,13 +322,7 @@ fn fuse_ifevip_strips(
     let (cross, work) = work
         .split_at_mut_checked(crossing_words(p))
         .ok_or(Error::ScratchTooSmall { needed: crossing_words(p), capacity })?;
-    let mut analysis = Analysis::new(walk.grid, p, cross, work)?;
-    walk.run(band, report, |win| {
-        analysis.add_window(win.vis, win.tir, win.y0, win.strip.clone())?;
-        Ok(win.vis.height())
-    })?;
-    let used_analysis = analysis.words();
-    let tree = analysis.finish()?;
+    let (tree, used_analysis) = ifevip_analysis(walk, band, cross, work, p, report)?;
     let mut guards = Guards::NONE;
     let Some(ratio) = EntropyRatio::of(&tree.hist_ir, &tree.hist_vis, p, &mut guards) else {
         // Classic with a constant visible image: F = VIS.
@@ -344,15 +339,65 @@ fn fuse_ifevip_strips(
         return Ok(((crossing_words(p) + used_analysis, guards), false));
     };
     let k = top_k((w * h) as u64, p, &mut guards);
-    let mut keys = Keys::new(&tree, walk.grid, p, ratio.q24, k, work)?;
+    let (top, used_keys) = ifevip_keys(rest, band, work, out, &tree, p, ratio.q24, k, report)?;
+    let gains = Gains::new(top, k, ratio.q32, p, &mut guards);
+    let saturated = ifevip_output(rest, band, out, &gains, report)?;
+    Ok(((crossing_words(p) + used_analysis.max(used_keys), guards), saturated))
+}
+
+/// IFEVIP pass 1: the tree and the histograms, and the work words it took.
+#[inline(never)]
+fn ifevip_analysis<'c>(
+    walk: &Walk<'_>,
+    band: &mut [u8],
+    cross: &'c mut [i32],
+    work: &mut [i32],
+    p: &crate::IfevipParams,
+    report: &mut StripReport,
+) -> Result<(Tree<'c>, usize), Error> {
+    let mut analysis = Analysis::new(walk.grid, p, cross, work)?;
+    walk.run(band, report, |win| {
+        analysis.add_window(win.vis, win.tir, win.y0, win.strip.clone())?;
+        Ok(win.vis.height())
+    })?;
+    let used = analysis.words();
+    Ok((analysis.finish()?, used))
+}
+
+/// IFEVIP pass 2: `R` into `out`, and the sum of the `k` largest keys with the work words taken.
+#[inline(never)]
+#[allow(clippy::too_many_arguments)]
+fn ifevip_keys(
+    rest: &Walk<'_>,
+    band: &mut [u8],
+    work: &mut [i32],
+    out: &mut FrameMut<'_, u8>,
+    tree: &Tree<'_>,
+    p: &crate::IfevipParams,
+    ratio_q24: i64,
+    k: u64,
+    report: &mut StripReport,
+) -> Result<(i128, usize), Error> {
+    let w = rest.grid.0;
+    let mut keys = Keys::new(tree, rest.grid, p, ratio_q24, k, work)?;
     rest.run(band, report, |win| {
         let rows = out.sub_rect_mut(0, win.strip.start, w, win.strip.len())?;
         keys.add_rows(win.vis, win.tir, win.y0, win.strip.clone(), rows)?;
         Ok(win.strip.len())
     })?;
-    let used_keys = keys.words();
-    let gains = Gains::new(keys.top_sum(), k, ratio.q32, p, &mut guards);
+    Ok((keys.top_sum(), keys.words()))
+}
 
+/// IFEVIP pass 3: `F` in place; whether an output saturated.
+#[inline(never)]
+fn ifevip_output(
+    rest: &Walk<'_>,
+    band: &mut [u8],
+    out: &mut FrameMut<'_, u8>,
+    gains: &Gains,
+    report: &mut StripReport,
+) -> Result<bool, Error> {
+    let w = rest.grid.0;
     let tables = GainTables::new(gains.g_q, gains.b_q);
     let mut saturated = false;
     rest.run(band, report, |win| {
@@ -360,7 +405,7 @@ fn fuse_ifevip_strips(
         saturated |= output_rows(win.vis, win.tir, win.y0, win.strip.clone(), rows, &tables)?;
         Ok(win.strip.len())
     })?;
-    Ok(((crossing_words(p) + used_analysis.max(used_keys), guards), saturated))
+    Ok(saturated)
 }
 
 /// Fuses a VIS/TIR pair like [`crate::pipeline::fuse`] with `pipeline.skip` =

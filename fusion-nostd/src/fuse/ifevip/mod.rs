@@ -408,6 +408,10 @@ impl GainTables {
     /// One row in place for the strip form: `out` holds `R` and receives `F = VIS ⊕ add`;
     /// returns whether a sum exceeded 255.
     pub(crate) fn row_in_place(&self, out: &mut [u8], vis: &[u8], tir: &[u8]) -> bool {
+        #[cfg(fusion_arm_dsp)]
+        if let Some(saturated) = self.row_in_place_arm(out, vis, tir) {
+            return saturated;
+        }
         let mut any = 0u32;
         for ((o, &v), &t) in out.iter_mut().zip(vis).zip(tir) {
             let sum = i32::from(v) + self.add(*o, v, t);
@@ -417,6 +421,63 @@ impl GainTables {
         }
         // Sums are below 767: one exceeded 255 exactly when bit 8 or 9 is set in some sum.
         any & 0x300 != 0
+    }
+}
+
+#[cfg(fusion_arm_dsp)]
+impl GainTables {
+    /// [`GainTables::row_in_place`] on the Cortex-M4/M7 in assembly, 17 instructions per pixel
+    /// (LLVM unrolled the loop and spilled): the two table entries by `ldrd`, the 64-bit sum by
+    /// `adds`/`adc`, `val >> 40` as the high word `asr #8` (the low word cannot carry into the
+    /// floor), `usat #9` for the clamp to 0..=511, the saturation flag as the OR of the sums
+    /// (bit 8 or 9). The same bytes as the portable loop. `None` when the rows differ in length.
+    fn row_in_place_arm(&self, out: &mut [u8], vis: &[u8], tir: &[u8]) -> Option<bool> {
+        let w = out.len();
+        if w == 0 || vis.len() != w || tir.len() != w {
+            return None;
+        }
+        let end = out.as_mut_ptr().wrapping_add(w);
+        let d_base = self.d_term.as_ptr().wrapping_add(255);
+        let mut flag: u32 = 0;
+        // SAFETY: pixel i reads out[i], vis[i], tir[i], r_term[R] (R ≤ 255 < 256) and
+        // d_term[255 + IR − VIS] (0..=510 < 511); it writes out[i]; i < w, the length of every
+        // slice (checked above), w ≥ 1. Every register written is declared.
+        unsafe {
+            core::arch::asm!(
+                "2:",
+                "ldrb r8, [r0]",
+                "ldrb r9, [r1], #1",
+                "ldrb r10, [r2], #1",
+                "add r8, r4, r8, lsl #3",
+                "sub r10, r10, r9",
+                "add r10, r5, r10, lsl #3",
+                "ldrd r11, r12, [r8]",
+                "ldrd r8, r10, [r10]",
+                "adds r11, r11, r8",
+                "adc r12, r12, r10",
+                "usat r12, #9, r12, asr #8",
+                "add r12, r12, r9",
+                "orr lr, lr, r12",
+                "usat r12, #8, r12",
+                "strb r12, [r0], #1",
+                "cmp r0, r3",
+                "bne 2b",
+                inout("r0") out.as_mut_ptr() => _,
+                inout("r1") vis.as_ptr() => _,
+                inout("r2") tir.as_ptr() => _,
+                in("r3") end,
+                in("r4") self.r_term.as_ptr(),
+                in("r5") d_base,
+                out("r8") _,
+                out("r9") _,
+                out("r10") _,
+                out("r11") _,
+                out("r12") _,
+                inout("lr") flag,
+                options(nostack),
+            );
+        }
+        Some(flag & 0x300 != 0)
     }
 }
 

@@ -17,17 +17,22 @@
 //! | TSIFSD flight | the flight kernel started at the strip's first row: column sums of the 35×35 window and a ring of `2r + 3` rows of lane words | `max(r, 1)` = 17 (the mean's radius; the Scharr rows `y ± 1` lie inside it) | 1 | `(W + 2r + 1) + (2r + 3)·W` words (152.1 KiB at W = 1024) |
 //! | TSIFSD classic | the column sums of the circular 35×35 window slid down the strip, the box row by the circular horizontal pass, the zero-padded median's rows | `max(r, 1)` = 17, plus up to `r` rows from the frame's other edge for the strips near the top and bottom (the circular window wraps; the band keeps a tail for them) | 1 | `4·W` words: column sums and box row of both bands (16 KiB at W = 1024) |
 //! | ADF (both variants) | the diffusion's row pipeline of both bands (all iterations in one group) | `iterations` = 10 | 2: the covariance (global KL weights), then the output | `32 768 + iterations·3·(W + 2) + W` words: the flux table, the pipeline and its output row (252.2 KiB at W = 1024, 10 iterations) |
+//! | IFEVIP (both variants) | `fuse::ifevip::stream` (crate-private): the IR onto the quadtree grid a few rows at a time (quadtree block ranges, erosion at every candidate crossing from a ring of rows); the background rows from the leaves' Bézier rows; `R` and the top-`k` keys; the output | pass 1: the vertical taps of the IR onto the `D` grid, less one (9 at 1024 → 512); passes 2 and 3: none | 3: analysis, keys (`R` kept in the output frame), output | the crossings' minima, then per pass its tables and row buffers, up to 32 rows a chunk, and the top-`k` buffer (250.8 KiB at W = 1024, `D` = 512) |
 //!
 //! ADF's weights come from the covariance of the whole frame's detail layers, which no strip
 //! knows alone: the first pass diffuses every strip and adds its rows to the exact integer sums
 //! (the order of addition does not change them), the second diffuses again and writes the
 //! output. The diffusion therefore runs twice; [`StripReport`] counts the rows.
 //!
+//! IFEVIP's quadtree, its gain (the peak of the top 0.1 % of the keys) and its entropy ratio
+//! are global too: pass 1 gathers the histograms and the tree, pass 2 computes every pixel's
+//! `R` (written into the output frame, which nothing else needs until pass 3) and keeps the
+//! exact top `k` keys, pass 3 writes `F` over `R`. The band is therefore rescaled three times.
+//! The background's vertical run grows as the grid shrinks below `D`: a grid less than about
+//! `D/4` rows high (128 at the published `D` = 512) can need more than the work words
+//! ([`Error::ScratchTooSmall`]).
+//!
 //! Not in strips (an `Err`, never a different result):
-//! * IFEVIP ([`Error::InvalidParameter`] `"method"`): its background comes from a quadtree over
-//!   the whole IR frame, eroded and smoothed as planes, and its gain from whole-frame
-//!   histograms; a strip form would evaluate the background from the leaves' Bézier patches
-//!   row by row (not done).
 //! * Scene skipping ([`Error::InvalidParameter`] `"skip"`): strips run `SkipPolicy::None`.
 //! * A rescale that is not an exact 2× ratio of the policy's filter ([`Error::UnsupportedRatio`]):
 //!   only the 2× kernels rescale a window with the whole frame's bits. Same-size frames need
@@ -36,8 +41,9 @@
 //! Memory: [`StripScratch`] (`static` on the firmware): [`STRIP_WORK_WORDS`] `i32` words for the
 //! method and [`STRIP_BAND_BYTES`] bytes for the window of the rescaled band. The strip height
 //! is the largest the band holds (or `max_rows`, if smaller): at W = 1024 with TIR up, 212
-//! rows (TSIFSD flight) and 226 rows (ADF), five strips per frame; 185 rows, six strips, for
-//! TSIFSD classic (the band's tail holds the wrapped rows).
+//! rows (TSIFSD flight), 226 rows (ADF) and 228 rows (IFEVIP's pass 1; its halo-free passes
+//! 246), five strips per frame; 185 rows, six strips, for TSIFSD classic (the band's tail holds
+//! the wrapped rows).
 
 use crate::fuse::adf::{Covariance, diffuse_rows, stream_words};
 use crate::fuse::ifevip::stream::{Analysis, Keys, Tree, crossing_words, output_rows};
@@ -112,13 +118,14 @@ impl<'a> StripScratchMut<'a> {
 /// What a [`fuse_strips`] run did, for the working-set and halo-overhead reports.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct StripReport {
-    /// Number of strips per pass.
+    /// Number of strips per pass (IFEVIP: of its first pass, which has the halo).
     pub strips: usize,
-    /// Grid rows per strip (the last strip may be shorter).
+    /// Grid rows per strip (the last strip may be shorter; IFEVIP: first pass).
     pub strip_rows: usize,
     /// Grid rows of the method's halo on each side of a strip.
     pub halo_rows: usize,
-    /// Passes over the strips (1: TSIFSD; 2: ADF, covariance then output).
+    /// Passes over the strips (1: TSIFSD; 2: ADF, covariance then output; 3: IFEVIP, analysis,
+    /// keys, output).
     pub passes: usize,
     /// Grid rows of the windows the method read over all passes, halos included (the
     /// whole-frame run reads the grid's height once). TSIFSD computes output rows for the
@@ -304,7 +311,7 @@ impl Walk<'_> {
     }
 }
 
-/// IFEVIP's three passes (see [`crate::fuse::ifevip::stream`]): the analysis walk with the
+/// IFEVIP's three passes (see `fuse::ifevip::stream`): the analysis walk with the
 /// step-1 halo, then keys and output over halo-free strips (`rest`). Returns the work words
 /// used and the guards, and whether an output saturated. Each pass is a function of its own
 /// (never inlined), so their state — a few KiB each — never shares one stack frame.
@@ -414,8 +421,7 @@ fn ifevip_output(
 /// scratch allows; smaller strips cost more halo rows).
 ///
 /// Errors: those of [`crate::pipeline::fuse`]; [`Error::InvalidParameter`] for what strips do
-/// not run (`"skip"`, `"method"` for IFEVIP, `"max_rows"` for
-/// 0); [`Error::UnsupportedRatio`] for a rescale that is not an exact 2× of the policy's filter;
+/// not run (`"skip"`, `"max_rows"` for 0); [`Error::UnsupportedRatio`] for a rescale that is not an exact 2× of the policy's filter;
 /// [`Error::ScratchTooSmall`] (in bytes of band or words of work) when not even a one-row strip
 /// and its halos fit. Nothing is written to `out` before these checks pass.
 pub fn fuse_strips(

@@ -44,6 +44,11 @@
 //! (`D` × the shorter side, ≤ 4·max(W,H)+2·D entries); at most `W·H` for frames from 512² up
 //! to 1024² — even a 1×1 frame needs `D²`. No other memory except stack for the histograms
 //! and the quadtree: ≈ 12 KiB on the flight targets, ≈ 30 KiB on x86-64.
+//!
+//! The strip form ([`crate::strips::fuse_strips`], module `stream`) computes the same bytes in
+//! the 512 KiB strip scratch: three passes over the grid (analysis, keys, output) that keep
+//! the quadtree's block ranges, the erosion at the candidate control points, the exact top-`k`
+//! keys and, between passes 2 and 3, `R` in the output frame.
 
 pub mod bezier;
 pub mod entropy;

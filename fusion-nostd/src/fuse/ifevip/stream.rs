@@ -28,8 +28,12 @@
 //!
 //! Work memory (`i32` words, [`Layout`]): the crossings' minima stay for pass 2; pass 1 adds
 //! the tap tables, the erosion ring (`erode_size × D`) and its row buffers, pass 2 the
-//! combined tables, the Bézier rows, the two pass buffers and the top-`k` buffer. At 1024²
-//! with the published parameters both fit 256 KiB with 16 or more rows per chunk.
+//! combined tables, the Bézier rows, the two pass buffers and the top-`k` buffer. Each pass
+//! takes the largest chunk (up to 32 rows) its words hold. At 1024² with the published
+//! parameters the larger pass takes 250.8 KiB of the strip scratch's 256 KiB of work words
+//! (`fusion budget`, strip table). A grid much shorter than `D` is the limit: each background
+//! row then reads a long run of Bézier rows (`D`-wide each), and below about `D/4` rows the
+//! run alone can exceed the words (`Error::ScratchTooSmall`).
 
 use super::bezier;
 use super::imresize::{self, Output, Taps};

@@ -74,8 +74,9 @@ pub struct StripScratch<const WORDS: usize, const BAND: usize> {
     band: [u8; BAND],
 }
 
-/// The 512 KiB strip scratch: fuses grids up to 1024 wide (TSIFSD and ADF with up to
-/// 10 iterations; wider grids or more iterations need more work words).
+/// The 512 KiB strip scratch: fuses grids up to 1024 wide (TSIFSD, ADF with up to 10
+/// iterations, IFEVIP with the published quadtree grid; wider grids, more iterations or a grid
+/// much shorter than IFEVIP's quadtree grid need more work words).
 pub type StripScratch512K = StripScratch<STRIP_WORK_WORDS, STRIP_BAND_BYTES>;
 
 impl<const WORDS: usize, const BAND: usize> StripScratch<WORDS, BAND> {

@@ -72,7 +72,7 @@ fn method_region(m: MethodArg) -> &'static str {
     }
 }
 
-/// Whether the method runs in strips ([`fusion_nostd::strips`]: TSIFSD and ADF, both variants).
+/// Whether the method runs in strips ([`fusion_nostd::strips`]: every method, both variants).
 pub fn has_strips(m: MethodArg) -> bool {
     matches!(m, MethodArg::Adf | MethodArg::Tsifsd | MethodArg::Ifevip)
 }

@@ -124,8 +124,8 @@ pub struct FuseArgs {
     /// ROI are bit-identical to none); all adds the eclipse plan. The report is printed.
     #[arg(long, value_enum, default_value_t = SkipArg::None)]
     pub skip: SkipArg,
-    /// Fuse strip by strip in the flight core's 512 KiB strip scratch (core engine, TSIFSD
-    /// and ADF, both variants; no --skip, no --raw): bit-identical to the whole-frame run. The value
+    /// Fuse strip by strip in the flight core's 512 KiB strip scratch (core engine, every
+    /// method and variant; no --skip, no --raw): bit-identical to the whole-frame run. The value
     /// caps the strip height in grid rows (`max`: as tall as the scratch allows). The strip
     /// report is printed.
     #[arg(long, value_name = "ROWS|max")]
@@ -358,15 +358,6 @@ pub fn run(args: &FuseArgs) -> Result<()> {
                     bail!(
                         "--strips works with the core engine's 8-bit output only (no --engine reference, no --raw, no --skip)"
                     );
-                }
-                match pipeline.method {
-                    fusion_nostd::Method::Ifevip(_) => bail!(
-                        "--strips: IFEVIP does not run in strips (its background is a quadtree over the whole IR frame)"
-                    ),
-                    fusion_nostd::Method::Tsifsd(p) if p.variant == fusion_nostd::Variant::Classic => bail!(
-                        "--strips: TSIFSD runs in strips in its flight variant only (the classic circular mean wraps the frame)"
-                    ),
-                    _ => {}
                 }
                 let mut scratch = crate::strips::HostStripScratch::default();
                 let (image, report, strips, _) =

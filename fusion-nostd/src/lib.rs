@@ -31,7 +31,7 @@
 //! | VIS, TIR and output sizes that do not fit the rescale policy (policy `None` with different sizes, an output that is not the fusion grid, a method called with frames of different sizes) | [`Error::SizeMismatch`] |
 //! | scratch planes (or the band plane, when the pipeline rescales) shorter than [`Pipeline::scratch_pixels`] | [`Error::ScratchTooSmall`] with both numbers |
 //! | a parameter outside its documented range | [`Error::InvalidParameter`] naming the field; [`pipeline::fuse_raw`] with IFEVIP (no pre-cast value): `name: "method"` |
-//! | [`strips::fuse_strips`] with what strips do not run (IFEVIP, scene skipping, `max_rows` 0; a rescale that is not an exact 2× of the policy's filter; a strip scratch too small for one row and its halos) | [`Error::InvalidParameter`] naming it, [`Error::UnsupportedRatio`], [`Error::ScratchTooSmall`]; the output is untouched |
+//! | [`strips::fuse_strips`] with what strips do not run (scene skipping, `max_rows` 0; a rescale that is not an exact 2× of the policy's filter; a strip scratch too small for one row and its halos, or for IFEVIP's passes) | [`Error::InvalidParameter`] naming it, [`Error::UnsupportedRatio`], [`Error::ScratchTooSmall`]; the output is untouched |
 //! | `f32` NaN, +∞, −∞ | [`Error::NonFinite`] (destination untouched) |
 //! | `f32` magnitude above [`rescale::F32_MAX_MAGNITUDE`] (2¹²⁰) | [`Error::ValueOutOfRange`]: the filter's overshoot could overflow to ±∞ |
 //! | `f32` denormals, ±0, the largest accepted magnitude | ordinary values; the output is finite |

@@ -9,8 +9,8 @@
 //! The rescaled band goes into the scratch's `u8` band plane; the method borrows the `i32`
 //! work planes. When both frames already share a grid the rescale is skipped whatever the
 //! policy says (and [`FuseReport::rescaled`] says so). The same pipeline runs strip by strip in
-//! a 512 KiB working set instead of these planes: [`crate::strips::fuse_strips`] (TSIFSD
-//! and ADF, both variants, the same bytes).
+//! a 512 KiB working set instead of these planes: [`crate::strips::fuse_strips`] (every
+//! method, both variants, the same bytes).
 //!
 //! # Scene skipping
 //!

@@ -28,9 +28,10 @@
 //! are global too: pass 1 gathers the histograms and the tree, pass 2 computes every pixel's
 //! `R` (written into the output frame, which nothing else needs until pass 3) and keeps the
 //! exact top `k` keys, pass 3 writes `F` over `R`. The band is therefore rescaled three times.
-//! The background's vertical run grows as the grid shrinks below `D`: a grid less than about
-//! `D/4` rows high (128 at the published `D` = 512) can need more than the work words
-//! ([`Error::ScratchTooSmall`]).
+//! The background's vertical run grows as the grid shrinks below `D`: a wide grid less than
+//! about `D/4` rows high (128 at the published `D` = 512) can need more than the work words
+//! ([`Error::ScratchTooSmall`]), as can an erosion window of more than ≈ 90 rows or a
+//! `top_ppm` far above the published 0.1 % (the keys are kept exactly, two words each).
 //!
 //! Not in strips (an `Err`, never a different result):
 //! * Scene skipping ([`Error::InvalidParameter`] `"skip"`): strips run `SkipPolicy::None`.

@@ -1,5 +1,5 @@
 //! Strip processing (`fusion_nostd::strips::fuse_strips`): the output and the guards are
-//! bit-identical to the whole-frame pipeline for TSIFSD and ADF (both variants each), every
+//! bit-identical to the whole-frame pipeline for TSIFSD, ADF and IFEVIP (both variants each), every
 //! rescale policy, many strip heights, on synthetic, rendered and VIFB frames; the working set
 //! stays within the 512 KiB scratch; what strips do not run is an `Err` that leaves the output
 //! untouched.
@@ -121,9 +121,46 @@ fn synthetic_frames_are_bit_identical_in_strips() -> Result<()> {
     Ok(())
 }
 
+/// IFEVIP's step-1 cases on grids that must all run in strips (a 64² quadtree grid): a side
+/// equal to `D` (no resize along it), portrait and landscape (columns or rows resized first),
+/// square, each at several strip heights; plus the published 512² quadtree grid on grids at
+/// least `D/4` high, where refusing would be a failure.
+#[test]
+fn ifevip_grid_shapes_are_bit_identical_in_strips() -> Result<()> {
+    let d64 = Method::Ifevip(IfevipParams {
+        quad_norm_dim: 64,
+        quad_min_dim: 8,
+        erode_size: 7,
+        ..IfevipParams::default()
+    });
+    let published = Method::Ifevip(IfevipParams::default());
+    let mut runs = 0;
+    for (method, sizes) in [
+        (d64, &[(64usize, 100usize), (100, 64), (64, 64), (80, 130), (130, 80), (64, 37), (37, 64)][..]),
+        (published, &[(512, 130), (130, 512), (512, 512), (300, 200)][..]),
+    ] {
+        for &(w, h) in sizes {
+            let (vis, tir) = (textured(w, h, 7), textured(w, h, 8));
+            let p = Pipeline { rescale: RescalePolicy::None, method, ..Pipeline::default() };
+            let (want, want_report, _) = fuse_once(&vis, &tir, &p)?;
+            for rows in [usize::MAX, 9, 40] {
+                let mut scratch = HostStripScratch::default();
+                let (got, report, strips, _) = fuse_strips_once(&vis, &tir, &p, rows, &mut scratch)?;
+                assert!(got.data == want.data, "{w}x{h} rows {rows}: strips differ ({strips:?})");
+                assert_eq!(report, want_report, "{w}x{h} rows {rows}");
+                assert!(strips.working_set_bytes() <= STRIP_SCRATCH_BYTES, "{w}x{h}: {strips:?}");
+                runs += 1;
+            }
+        }
+    }
+    assert_eq!(runs, 33);
+    Ok(())
+}
+
 /// The design point: VIS 1024², TIR 512², TIR up, the default strip height of the 512 KiB
 /// scratch (five strips; six for TSIFSD classic, whose band also holds the rows its circular
-/// window wraps to), TSIFSD and ADF with their flight defaults and both classic variants.
+/// window wraps to), TSIFSD, ADF and IFEVIP with their flight defaults and their classic
+/// variants.
 #[test]
 fn design_point_1024_fuses_in_five_strips() -> Result<()> {
     let vis = textured(1024, 1024, 5);

@@ -46,11 +46,11 @@ pub fn control_lines(leaves: &[Leaf], d: usize, rows: &mut [bool], cols: &mut [b
 /// Marks in `lines` (at least `d` long) every grid line that holds a control point of *some*
 /// quadtree a `d×d` grid with smallest side `min_dim` can have: the [`control_lines`] of every
 /// block of every side from `min_dim` to `d`. The strip form erodes at these lines' crossings
-/// while the grid streams by, before the tree is known (≈ 79 lines per axis for the published
+/// while the grid streams by, before the tree is known (64 lines per axis for the published
 /// 512 / 32, against ≈ 49 for a typical tree).
 pub fn candidate_lines(d: usize, min_dim: usize, lines: &mut [bool]) {
     let mut n = min_dim.max(1);
-    while n <= d {
+    while n <= d.min(super::MAX_NORM_DIM) {
         for r0 in (0..d).step_by(n) {
             for off in control_offsets(n) {
                 if let Some(l) = lines.get_mut((r0 + off).min(d.saturating_sub(1))) {
@@ -208,6 +208,24 @@ fn step_row_arm(out: &mut [i32], [v, d1, d2, d3]: [i64; 4], sh: u32) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// 512 / 32: the 49 lines of the 32-blocks (32k for k ≤ 16 with 512 clamped to 511,
+    /// 32k + 15, 32k + 23), then the new ones per level: 64k + 31 (8), 128k + 63 (4),
+    /// 256k + 127 (2), 255 (1) — the other offsets of the larger blocks coincide with lines
+    /// already marked. 64 in all; a single-level tree uses the first 49.
+    #[test]
+    fn candidate_lines_of_the_published_grid() {
+        let mut lines = [false; 512];
+        candidate_lines(512, 32, &mut lines);
+        assert_eq!(lines.iter().filter(|&&l| l).count(), 64);
+        for leaf_side in [32usize, 64, 128, 256, 512] {
+            for r0 in (0..512).step_by(leaf_side) {
+                for off in control_offsets(leaf_side) {
+                    assert!(lines[(r0 + off).min(511)], "side {leaf_side} at {r0} + {off}");
+                }
+            }
+        }
+    }
 
     #[test]
     fn constant_controls_give_a_constant_patch_and_corners_interpolate() -> Result<(), Error> {

@@ -316,8 +316,10 @@ pub(crate) fn output_pass(
     // Rows (or blocks) done by the Cortex-M and AVX2 loops report here.
     #[cfg_attr(not(any(fusion_arm_dsp, target_arch = "x86_64")), allow(unused_mut))]
     let mut rows_saturated = false;
-    // `add` is in 0..=256, so the sum is in 0..=511: the clamp is a `min` (branch-free; a
-    // branch on the freshly loaded table value mispredicted on noisy frames).
+    // `add` is in 0..=511 (0..=256 from the closure, which fills the big table: its AVX2 and
+    // Cortex-M loops test bit 8 of the sum, exact only for sums ≤ 511; up to 511 from
+    // `GainTables`), so the sum is in 0..=766: the clamp is a `min` (branch-free; a branch on
+    // the freshly loaded table value mispredicted on noisy frames).
     let mut put = |o: &mut u8, v: u8, add: i32| {
         let sum = (i32::from(v) + add) as u32;
         saturated |= sum > 255;

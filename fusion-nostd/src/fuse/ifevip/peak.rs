@@ -12,7 +12,7 @@
 //! the keys' range, adds up the classes above the bin holding the `k`-th largest key and keeps
 //! the ones inside it, and repeats on those until the bin holds one key value `T`; the sum is
 //! `Σ above + (k − #above)·T`. Exact for any key distribution, no sort; each round shrinks the
-//! key range 1024-fold, so there are at most six rounds over at most [`CLASSES`] entries.
+//! key range 1024-fold, so there are at most seven rounds (64-bit keys, 10 bits a round) over at most [`CLASSES`] entries.
 //!
 //! The keys saturate at `i64::MAX` exactly where the per-pixel formula with saturating
 //! arithmetic does (only for `r_H` beyond any entropy ratio of a real frame).
@@ -226,7 +226,7 @@ fn set_key(words: &mut [i32], i: usize, key: i64) {
 }
 
 /// The `k`-th largest (`1 ≤ k ≤ n`) of the first `n` keys in `words`: the histogram rounds of
-/// [`top_k_sum`] without moving anything (each round scans all keys, at most six rounds).
+/// [`top_k_sum`] without moving anything (each round scans all keys, at most seven rounds).
 fn kth_key(words: &[i32], n: usize, k: usize) -> i64 {
     let keys = || (0..n).filter_map(|i| key_at(words, i));
     let (mut lo, mut hi) = keys().fold((i64::MAX, i64::MIN), |(lo, hi), key| (lo.min(key), hi.max(key)));
@@ -276,7 +276,8 @@ impl<'w> TopK<'w> {
     /// Keeps the `k` largest keys in `buf` (two words per key), which must hold more than `k`.
     pub fn new(buf: &'w mut [i32], k: usize) -> Result<Self, crate::Error> {
         if buf.len() / 2 <= k {
-            return Err(crate::Error::ScratchTooSmall { needed: 2 * (k + 1), capacity: buf.len() });
+            let needed = k.saturating_add(1).saturating_mul(2);
+            return Err(crate::Error::ScratchTooSmall { needed, capacity: buf.len() });
         }
         Ok(Self { words: buf, len: 0, k, threshold: if k == 0 { i64::MAX } else { -1 } })
     }
@@ -287,12 +288,6 @@ impl<'w> TopK<'w> {
     /// Keys at or below this are not kept.
     pub fn threshold(&self) -> i64 {
         self.threshold
-    }
-
-    /// Whether a pixel of key `key` would be kept.
-    #[inline(always)]
-    pub fn wants(&self, key: i64) -> bool {
-        key > self.threshold
     }
 
     /// Adds a pixel's key.

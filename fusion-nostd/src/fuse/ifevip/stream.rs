@@ -12,7 +12,7 @@
 //!    (step 3) is taken, from a ring of the last `erode_size` rows, at the crossings of every
 //!    line where *some* tree could put a control point ([`bezier::candidate_lines`]) — the
 //!    tree is known only at the end. Kept: the leaves and the minima at those crossings.
-//! 2. **Keys** ([`Background`], [`keys_rows`]): the background of the strip's rows (steps 4–6:
+//! 2. **Keys** ([`Background`], [`Keys`]): the background of the strip's rows (steps 4–6:
 //!    the Bézier rows the column taps read, rendered once each into a sliding buffer, then the
 //!    combined resize-and-Gaussian passes), `R = IR ⊖ uint8(bg)` (step 7), written as bytes into
 //!    the *output frame* (free until pass 3), and every key into a [`TopK`] buffer, which gives
@@ -26,14 +26,17 @@
 //! and the erosion reads the same windows (tested against the whole frame on rendered,
 //! synthetic and VIFB frames).
 //!
-//! Work memory (`i32` words, [`Layout`]): the crossings' minima stay for pass 2; pass 1 adds
+//! Work memory (`i32` words): the crossings' minima stay for pass 2; pass 1 adds
 //! the tap tables, the erosion ring (`erode_size × D`) and its row buffers, pass 2 the
 //! combined tables, the Bézier rows, the two pass buffers and the top-`k` buffer. Each pass
 //! takes the largest chunk (up to 32 rows) its words hold. At 1024² with the published
 //! parameters the larger pass takes 250.8 KiB of the strip scratch's 256 KiB of work words
-//! (`fusion budget`, strip table). A grid much shorter than `D` is the limit: each background
-//! row then reads a long run of Bézier rows (`D`-wide each), and below about `D/4` rows the
-//! run alone can exceed the words (`Error::ScratchTooSmall`).
+//! (`fusion budget`, strip table). The limits (`Error::ScratchTooSmall`, before anything is
+//! written to the output): a grid much shorter than `D`, whose every background row reads a
+//! long run of `D`-wide Bézier rows (66 for a 94-row grid: wide grids below about `D/4` rows do
+//! not fit, with the wide horizontal table beside them); an `erode_size` ring of more than
+//! ≈ 90 rows at `D` = 512; a `top_ppm` whose `k` keys (two words each) outgrow what is left
+//! (≈ 1 % of the pixels at 1024²).
 
 use super::bezier;
 use super::imresize::{self, Output, Taps};
@@ -129,6 +132,7 @@ pub(crate) struct Tree<'c> {
 
 impl<'c, 'w> Analysis<'c, 'w> {
     /// Grid rows of halo pass 1 needs above a strip: the vertical taps' longest run, less one.
+    /// (The walk grows windows on both sides; the rows below a strip go unread here.)
     pub(crate) fn halo(grid: (usize, usize), params: &IfevipParams) -> usize {
         let d = usize::from(params.quad_norm_dim);
         if grid.1 == d { 0 } else { imresize::max_taps(grid.1, d).saturating_sub(1) }
@@ -426,7 +430,7 @@ impl<'t, 'r> Background<'t, 'r> {
         let from = (first - self.bez_rows.start.min(first)) * d;
         // Toward the front: a forward copy never reads what it already overwrote; apart (the
         // usual case) the halves are two slices and the copy is a `memcpy`.
-        let n = kept * d;
+        let n = if from == 0 { 0 } else { kept * d };
         match self.bez.split_at_mut_checked(from) {
             Some((head, tail)) if from >= n => {
                 for (o, &v) in head.iter_mut().zip(tail.iter().take(n)) {
@@ -513,14 +517,17 @@ impl<'t, 'r> Keys<'t, 'r> {
                 .unwrap_or(run)
         };
         let k = usize::try_from(k).map_err(|_| Error::InvalidParameter { name: "top_ppm" })?;
-        // The top-k buffer: at least twice k keys (a cut per k kept pixels at worst), 4096.
-        let top_words = TopK::WORDS_PER_KEY * (2 * k + 2).max(4096);
+        // The top-k buffer: room for twice k keys (a cut per k kept pixels at worst) or 4096,
+        // if the words hold that beside a one-row chunk; else whatever they hold above k.
         let words = |c: usize| c * stride + span(c) * d + c * d + c * w;
+        let least = TopK::WORDS_PER_KEY * (k + 1);
+        let roomy = TopK::WORDS_PER_KEY * (2 * k + 2).max(4096);
+        let top_words = roomy.min(rest.len().saturating_sub(words(1))).max(least);
         let avail = rest.len().saturating_sub(top_words);
         let chunk = (1..=MAX_CHUNK.min(h))
             .rev()
             .find(|&c| words(c) <= avail)
-            .ok_or(Error::ScratchTooSmall { needed: words(1) + top_words, capacity: rest.len() })?;
+            .ok_or(Error::ScratchTooSmall { needed: words(1) + least, capacity: rest.len() })?;
         let chunk_taps = take(&mut rest, chunk * stride)?;
         let bez = take(&mut rest, span(chunk) * d)?;
         let col = take(&mut rest, chunk * d)?;

@@ -67,7 +67,7 @@ def check(fusion_bin, data_dir):
 if __name__ == "__main__":
     ap = argparse.ArgumentParser()
     ap.add_argument("--check", metavar="FUSION_BIN")
-    ap.add_argument("--data", default=os.path.join(os.path.dirname(__file__), "../../shared/data/vifb"))
+    ap.add_argument("--data", default=os.path.join(os.path.dirname(__file__), "../tests/data/vifb"))
     a = ap.parse_args()
     if a.check:
         sys.exit(1 if check(a.check, a.data) else 0)

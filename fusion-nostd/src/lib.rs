@@ -17,6 +17,80 @@
 //!   pipeline skip what the scene does not need ([`pipeline::SkipPolicy`]).
 //! * [`Error`] — the one small `Copy` error type; bad input is an `Err`, never a panic.
 //!
+//! # Quick start
+//!
+//! Firmware declares the frames and the work memory statically (on a board, in a linker
+//! section in external SDRAM); nothing in the core allocates. One VIS/TIR pair, fused with the
+//! default configuration (TIR upscaled to the VIS grid with bicubic, TSIFSD flight variant):
+//!
+//! ```
+//! use fusion_nostd::{Error, FrameMut, Frame512, Frame1024, Pipeline, Scratch1024, fuse};
+//!
+//! static mut VIS: Frame1024 = Frame1024::filled(0); // visible camera, 1024²
+//! static mut TIR: Frame512 = Frame512::filled(0); // microbolometer, 512²
+//! static mut FUSED: Frame1024 = Frame1024::filled(0);
+//! static mut SCRATCH: Scratch1024 = Scratch1024::new(); // 13 MiB of work planes
+//!
+//! /// One frame of the navigation loop, into `out`.
+//! fn fuse_frame(out: Option<FrameMut<'_, u8>>) -> Result<fusion_nostd::FuseReport, Error> {
+//!     // SAFETY: the frame loop is the only code that touches these statics and never
+//!     // re-enters itself (one thread of control).
+//!     let (vis, tir, fused, scratch) = unsafe {
+//!         (&*(&raw const VIS), &*(&raw const TIR), &mut *(&raw mut FUSED), &mut *(&raw mut SCRATCH))
+//!     };
+//!     let out = out.unwrap_or_else(|| fused.view_mut());
+//!     fuse(vis.view(), tir.view(), out, &mut scratch.view_mut(), &Pipeline::default())
+//! }
+//!
+//! // The cameras' drivers fill VIS and TIR; then:
+//! let report = fuse_frame(None)?;
+//! assert_eq!(report.grid, (1024, 1024)); // the VIS grid
+//! assert!(report.rescaled); // TIR was upscaled
+//!
+//! // Bad input is an `Err`, never a panic: here an output on the wrong grid, refused before
+//! // anything is written. Flight code keeps its last good frame and tells navigation.
+//! let mut wrong = Frame512::filled(7);
+//! match fuse_frame(Some(wrong.view_mut())) {
+//!     Err(Error::SizeMismatch { .. }) => assert!(wrong.pixels().iter().all(|&p| p == 7)),
+//!     other => panic!("expected a size mismatch, got {other:?}"),
+//! }
+//! # Ok::<(), Error>(())
+//! ```
+//!
+//! The same frame in strips, in a fixed 512 KiB working set that fits on-chip SRAM (the frames
+//! stay in external memory; [`strips`] says what each method needs): the same bytes.
+//!
+//! ```
+//! use fusion_nostd::strips::{STRIP_SCRATCH_BYTES, StripScratch512K, fuse_strips};
+//! use fusion_nostd::{Frame512, Frame1024, Pipeline, Scratch1024, fuse};
+//!
+//! static mut STRIPS: StripScratch512K = StripScratch512K::new();
+//! # static mut SCRATCH: Scratch1024 = Scratch1024::new();
+//! // SAFETY: as above, one thread of control owns the statics.
+//! let strips = unsafe { &mut *(&raw mut STRIPS) };
+//!
+//! // A test pattern (on a board: the cameras' frames in static memory).
+//! let mut vis = Box::new(Frame1024::filled(0));
+//! let mut tir = Box::new(Frame512::filled(0));
+//! for (i, p) in vis.pixels_mut().iter_mut().enumerate() { *p = (i % 251) as u8; }
+//! for (i, p) in tir.pixels_mut().iter_mut().enumerate() { *p = (i / 512 % 256) as u8; }
+//!
+//! let config = Pipeline::default();
+//! let mut out = Box::new(Frame1024::filled(0));
+//! let (report, layout) =
+//!     fuse_strips(vis.view(), tir.view(), out.view_mut(), &mut strips.view_mut(), &config, usize::MAX)?;
+//! assert!(layout.working_set_bytes() <= STRIP_SCRATCH_BYTES);
+//! assert!(layout.strips > 1);
+//!
+//! // Bit-identical to the whole-frame run.
+//! # let scratch = unsafe { &mut *(&raw mut SCRATCH) };
+//! let mut whole = Box::new(Frame1024::filled(0));
+//! let whole_report = fuse(vis.view(), tir.view(), whole.view_mut(), &mut scratch.view_mut(), &config)?;
+//! assert_eq!(out.pixels(), whole.pixels());
+//! assert_eq!(report.guards, whole_report.guards);
+//! # Ok::<(), fusion_nostd::Error>(())
+//! ```
+//!
 //! # Robustness
 //!
 //! A core that panics on a flight computer loses the navigation chain, and one that silently
@@ -77,6 +151,11 @@
         clippy::unimplemented
     )
 )]
+
+// The README's Rust examples compile and run as doctests of this crate.
+#[cfg(doctest)]
+#[doc = include_str!("../../README.md")]
+struct ReadmeDoctests;
 
 #[macro_use]
 mod cpu;

@@ -264,8 +264,8 @@ mod tests {
     }
 
     #[test]
-    fn reads_the_shared_reference_arrays() -> Result<()> {
-        let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/data/vifb/fight_ADF_ref.npy");
+    fn reads_the_published_reference_arrays() -> Result<()> {
+        let p = crate::testdata::file("vifb/fight_ADF_ref.npy");
         let a = read_npy_2d(&p)?;
         assert_eq!((a.width, a.height), (452, 332));
         assert!(a.data.iter().any(|v| *v > 255.0), "ADF keeps values above 255 before the cast");

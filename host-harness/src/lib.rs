@@ -13,11 +13,7 @@ pub mod skip;
 pub mod strips;
 pub mod study;
 pub mod study_methods;
-
-/// Path of the shared read-only project material (`../shared` beside the checkout).
-pub fn shared_dir() -> std::path::PathBuf {
-    std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared")
-}
+pub mod testdata;
 
 /// A host-side scratch for the core: the `i32` work planes and the `u8` band plane, on the heap.
 pub struct CoreScratch {

@@ -512,7 +512,7 @@ mod tests {
     #[test]
     #[ignore = "prints FMI variants on a VIFB pair; run with --ignored --nocapture"]
     fn fmi_variants_on_vifb() {
-        let d = crate::shared_dir().join("data/vifb");
+        let d = crate::testdata::vifb_dir();
         let load = |n: &str| crate::io::load_gray_u8(&d.join(n), crate::io::ColorPolicy::Refuse).unwrap();
         let (v, t, f) = (load("fight_VIS.png"), load("fight_IR.png"), load("fight_ADF_ref.png"));
         for feature in [FmiFeature::Gradient, FmiFeature::Pixels] {

@@ -1,5 +1,5 @@
 //! ADF and TSIFSD: the no_std core against the f64 references and the published outputs
-//! (`shared/data/vifb/*_ADF_ref.npy`, `*_TSIFSD_ref.npy`), hand-computed cases and guards.
+//! (`tests/data/vifb/*_ADF_ref.npy`, `*_TSIFSD_ref.npy`), hand-computed cases and guards.
 //!
 //! Run with `cargo test -p fusion-tests --test adf_tsifsd -- --nocapture` to see the numbers.
 
@@ -10,7 +10,7 @@ use fusion_nostd::{Error, FrameMut, FrameRef};
 use fusion_tests::{TestRng, scene};
 use host_harness::io::{ColorPolicy, Gray, load_gray_u8, read_npy_2d};
 use host_harness::reference;
-use host_harness::{CoreScratch, shared_dir};
+use host_harness::{CoreScratch, testdata};
 
 const PAIRS: [&str; 4] = ["fight", "manWalking", "kettle", "peopleshadow"];
 
@@ -120,7 +120,7 @@ fn compare(got: &Gray<u8>, want: &Gray<u8>) -> Compare {
 }
 
 fn load_pair(name: &str) -> (Gray<u8>, Gray<u8>) {
-    let dir = shared_dir().join("data/vifb");
+    let dir = testdata::vifb_dir();
     let vis = load_gray_u8(&dir.join(format!("{name}_VIS.png")), ColorPolicy::Refuse).expect("VIS png");
     let tir = load_gray_u8(&dir.join(format!("{name}_IR.png")), ColorPolicy::Refuse).expect("IR png");
     (vis, tir)
@@ -131,7 +131,7 @@ fn published(name: &str, method: Method) -> Gray<f64> {
         Method::Adf => "ADF",
         Method::Tsifsd => "TSIFSD",
     };
-    read_npy_2d(&shared_dir().join(format!("data/vifb/{name}_{m}_ref.npy"))).expect("npy")
+    read_npy_2d(&testdata::file(&format!("vifb/{name}_{m}_ref.npy"))).expect("npy")
 }
 
 #[test]

@@ -7,7 +7,7 @@ use fusion_tests::{TestRng, scene};
 use host_harness::CoreScratch;
 use host_harness::io::{ColorPolicy, Gray, load_gray_u8, read_npy_2d};
 use host_harness::reference;
-use host_harness::shared_dir;
+use host_harness::testdata;
 
 const PAIRS: [&str; 4] = ["fight", "kettle", "manWalking", "peopleshadow"];
 
@@ -16,7 +16,7 @@ fn to_f64(g: &Gray<u8>) -> Gray<f64> {
 }
 
 fn load_pair(name: &str) -> (Gray<u8>, Gray<u8>, Gray<f64>) {
-    let dir = shared_dir().join("data/vifb");
+    let dir = testdata::vifb_dir();
     let vis = load_gray_u8(&dir.join(format!("{name}_VIS.png")), ColorPolicy::Refuse).unwrap();
     let tir = load_gray_u8(&dir.join(format!("{name}_IR.png")), ColorPolicy::Refuse).unwrap();
     let npy = read_npy_2d(&dir.join(format!("{name}_IFEVIP_ref.npy"))).unwrap();

@@ -67,7 +67,7 @@ fn full_size_frames_are_exact() {
 fn real_photos_of_odd_sizes_are_exact() {
     for pair in ["fight", "manWalking", "kettle", "peopleshadow"] {
         for band in ["VIS", "IR"] {
-            let path = host_harness::shared_dir().join(format!("data/vifb/{pair}_{band}.png"));
+            let path = host_harness::testdata::file(&format!("vifb/{pair}_{band}.png"));
             let img = load_gray_u8(&path, ColorPolicy::Refuse).unwrap();
             let (w, h) = (img.width, img.height);
             for filter in FILTERS {

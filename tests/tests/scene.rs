@@ -11,7 +11,6 @@ use host_harness::io::{Gray, vifb_pairs};
 use host_harness::skip::{first_difference_in, fuse_once, skip_error};
 use host_harness::study::Dataset;
 use render_host::{DatasetConfig, render_dataset};
-use std::path::PathBuf;
 
 fn methods() -> Vec<(&'static str, Method)> {
     vec![
@@ -225,14 +224,10 @@ fn rendered_frames_roi_is_bit_identical_for_every_method() -> Result<()> {
     Ok(())
 }
 
-fn shared_dir() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared")
-}
-
 #[test]
 fn vifb_pairs_decline_and_stay_identical() -> Result<()> {
     let mut pairs = 0;
-    for (name, vis, tir) in vifb_pairs(&shared_dir().join("data/vifb"))? {
+    for (name, vis, tir) in vifb_pairs(&host_harness::testdata::vifb_dir())? {
         let scene = analyze(vis.view()?, tir.view()?, (vis.width, vis.height), &SceneParams::default())?;
         assert!(scene.decline.is_some(), "{name}: the analysis must decline a real scene: {scene:?}");
         for (m, method) in methods() {

@@ -13,7 +13,6 @@ use host_harness::skip::fuse_once;
 use host_harness::strips::{HostStripScratch, fuse_strips_once};
 use host_harness::study::Dataset;
 use render_host::{DatasetConfig, render_dataset};
-use std::path::PathBuf;
 
 fn methods() -> Vec<(&'static str, Method)> {
     vec![
@@ -210,14 +209,10 @@ fn rendered_frames_are_bit_identical_in_strips() -> Result<()> {
     Ok(())
 }
 
-fn shared_dir() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared")
-}
-
 #[test]
 fn vifb_pairs_are_bit_identical_in_strips() -> Result<()> {
     let mut pairs = 0;
-    for (name, vis, tir) in vifb_pairs(&shared_dir().join("data/vifb"))? {
+    for (name, vis, tir) in vifb_pairs(&host_harness::testdata::vifb_dir())? {
         for (label, method) in methods() {
             let p = Pipeline { rescale: RescalePolicy::None, method, ..Pipeline::default() };
             for rows in [usize::MAX, 64, 17] {

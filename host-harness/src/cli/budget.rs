@@ -53,7 +53,7 @@ pub struct BudgetArgs {
     /// Skip the bit-exactness jobs (VIFB pairs, synthetic pair, classic variants).
     #[arg(long)]
     pub no_exact: bool,
-    /// Folder with the VIFB pairs (`*_VIS.png`, `*_IR.png`) [default: ../shared/data/vifb].
+    /// Folder with the VIFB pairs (`*_VIS.png`, `*_IR.png`) [default: the repository's tests/data/vifb].
     #[arg(long)]
     pub vifb: Option<PathBuf>,
     /// Budget table to check against.
@@ -154,7 +154,7 @@ pub fn run(args: &BudgetArgs) -> Result<()> {
         methods,
         repeat: args.repeat.max(1),
         exactness: !args.no_exact,
-        vifb: args.vifb.clone().unwrap_or_else(|| crate::shared_dir().join("data/vifb")),
+        vifb: args.vifb.clone().unwrap_or_else(|| crate::testdata::dir().join("vifb")),
         budgets: args.budgets.clone(),
         write_budgets: args.write_budgets.clone(),
         timeout: Duration::from_secs(args.timeout),

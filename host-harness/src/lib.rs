@@ -7,6 +7,7 @@ pub mod budget;
 pub mod cli;
 pub mod io;
 pub mod metrics;
+pub mod nav;
 pub mod plot;
 pub mod reference;
 pub mod skip;

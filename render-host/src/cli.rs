@@ -52,6 +52,10 @@ pub struct RenderArgs {
     /// Leave out the specular lobe in VIS.
     #[arg(long)]
     pub no_specular: bool,
+    /// Flat faces: one albedo and one temperature per face, no cells, crinkles, bolts or
+    /// in-face gradients (the target as rendered before the surface detail).
+    #[arg(long)]
+    pub flat: bool,
     /// VIS exposure: pixel value of a white Lambertian face lit by the sun at normal incidence.
     #[arg(long, default_value_t = crate::vis::DEFAULT_EXPOSURE)]
     pub exposure: f32,
@@ -116,6 +120,7 @@ impl RenderArgs {
         cfg.tir_16bit = self.tir16;
         cfg.tir_eclipse_minutes = self.eclipse_minutes;
         cfg.vis.specular = !self.no_specular;
+        cfg.surface_detail = !self.flat;
         cfg.vis.earthshine = self.earthshine;
         cfg.vis.exposure = self.exposure;
         cfg.contact_sheet_thumb = self.sheet_thumb;

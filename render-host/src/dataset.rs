@@ -61,6 +61,15 @@ pub struct DatasetConfig {
     /// Frames (columns) on the contact sheet, evenly spaced over the dataset (0 = all).
     #[serde(default)]
     pub contact_sheet_frames: usize,
+    /// Procedural surface detail on the target (`crate::surface`: cells, crinkled MLI, bolts,
+    /// in-face temperature gradients); `false`: flat faces (the renders before issue 20).
+    /// Manifests written before the field existed read as `false`.
+    #[serde(default)]
+    pub surface_detail: bool,
+    /// Seed of the surface detail: part of the target's make-up, so it is not `seed` (which
+    /// draws the sensor noise): another noise seed shows the same spacecraft.
+    #[serde(default)]
+    pub surface_seed: u64,
 }
 
 impl Default for DatasetConfig {
@@ -86,6 +95,8 @@ impl Default for DatasetConfig {
             tir_16bit: false,
             contact_sheet_thumb: 160,
             contact_sheet_frames: 5,
+            surface_detail: true,
+            surface_seed: 0,
         }
     }
 }
@@ -110,10 +121,11 @@ impl DatasetConfig {
 
     /// Loads the target this configuration names.
     pub fn scene(&self) -> Result<Scene> {
-        match &self.mesh {
-            None => Scene::tango(),
-            Some(p) => Scene::from_obj(p, self.mesh_default_material, self.mesh_scale),
-        }
+        let scene = match &self.mesh {
+            None => Scene::tango()?,
+            Some(p) => Scene::from_obj(p, self.mesh_default_material, self.mesh_scale)?,
+        };
+        Ok(if self.surface_detail { scene.with_surface_detail(self.surface_seed) } else { scene })
     }
 }
 

@@ -7,8 +7,10 @@ pub mod image;
 pub mod noise;
 pub mod output;
 pub mod scene;
+pub mod surface;
 pub mod thermal;
 pub mod tir;
+pub mod truth;
 pub mod vis;
 
 pub use camera::{Camera, FOCAL_PX_1024, FOV_DEG, Pose};
@@ -17,6 +19,7 @@ pub use glam;
 pub use image::Image;
 pub use noise::{Band, NoiseParams, apply_sensor_noise};
 pub use scene::{Material, Scene};
+pub use surface::{SurfaceDetail, SurfacePoint};
 pub use thermal::{ThermalParams, eclipse_transient, face_temperatures, steady_state};
 pub use tir::{DnMapping, Radiometry, TirParams, render_tir};
 pub use vis::{Illumination, VisParams, render_vis};

@@ -168,6 +168,9 @@ pub struct Scene {
     pub centre: Vec3,
     /// Half the bounding-box diagonal, m.
     pub radius: f32,
+    /// Procedural surface detail (cells, crinkled MLI, bolts, in-face temperature gradients);
+    /// `None`: flat faces, one albedo and one temperature each ([`Scene::with_surface_detail`]).
+    pub detail: Option<crate::surface::SurfaceDetail>,
     bvh: CwBvh,
     /// Triangles laid out in BVH order (`bvh.primitive_indices`), with their input index.
     bvh_tris: Vec<(Triangle, u32)>,
@@ -329,6 +332,7 @@ impl MeshBuilder {
             node_count: self.nodes as usize,
             centre: 0.5 * (lo + hi),
             radius: 0.5 * (hi - lo).length(),
+            detail: None,
             bvh,
             bvh_tris,
         })
@@ -399,6 +403,12 @@ impl Scene {
             m.add_rod(root - 0.005 * d, root + len * d, tango::ROD_RADIUS, 6, PolishedAluminium, node);
         }
         m.build()
+    }
+
+    /// The same scene with procedural surface detail (`crate::surface`), seeded.
+    pub fn with_surface_detail(mut self, seed: u64) -> Scene {
+        self.detail = Some(crate::surface::SurfaceDetail::new(&self, seed));
+        self
     }
 
     /// Loads a Wavefront OBJ mesh (triangulated on load), scaled by `scale`. Each triangle is its

@@ -111,7 +111,13 @@ pub fn render_tir(scene: &Scene, camera: &Camera, face_temperatures: &[f32], par
             };
             let face = &scene.faces[hit.face as usize];
             let t = f64::from(face_temperatures.get(hit.face as usize).copied().unwrap_or(0.0));
-            let eps = face.material.props().ir_emittance;
+            let (t, eps) = match &scene.detail {
+                Some(detail) => {
+                    let s = detail.at(scene, hit.face, hit.point, hit.t / camera.focal_px, t);
+                    (t + s.delta_t, s.emittance)
+                }
+                None => (t, face.material.props().ir_emittance),
+            };
             let cos_c = f64::from(axis.dot(d)).max(0.0);
             let weight = match params.radiometry {
                 Radiometry::Radiometric => cos_c.powi(4),

@@ -95,9 +95,18 @@ fn shade(scene: &Scene, camera: &Camera, p: &VisParams, x: u32, y: u32) -> f32 {
     let d = camera.pixel_ray(x, y);
     let Some(hit) = scene.intersect(origin, d, 0.0) else { return 0.0 };
     let props = scene.faces[hit.face as usize].material.props();
-    // Two-sided shading: the normal facing the camera.
-    let n = if hit.normal.dot(d) > 0.0 { -hit.normal } else { hit.normal };
-    let start = hit.point + n * scene.epsilon();
+    let (albedo, specular, shading_normal) = match &scene.detail {
+        Some(detail) => {
+            let s = detail.at(scene, hit.face, hit.point, hit.t / camera.focal_px, 0.0);
+            (s.albedo, s.specular, s.normal)
+        }
+        None => (props.diffuse_albedo, props.specular, hit.normal),
+    };
+    // Two-sided shading: the normals facing the camera.
+    let facing = if hit.normal.dot(d) > 0.0 { -1.0 } else { 1.0 };
+    let n_geo = facing * hit.normal;
+    let n = facing * shading_normal;
+    let start = hit.point + n_geo * scene.epsilon();
     let mut lights: [(Vec3, f32); 2] = [(p.sun_dir, 1.0), (p.earth_dir, p.earthshine)];
     if p.illumination == Illumination::Eclipse {
         lights[0].1 = 0.0;
@@ -105,13 +114,13 @@ fn shade(scene: &Scene, camera: &Camera, p: &VisParams, x: u32, y: u32) -> f32 {
     let mut value = 0.0;
     for (l, e) in lights {
         let cos = n.dot(l);
-        if e <= 0.0 || cos <= 0.0 || scene.occluded(start, l, 0.0, f32::INFINITY) {
+        if e <= 0.0 || cos <= 0.0 || n_geo.dot(l) <= 0.0 || scene.occluded(start, l, 0.0, f32::INFINITY) {
             continue;
         }
-        let mut v = props.diffuse_albedo * cos;
+        let mut v = albedo * cos;
         if p.specular {
             let h = (l - d).normalize();
-            v += props.specular * n.dot(h).max(0.0).powf(props.shininess);
+            v += specular * n.dot(h).max(0.0).powf(props.shininess);
         }
         value += e * v;
     }

@@ -69,13 +69,24 @@ const COLOURS: [RGBColor; 8] = [
 
 /// Draws `series` into `stem.png` (or `stem.svg` without a font); returns the path written.
 pub fn chart(stem: &Path, labels: Labels<'_>, series: &[Series], style: Style) -> Result<PathBuf> {
+    chart_shaded(stem, labels, series, style, &[])
+}
+
+/// [`chart`] with grey bands behind the series over the x ranges `shaded` (e.g. an eclipse).
+pub fn chart_shaded(
+    stem: &Path,
+    labels: Labels<'_>,
+    series: &[Series],
+    style: Style,
+    shaded: &[(f64, f64)],
+) -> Result<PathBuf> {
     if font_available() {
         let path = stem.with_extension("png");
-        draw(BitMapBackend::new(&path, (900, 560)).into_drawing_area(), labels, series, style)?;
+        draw(BitMapBackend::new(&path, (900, 560)).into_drawing_area(), labels, series, style, shaded)?;
         Ok(path)
     } else {
         let path = stem.with_extension("svg");
-        draw(SVGBackend::new(&path, (900, 560)).into_drawing_area(), labels, series, style)?;
+        draw(SVGBackend::new(&path, (900, 560)).into_drawing_area(), labels, series, style, shaded)?;
         Ok(path)
     }
 }
@@ -106,6 +117,7 @@ fn draw<B: DrawingBackend>(
     labels: Labels<'_>,
     series: &[Series],
     style: Style,
+    shaded: &[(f64, f64)],
 ) -> Result<()>
 where
     B::ErrorType: 'static,
@@ -120,6 +132,10 @@ where
         ($chart:expr) => {{
             let mut chart = $chart;
             chart.configure_mesh().x_desc(labels.x).y_desc(labels.y).draw().map_err(err)?;
+            let grey = RGBColor(200, 200, 200).mix(0.5).filled();
+            chart
+                .draw_series(shaded.iter().map(|&(a, b)| Rectangle::new([(a, y0), (b, y1)], grey)))
+                .map_err(err)?;
             for (k, s) in series.iter().enumerate() {
                 let colour = COLOURS[k % COLOURS.len()];
                 let pts: Vec<(f64, f64)> =

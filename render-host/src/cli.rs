@@ -2,6 +2,7 @@
 
 use crate::dataset::{DatasetConfig, render_dataset};
 use crate::scene::Material;
+use crate::sequence::{SequenceConfig, SequenceName, render_sequence};
 use crate::tir::{DnMapping, Radiometry};
 use anyhow::{Result, bail};
 use std::path::PathBuf;
@@ -13,9 +14,15 @@ pub struct RenderArgs {
     /// Output folder (created if missing).
     #[arg(long)]
     pub out: PathBuf,
-    /// Frames per set [default: 20, or 4 with --demo].
+    /// Frames per set [default: 20, or 4 with --demo; 120 with --sequence].
     #[arg(long)]
     pub frames: Option<usize>,
+    /// Render a rendezvous sequence instead of the study's layout: `approach` (100 m → 10 m in
+    /// light, the target tumbling) or `flyaround` (a circumnavigation at 15 m through an
+    /// eclipse), at 1 Hz, VIS `--vis-size`², TIR the first of `--tir-sizes`, with per-frame
+    /// ground truth (`render_host::sequence`).
+    #[arg(long, value_enum, value_name = "NAME")]
+    pub sequence: Option<SequenceName>,
     /// Seed of every random draw (same seed, same bytes).
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
@@ -129,10 +136,42 @@ impl RenderArgs {
     }
 }
 
-/// Runs `fusion render`: renders the dataset and prints a one-line summary.
+/// The sequence these arguments describe (frames 120 unless `--frames`; sizes, seed, noise,
+/// radiometry and lighting from the dataset options).
+pub fn sequence_config(name: SequenceName, args: &RenderArgs, cfg: &DatasetConfig) -> SequenceConfig {
+    SequenceConfig {
+        frames: args.frames.unwrap_or(120),
+        seed: cfg.seed,
+        surface_seed: cfg.surface_seed,
+        vis_size: cfg.vis_size,
+        tir_size: cfg.tir_sizes.first().copied().unwrap_or(512),
+        vis: cfg.vis,
+        tir: cfg.tir,
+        noise: cfg.noise,
+        ..SequenceConfig::new(name)
+    }
+}
+
+/// Runs `fusion render`: renders the dataset (or the sequence) and prints a one-line summary.
 pub fn run(args: &RenderArgs) -> Result<()> {
     let cfg = args.config()?;
     let start = Instant::now();
+    if let Some(name) = args.sequence {
+        let seq = sequence_config(name, args, &cfg);
+        let m = render_sequence(&seq, &args.out, !args.quiet)?;
+        if !args.quiet {
+            let [l, p, e] = m.phase_frames;
+            println!(
+                "wrote sequence {} ({} frames at {} Hz: {l} light, {p} penumbra, {e} eclipse) to {} in {:.2} s (manifest.json, contact_sheet.png)",
+                name.as_str(),
+                m.frames.len(),
+                seq.frame_rate_hz,
+                args.out.display(),
+                start.elapsed().as_secs_f64()
+            );
+        }
+        return Ok(());
+    }
     let manifest = render_dataset(&cfg, &args.out, !args.quiet)?;
     if !args.quiet {
         let files: usize = manifest

@@ -516,7 +516,7 @@ pub fn render_dataset(cfg: &DatasetConfig, out_dir: &Path, progress: bool) -> Re
 }
 
 /// Row-major entries of a 3 × 3 matrix.
-fn rows_of(m: Mat3) -> [[f32; 3]; 3] {
+pub(crate) fn rows_of(m: Mat3) -> [[f32; 3]; 3] {
     let t = m.transpose();
     [t.x_axis.to_array(), t.y_axis.to_array(), t.z_axis.to_array()]
 }

@@ -7,6 +7,7 @@ pub mod image;
 pub mod noise;
 pub mod output;
 pub mod scene;
+pub mod sequence;
 pub mod surface;
 pub mod thermal;
 pub mod tir;

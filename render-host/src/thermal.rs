@@ -129,7 +129,13 @@ impl NodeBalance {
 
     /// Net heat into node `i` at temperature `t`, W.
     pub fn net(&self, i: usize, t: f64, sun: bool) -> f64 {
-        let input = self.constant[i] + if sun { self.solar[i] } else { 0.0 };
+        self.net_in_sun(i, t, if sun { 1.0 } else { 0.0 })
+    }
+
+    /// Net heat into node `i` at temperature `t` with `sun_fraction` of the solar disc visible
+    /// (1 in light, 0 in eclipse, between in the penumbra), W.
+    pub fn net_in_sun(&self, i: usize, t: f64, sun_fraction: f64) -> f64 {
+        let input = self.constant[i] + sun_fraction * self.solar[i];
         input - self.radiative[i] * t.powi(4) - self.conductive[i] * t
     }
 
@@ -160,17 +166,24 @@ pub fn steady_state(scene: &Scene, params: &ThermalParams) -> Vec<f64> {
 /// Node temperatures after `seconds` in eclipse, starting from `start` (e.g. the sunlit steady
 /// state), by RK4 with steps of at most 1 s.
 pub fn eclipse_transient(scene: &Scene, params: &ThermalParams, start: &[f64], seconds: f64) -> Vec<f64> {
-    let b = NodeBalance::new(scene, params);
+    advance(&NodeBalance::new(scene, params), start, seconds, 0.0)
+}
+
+/// Node temperatures after `seconds` under `balance` with `sun_fraction` of the sun (see
+/// [`NodeBalance::net_in_sun`]), from `start`, by RK4 with steps of at most 1 s. A node without
+/// heat capacity takes its steady state at once.
+pub fn advance(balance: &NodeBalance, start: &[f64], seconds: f64, sun_fraction: f64) -> Vec<f64> {
+    let b = balance;
     let steps = seconds.max(0.0).ceil() as usize;
     let dt = if steps > 0 { seconds / steps as f64 } else { 0.0 };
-    (0..scene.node_count)
+    (0..b.capacity.len())
         .map(|i| {
             let c = b.capacity[i];
             let mut t = start.get(i).copied().unwrap_or(0.0);
             if c <= 0.0 {
-                return b.steady(i, false);
+                return b.steady(i, sun_fraction > 0.5);
             }
-            let f = |t: f64| b.net(i, t.max(0.0), false) / c;
+            let f = |t: f64| b.net_in_sun(i, t.max(0.0), sun_fraction) / c;
             for _ in 0..steps {
                 let k1 = f(t);
                 let k2 = f(t + 0.5 * dt * k1);

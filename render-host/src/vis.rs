@@ -38,6 +38,14 @@ pub struct VisParams {
     pub exposure: f32,
     /// Add the specular lobe.
     pub specular: bool,
+    /// Fraction of the solar disc visible (penumbra: between 0 and 1; `Eclipse` overrides it to
+    /// 0). Written datasets without the field read as 1.
+    #[serde(default = "full_sun")]
+    pub sun_fraction: f32,
+}
+
+fn full_sun() -> f32 {
+    1.0
 }
 
 impl VisParams {
@@ -51,6 +59,7 @@ impl VisParams {
             earthshine: 0.02,
             exposure: DEFAULT_EXPOSURE,
             specular: true,
+            sun_fraction: 1.0,
         }
     }
 
@@ -107,7 +116,7 @@ fn shade(scene: &Scene, camera: &Camera, p: &VisParams, x: u32, y: u32) -> f32 {
     let n_geo = facing * hit.normal;
     let n = facing * shading_normal;
     let start = hit.point + n_geo * scene.epsilon();
-    let mut lights: [(Vec3, f32); 2] = [(p.sun_dir, 1.0), (p.earth_dir, p.earthshine)];
+    let mut lights: [(Vec3, f32); 2] = [(p.sun_dir, p.sun_fraction), (p.earth_dir, p.earthshine)];
     if p.illumination == Illumination::Eclipse {
         lights[0].1 = 0.0;
     }

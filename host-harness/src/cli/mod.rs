@@ -7,6 +7,7 @@ pub mod budget;
 pub mod demo;
 pub mod eval;
 pub mod fuse;
+pub mod navbench;
 pub mod report;
 pub mod rescale;
 pub mod skip_study;
@@ -48,6 +49,10 @@ pub enum Command {
     /// Scene skipping over a rendered dataset: host time, window fraction and the error each
     /// skip level adds against the unskipped result (table, CSV, chart).
     SkipStudy(skip_study::SkipStudyArgs),
+    /// Does fusion help navigation? Every stream (VIS, TIR, each method and variant, with and
+    /// without skipping) of the rendezvous sequences through a feature-based front end, per
+    /// illumination phase, against the rendered ground truth.
+    Navbench(navbench::NavbenchArgs),
 }
 
 /// Runs one parsed command line.
@@ -63,5 +68,6 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Fuse(args) => fuse::run(&args),
         Command::SkipStudy(args) => skip_study::run(&args),
         Command::Render(args) => render_host::cli::run(&args),
+        Command::Navbench(args) => navbench::run(&args),
     }
 }

@@ -4,4 +4,7 @@
 //! Detection is `imageproc`'s FAST-9 segment test with its non-maximum suppression; this module
 //! only restricts it to the target and counts.
 
+pub mod bench;
 pub mod features;
+pub mod pose;
+pub mod track;

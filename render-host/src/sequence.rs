@@ -1,0 +1,521 @@
+//! Rendezvous sequences: a chaser's camera over time, with target attitude motion, an eclipse
+//! crossing through the penumbra, sensor noise and per-frame ground truth, for judging what a
+//! fused stream does for relative navigation.
+//!
+//! Two named trajectories ([`SequenceName`]), both at [`SequenceConfig::frame_rate_hz`]
+//! (default 1 Hz) for [`SequenceConfig::frames`] frames (default 120):
+//!
+//! * **`approach`**: closing from 100 m to 10 m along a fixed line of sight with a slow
+//!   lateral drift of ± 10°, the range shrinking geometrically (a constant ratio per frame, as
+//!   a glide-slope approach whose closing rate is proportional to range); the target tumbles at
+//!   1.5 °/s about a tilted axis. In sunlight throughout.
+//! * **`flyaround`**: a full circumnavigation at 15 m on a plane tilted 30° from the target's
+//!   x–y plane, the target spinning at 0.5 °/s about its z axis; the pair enters the Earth's
+//!   shadow at 35 % of the sequence and leaves it at 65 %, each time through an 8 s penumbra
+//!   (the visible fraction of the solar disc as the Earth's limb crosses it: a circular
+//!   segment, not a switch).
+//!
+//! The thermal state follows the sequence: the node temperatures start from the sunlit steady
+//! state and are integrated frame to frame ([`crate::thermal::advance`]) with the sun direction
+//! in the target frame and the visible sun fraction of that moment, so the target cools in
+//! eclipse and warms after it.
+//!
+//! Ground truth per frame ([`SequenceFrame`]): the camera-to-target pose (camera position in
+//! the target frame and the rotation of the camera axes into it, matrix and quaternion), the
+//! range, the sun direction and fraction, the illumination [`Phase`], and each camera's target
+//! mask as a PNG (255 where the pixel's ray hits the target).
+
+use crate::camera::{Camera, Pose};
+use crate::dataset::{contact_sheet, noise_stream, rows_of};
+use crate::image::Image;
+use crate::noise::{Band, NoiseParams, apply_sensor_noise, rng_for};
+use crate::output::{save_gray8, write_json, write_png8};
+use crate::scene::Scene;
+use crate::thermal::{NodeBalance, ThermalParams, advance, face_temperatures, steady_state};
+use crate::tir::{TirParams, render_tir};
+use crate::truth::target_mask;
+use crate::vis::{VisParams, render_vis};
+use anyhow::{Context, Result, bail};
+use glam::{Quat, Vec3};
+use image::GrayImage;
+use indicatif::{ProgressBar, ProgressStyle};
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+
+/// The named rendezvous trajectories.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "snake_case")]
+pub enum SequenceName {
+    /// Closing from 100 m to 10 m in sunlight, the target tumbling.
+    Approach,
+    /// A circumnavigation at 15 m through an eclipse (entry and exit through the penumbra).
+    Flyaround,
+}
+
+impl SequenceName {
+    /// Both sequences, in a fixed order.
+    pub const ALL: [SequenceName; 2] = [SequenceName::Approach, SequenceName::Flyaround];
+
+    /// The name as written on the command line and in manifests.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            SequenceName::Approach => "approach",
+            SequenceName::Flyaround => "flyaround",
+        }
+    }
+}
+
+/// Illumination phase of a frame.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Phase {
+    /// The whole solar disc is visible.
+    Light,
+    /// Part of it.
+    Penumbra,
+    /// None of it.
+    Eclipse,
+}
+
+impl Phase {
+    /// The phase of a visible sun fraction.
+    pub fn of(sun_fraction: f64) -> Phase {
+        if sun_fraction >= 1.0 {
+            Phase::Light
+        } else if sun_fraction <= 0.0 {
+            Phase::Eclipse
+        } else {
+            Phase::Penumbra
+        }
+    }
+
+    /// `light`, `penumbra` or `eclipse`.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Phase::Light => "light",
+            Phase::Penumbra => "penumbra",
+            Phase::Eclipse => "eclipse",
+        }
+    }
+}
+
+/// Everything that defines a sequence.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SequenceConfig {
+    /// Which trajectory.
+    pub name: SequenceName,
+    /// Number of frames.
+    pub frames: usize,
+    /// Frames per second.
+    pub frame_rate_hz: f64,
+    /// Seed of the sensor noise.
+    pub seed: u64,
+    /// Seed of the target's surface detail.
+    pub surface_seed: u64,
+    /// VIS image size (square), px.
+    pub vis_size: u32,
+    /// TIR image size (square), px.
+    pub tir_size: u32,
+    /// VIS lighting (sun direction, fraction and illumination are set per frame).
+    pub vis: VisParams,
+    /// Thermal environment (the sun direction is set per frame).
+    pub thermal: ThermalParams,
+    /// TIR radiometry and DN mapping.
+    pub tir: TirParams,
+    /// Sensor noise.
+    pub noise: NoiseParams,
+    /// Write the noiseless frames too.
+    pub write_clean: bool,
+}
+
+impl SequenceConfig {
+    /// The default sequence of `name`: 120 frames at 1 Hz, VIS 1024², TIR 512², noisy and clean.
+    pub fn new(name: SequenceName) -> SequenceConfig {
+        SequenceConfig {
+            name,
+            frames: 120,
+            frame_rate_hz: 1.0,
+            seed: 1,
+            surface_seed: 0,
+            vis_size: 1024,
+            tir_size: 512,
+            vis: VisParams::light(),
+            thermal: ThermalParams::default(),
+            tir: TirParams::default(),
+            noise: NoiseParams::default(),
+            write_clean: true,
+        }
+    }
+
+    /// Time of frame `i`, s.
+    pub fn time(&self, i: usize) -> f64 {
+        i as f64 / self.frame_rate_hz
+    }
+
+    /// Duration from the first to the last frame, s.
+    pub fn duration(&self) -> f64 {
+        self.time(self.frames.saturating_sub(1)).max(1e-9)
+    }
+}
+
+/// The inertial state of one frame: target attitude, camera position and up vector (in a frame
+/// centred on the target, target body axes at `t = 0`), sun direction and fraction.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct InertialState {
+    /// Target attitude: body → inertial.
+    pub attitude: Quat,
+    /// Camera position relative to the target centre, m.
+    pub eye: Vec3,
+    /// Camera up vector (image up is its opposite projection: camera y points down).
+    pub up: Vec3,
+    /// Unit vector towards the sun.
+    pub sun: Vec3,
+    /// Visible fraction of the solar disc.
+    pub sun_fraction: f64,
+}
+
+/// Penumbra duration of the flyaround's eclipse entry and exit, s.
+pub const PENUMBRA_S: f64 = 8.0;
+
+/// Visible fraction of a disc whose occulting edge (a straight line: the Earth's limb is far
+/// larger than the sun) has advanced `progress` ∈ [0, 1] of the disc's diameter: the circular
+/// segment left uncovered.
+pub fn disc_fraction_uncovered(progress: f64) -> f64 {
+    let p = progress.clamp(0.0, 1.0);
+    // Covered segment of a unit disc with chord at height h = 1 − 2p from the centre.
+    let h = 1.0 - 2.0 * p;
+    let covered = (h.acos() - h * (1.0 - h * h).max(0.0).sqrt()) / std::f64::consts::PI;
+    (1.0 - covered).clamp(0.0, 1.0)
+}
+
+/// The inertial state of frame `i` (see the module docs for the trajectories).
+pub fn state(cfg: &SequenceConfig, i: usize) -> InertialState {
+    let t = cfg.time(i);
+    let u = t / cfg.duration();
+    let sun = cfg.vis.sun_dir.normalize();
+    match cfg.name {
+        SequenceName::Approach => {
+            let range = 100.0 * (10.0f64 / 100.0).powf(u);
+            let drift = (10.0f64.to_radians() * (std::f64::consts::PI * u).sin()) as f32;
+            let base = Vec3::new(-0.55, 0.75, 0.36).normalize();
+            let dir = Quat::from_axis_angle(Vec3::Z, drift) * base;
+            let axis = Vec3::new(0.3, 0.2, 1.0).normalize();
+            InertialState {
+                attitude: Quat::from_axis_angle(axis, (1.5f64.to_radians() * t) as f32),
+                eye: dir * range as f32,
+                up: Vec3::Z,
+                sun,
+                sun_fraction: 1.0,
+            }
+        }
+        SequenceName::Flyaround => {
+            let normal = Quat::from_axis_angle(Vec3::X, 30f32.to_radians()) * Vec3::Z;
+            let start = Vec3::new(-0.35, 0.94, 0.0).normalize();
+            let start = (start - normal * start.dot(normal)).normalize();
+            // A full circle over the sequence (the last frame one step short of the first).
+            let angle = std::f64::consts::TAU * t / (cfg.duration() + 1.0 / cfg.frame_rate_hz);
+            let eye = Quat::from_axis_angle(normal, angle as f32) * start * 15.0;
+            let duration = cfg.duration();
+            let (entry, exit) = (0.35 * duration, 0.65 * duration);
+            let sun_fraction = if t < entry {
+                1.0
+            } else if t < entry + PENUMBRA_S {
+                disc_fraction_uncovered((t - entry) / PENUMBRA_S)
+            } else if t < exit {
+                0.0
+            } else if t < exit + PENUMBRA_S {
+                disc_fraction_uncovered(1.0 - (t - exit) / PENUMBRA_S)
+            } else {
+                1.0
+            };
+            InertialState {
+                attitude: Quat::from_axis_angle(Vec3::Z, (0.5f64.to_radians() * t) as f32),
+                eye,
+                up: normal,
+                sun,
+                sun_fraction,
+            }
+        }
+    }
+}
+
+/// The camera pose of a state in the target body frame (the frame the scene is built in): the
+/// camera looks at the scene's centre with `state.up` as image up.
+pub fn camera_pose(state: &InertialState, scene: &Scene) -> Pose {
+    let to_body = state.attitude.inverse();
+    let eye = scene.centre + to_body * state.eye;
+    Pose::look_at(eye, scene.centre, to_body * state.up)
+}
+
+/// The files of one frame (paths relative to the sequence folder).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct SequenceFiles {
+    /// VIS, with sensor noise.
+    pub vis: String,
+    /// TIR, with sensor noise.
+    pub tir: String,
+    /// VIS without noise (when written).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub vis_clean: Option<String>,
+    /// TIR without noise (when written).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub tir_clean: Option<String>,
+    /// VIS target mask: 255 where the pixel sees the target, 0 elsewhere.
+    pub vis_mask: String,
+    /// TIR target mask.
+    pub tir_mask: String,
+}
+
+/// Ground truth of one frame.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SequenceFrame {
+    /// Frame index.
+    pub index: usize,
+    /// Time since the first frame, s.
+    pub time_s: f64,
+    /// Illumination phase.
+    pub phase: Phase,
+    /// Visible fraction of the solar disc.
+    pub sun_fraction: f64,
+    /// Camera position in the target frame, m.
+    pub position_m: [f32; 3],
+    /// Camera-to-target rotation, row-major; columns are the camera x (right), y (down), z
+    /// (optical axis) in the target frame.
+    pub rotation_cam_to_target: [[f32; 3]; 3],
+    /// The same rotation as a unit quaternion (w, x, y, z).
+    pub quaternion_wxyz: [f32; 4],
+    /// Distance from the camera to the target centre, m.
+    pub range_m: f32,
+    /// Unit vector towards the sun in the target frame.
+    pub sun_dir_target: [f32; 3],
+    /// Target pixels in the VIS and TIR masks.
+    pub target_pixels: [usize; 2],
+    /// Mean node temperature of the target, K (weighted by face area).
+    pub mean_temperature_k: f64,
+    /// Files.
+    pub files: SequenceFiles,
+}
+
+/// Intrinsics of one camera of the sequence.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Intrinsics {
+    /// Image size (square), px.
+    pub size: u32,
+    /// Focal length, px.
+    pub focal_px: f32,
+    /// Principal point (x, y), px; pixel centres at `i + 0.5`.
+    pub principal_point: [f32; 2],
+}
+
+impl Intrinsics {
+    fn of(size: u32) -> Intrinsics {
+        let c = Camera::study(size, Pose::look_at(Vec3::Z, Vec3::ZERO, Vec3::Y));
+        Intrinsics { size, focal_px: c.focal_px, principal_point: [c.cx, c.cy] }
+    }
+}
+
+/// The manifest of a sequence (`manifest.json` in its folder).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SequenceManifest {
+    /// Program and version that wrote it.
+    pub generator: String,
+    /// The configuration.
+    pub config: SequenceConfig,
+    /// VIS camera.
+    pub vis_camera: Intrinsics,
+    /// TIR camera (same pose as VIS).
+    pub tir_camera: Intrinsics,
+    /// Frames in each phase: light, penumbra, eclipse.
+    pub phase_frames: [usize; 3],
+    /// The frames.
+    pub frames: Vec<SequenceFrame>,
+}
+
+/// Per frame: the node temperatures (integrated along the sequence), the state and the pose.
+fn timeline(cfg: &SequenceConfig, scene: &Scene) -> Vec<(InertialState, Vec<f64>)> {
+    let mut out = Vec::with_capacity(cfg.frames);
+    let mut temps: Vec<f64> = Vec::new();
+    for i in 0..cfg.frames {
+        let st = state(cfg, i);
+        let sun_body = st.attitude.inverse() * st.sun;
+        let params = ThermalParams { sun_dir: sun_body, ..cfg.thermal };
+        if i == 0 {
+            temps = steady_state(scene, &params);
+        } else {
+            // Over the frame interval, with this frame's geometry and the mean sun fraction of
+            // the interval's ends.
+            let prev = state(cfg, i - 1).sun_fraction;
+            let balance = NodeBalance::new(scene, &params);
+            temps = advance(&balance, &temps, 1.0 / cfg.frame_rate_hz, 0.5 * (prev + st.sun_fraction));
+        }
+        out.push((st, temps.clone()));
+    }
+    out
+}
+
+/// Renders a sequence into `out_dir`: `vis/`, `tir/` (noisy), `vis_clean/`, `tir_clean/`,
+/// `vis_mask/`, `tir_mask/` with `frame_NNN.png` each, `manifest.json` and `contact_sheet.png`
+/// (VIS and TIR of eight frames spread over the sequence). The scene carries the surface detail.
+pub fn render_sequence(cfg: &SequenceConfig, out_dir: &Path, progress: bool) -> Result<SequenceManifest> {
+    if cfg.frames == 0 {
+        bail!("a sequence needs at least one frame");
+    }
+    if !(cfg.frame_rate_hz.is_finite() && cfg.frame_rate_hz > 0.0) {
+        bail!("the frame rate must be positive");
+    }
+    if cfg.vis_size == 0 || cfg.tir_size == 0 {
+        bail!("image sizes must be positive");
+    }
+    let scene = Scene::tango()?.with_surface_detail(cfg.surface_seed);
+    let name = cfg.name.as_str();
+    let mut dirs = vec!["vis", "tir", "vis_mask", "tir_mask"];
+    if cfg.write_clean {
+        dirs.extend(["vis_clean", "tir_clean"]);
+    }
+    for d in &dirs {
+        let p = out_dir.join(d);
+        std::fs::create_dir_all(&p).with_context(|| format!("cannot create {}", p.display()))?;
+    }
+    let bar = if progress { ProgressBar::new(cfg.frames as u64) } else { ProgressBar::hidden() };
+    if let Ok(style) =
+        ProgressStyle::with_template("{msg} [{elapsed_precise}] {wide_bar} {pos}/{len} frames (eta {eta})")
+    {
+        bar.set_style(style);
+    }
+    bar.set_message(format!("rendering {name}"));
+    let area: f64 = scene.faces.iter().map(|f| f64::from(f.area)).sum();
+    let sheet_frames: Vec<usize> = crate::dataset::contact_sheet_columns(cfg.frames, 8);
+    let results: Vec<Result<(SequenceFrame, Vec<Image>)>> = timeline(cfg, &scene)
+        .into_par_iter()
+        .enumerate()
+        .map(|(i, (st, node_t))| {
+            let pose = camera_pose(&st, &scene);
+            let sun_body = (st.attitude.inverse() * st.sun).normalize();
+            let vis_params = VisParams { sun_dir: sun_body, sun_fraction: st.sun_fraction as f32, ..cfg.vis };
+            let face_t = face_temperatures(&scene, &node_t);
+            let (vis_cam, tir_cam) = (Camera::study(cfg.vis_size, pose), Camera::study(cfg.tir_size, pose));
+            let mut vis = render_vis(&scene, &vis_cam, &vis_params);
+            let mut tir = render_tir(&scene, &tir_cam, &face_t, &cfg.tir);
+            vis.clip();
+            tir.clip();
+            let vis_noisy = apply_sensor_noise(
+                &vis,
+                &cfg.noise,
+                Band::Vis,
+                &mut rng_for(cfg.seed, noise_stream(&format!("{name}_vis"), i)),
+            );
+            let tir_noisy = apply_sensor_noise(
+                &tir,
+                &cfg.noise,
+                Band::Tir,
+                &mut rng_for(cfg.seed, noise_stream(&format!("{name}_tir"), i)),
+            );
+            let file = format!("frame_{i:03}.png");
+            let mut files = SequenceFiles {
+                vis: format!("vis/{file}"),
+                tir: format!("tir/{file}"),
+                vis_mask: format!("vis_mask/{file}"),
+                tir_mask: format!("tir_mask/{file}"),
+                ..SequenceFiles::default()
+            };
+            write_png8(&out_dir.join(&files.vis), &vis_noisy.to_gray8())?;
+            write_png8(&out_dir.join(&files.tir), &tir_noisy.to_gray8())?;
+            if cfg.write_clean {
+                let (v, t) = (format!("vis_clean/{file}"), format!("tir_clean/{file}"));
+                write_png8(&out_dir.join(&v), &vis.to_gray8())?;
+                write_png8(&out_dir.join(&t), &tir.to_gray8())?;
+                (files.vis_clean, files.tir_clean) = (Some(v), Some(t));
+            }
+            let mut target_pixels = [0usize; 2];
+            for (k, (cam, rel)) in
+                [(&vis_cam, &files.vis_mask), (&tir_cam, &files.tir_mask)].into_iter().enumerate()
+            {
+                let mask = target_mask(&scene, cam);
+                target_pixels[k] = mask.iter().filter(|&&m| m).count();
+                let bytes = mask.iter().map(|&m| if m { 255u8 } else { 0 }).collect();
+                let img = GrayImage::from_raw(cam.width, cam.height, bytes).context("mask size")?;
+                write_png8(&out_dir.join(rel), &img)?;
+            }
+            let mut thumbs = Vec::new();
+            if sheet_frames.contains(&i) {
+                thumbs.push(vis_noisy.thumbnail(200));
+                thumbs.push(tir_noisy.thumbnail(200));
+            }
+            let q = pose.quaternion();
+            let mean_t =
+                scene.faces.iter().zip(&face_t).map(|(f, &t)| f64::from(f.area) * f64::from(t)).sum::<f64>()
+                    / area;
+            bar.inc(1);
+            Ok((
+                SequenceFrame {
+                    index: i,
+                    time_s: cfg.time(i),
+                    phase: Phase::of(st.sun_fraction),
+                    sun_fraction: st.sun_fraction,
+                    position_m: pose.position.to_array(),
+                    rotation_cam_to_target: rows_of(pose.rotation),
+                    quaternion_wxyz: [q.w, q.x, q.y, q.z],
+                    range_m: (pose.position - scene.centre).length(),
+                    sun_dir_target: sun_body.to_array(),
+                    target_pixels,
+                    mean_temperature_k: mean_t,
+                    files,
+                },
+                thumbs,
+            ))
+        })
+        .collect();
+    bar.finish_and_clear();
+    let mut frames = Vec::with_capacity(cfg.frames);
+    let mut columns = Vec::new();
+    for r in results {
+        let (f, thumbs) = r?;
+        if !thumbs.is_empty() {
+            columns.push(thumbs);
+        }
+        frames.push(f);
+    }
+    let mut phase_frames = [0usize; 3];
+    for f in &frames {
+        phase_frames[f.phase as usize] += 1;
+    }
+    save_gray8(&out_dir.join("contact_sheet.png"), &contact_sheet(&columns, 2, 200))?;
+    let manifest = SequenceManifest {
+        generator: format!("render-host {}", env!("CARGO_PKG_VERSION")),
+        config: cfg.clone(),
+        vis_camera: Intrinsics::of(cfg.vis_size),
+        tir_camera: Intrinsics::of(cfg.tir_size),
+        phase_frames,
+        frames,
+    };
+    write_json(&out_dir.join("manifest.json"), &manifest)?;
+    Ok(manifest)
+}
+
+/// Reads a sequence's `manifest.json`.
+pub fn read_manifest(dir: &Path) -> Result<SequenceManifest> {
+    let path = dir.join("manifest.json");
+    let text = std::fs::read_to_string(&path).with_context(|| format!("cannot read {}", path.display()))?;
+    serde_json::from_str(&text).with_context(|| format!("{} is not a sequence manifest", path.display()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_uncovered_disc_fraction_is_a_circular_segment() {
+        assert_eq!(disc_fraction_uncovered(0.0), 1.0);
+        assert!(disc_fraction_uncovered(1.0).abs() < 1e-12);
+        assert!((disc_fraction_uncovered(0.5) - 0.5).abs() < 1e-12);
+        // Symmetric, and monotone.
+        for k in 0..=20 {
+            let p = f64::from(k) / 20.0;
+            assert!((disc_fraction_uncovered(p) + disc_fraction_uncovered(1.0 - p) - 1.0).abs() < 1e-12);
+            assert!(disc_fraction_uncovered(p + 0.01) <= disc_fraction_uncovered(p));
+        }
+        // At a quarter of the diameter: 1 − (acos(0.5) − 0.5·√0.75)/π = 0.8045.
+        assert!((disc_fraction_uncovered(0.25) - 0.804_498).abs() < 1e-5);
+    }
+}

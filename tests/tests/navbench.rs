@@ -1,0 +1,98 @@
+//! Rendezvous sequences and the navigation benchmark (issue 20, items 2 and 3) on small frames:
+//! the trajectories and phases the manifest promises, ground truth that agrees with the
+//! renders, and the benchmark's measures where physics fixes their order.
+
+use host_harness::nav::bench::{run_sequence, streams, summary};
+use render_host::glam::{Mat3, Vec3};
+use render_host::sequence::{Phase, SequenceConfig, SequenceName, read_manifest, render_sequence};
+use render_host::{Camera, Pose, Scene};
+
+fn small(name: SequenceName, frames: usize) -> SequenceConfig {
+    SequenceConfig { frames, vis_size: 160, tir_size: 80, ..SequenceConfig::new(name) }
+}
+
+#[test]
+fn approach_closes_from_100_to_10_metres_in_light() {
+    let dir = tempfile::tempdir().unwrap();
+    let m = render_sequence(&small(SequenceName::Approach, 12), dir.path(), false).unwrap();
+    let first = m.frames.first().unwrap();
+    let last = m.frames.last().unwrap();
+    assert!((first.range_m - 100.0).abs() < 1.0, "{}", first.range_m);
+    assert!((last.range_m - 10.0).abs() < 0.2, "{}", last.range_m);
+    // A constant ratio per frame (geometric closing).
+    let r: Vec<f32> = m.frames.iter().map(|f| f.range_m).collect();
+    let ratio = r[1] / r[0];
+    assert!(r.windows(2).all(|w| (w[1] / w[0] - ratio).abs() < 2e-3), "{r:?}");
+    assert_eq!(m.phase_frames, [12, 0, 0]);
+    // The target grows in the frame as the range shrinks.
+    assert!(
+        last.target_pixels[0] > 20 * first.target_pixels[0].max(1),
+        "{:?} {:?}",
+        first.target_pixels,
+        last.target_pixels
+    );
+    // The manifest's pose is the camera that rendered the mask: the scene centre projects to
+    // the principal point (the camera looks at it).
+    let scene = Scene::tango().unwrap();
+    for f in &m.frames {
+        let pose = Pose {
+            position: Vec3::from_array(f.position_m),
+            rotation: Mat3::from_cols_array_2d(&f.rotation_cam_to_target).transpose(),
+        };
+        let (u, v) = Camera::study(160, pose).project(scene.centre).unwrap();
+        assert!((u - 80.0).abs() < 0.01 && (v - 80.0).abs() < 0.01, "frame {}: ({u}, {v})", f.index);
+    }
+}
+
+#[test]
+fn flyaround_crosses_an_eclipse_and_fusion_is_judged_per_phase() {
+    let dir = tempfile::tempdir().unwrap();
+    let m = render_sequence(&small(SequenceName::Flyaround, 48), dir.path(), false).unwrap();
+    let [light, penumbra, eclipse] = m.phase_frames;
+    assert!(light > 0 && penumbra >= 6 && eclipse > 0, "{:?}", m.phase_frames);
+    // Entry: the sun fades monotonically through the penumbra; exit: it returns.
+    let f: Vec<f64> = m.frames.iter().map(|f| f.sun_fraction).collect();
+    let first_dark = f.iter().position(|&x| x < 1.0).unwrap();
+    let first_eclipse = f.iter().position(|&x| x == 0.0).unwrap();
+    assert!(f[first_dark..first_eclipse].windows(2).all(|w| w[1] < w[0]), "{f:?}");
+    assert!(f[first_dark..first_eclipse].iter().all(|&x| x > 0.0 && x < 1.0));
+    assert_eq!(*f.last().unwrap(), 1.0);
+    // Constant range, and the target cools in eclipse, warms after it.
+    assert!(m.frames.iter().all(|x| (x.range_m - 15.0).abs() < 0.05));
+    let t: Vec<f64> = m.frames.iter().map(|x| x.mean_temperature_k).collect();
+    let last_eclipse = f.iter().rposition(|&x| x == 0.0).unwrap();
+    assert!(t[last_eclipse] < t[first_dark] - 1.0, "{} → {}", t[first_dark], t[last_eclipse]);
+    // The coldest frame comes after the sun starts to return (thermal lag), and the target warms
+    // from there to the end.
+    let coldest = (0..t.len()).min_by(|&a, &b| t[a].total_cmp(&t[b])).unwrap();
+    assert!(coldest >= last_eclipse && coldest + 1 < t.len(), "coldest at {coldest}, eclipse ends at {last_eclipse}");
+    assert!(*t.last().unwrap() > t[coldest] + 0.1, "{t:?}");
+
+    let read = read_manifest(dir.path()).unwrap();
+    assert_eq!(read.frames.len(), 48);
+    let rows = run_sequence(dir.path(), None).unwrap();
+    assert_eq!(rows.len(), 48 * streams().len());
+    let s = summary(&rows);
+    assert_eq!(s.sources.len(), streams().len());
+    // In eclipse the visible camera sees (almost) nothing of the target: its CNR is far below
+    // the thermal camera's, which does not care about the sun.
+    let cnr = |src: &str, p: Phase| s.sources[src][p.as_str()].cnr;
+    assert!(
+        cnr("vis", Phase::Eclipse) * 3.0 < cnr("tir", Phase::Eclipse),
+        "{} {}",
+        cnr("vis", Phase::Eclipse),
+        cnr("tir", Phase::Eclipse)
+    );
+    assert!(cnr("vis", Phase::Light) > cnr("vis", Phase::Eclipse));
+    for k in s.skip.values() {
+        assert!((0.0..=1.0).contains(&k.target_coverage_min) && (0.0..=1.0).contains(&k.window_frac_mean));
+    }
+    // Every non-lost pair has a finite error; the first frame has no pair.
+    for r in &rows {
+        if r.frame == 0 {
+            assert!(!r.lost && r.tracks == 0);
+        } else if !r.lost {
+            assert!(r.rot_err_deg.is_finite());
+        }
+    }
+}

@@ -65,7 +65,10 @@ fn flyaround_crosses_an_eclipse_and_fusion_is_judged_per_phase() {
     // The coldest frame comes after the sun starts to return (thermal lag), and the target warms
     // from there to the end.
     let coldest = (0..t.len()).min_by(|&a, &b| t[a].total_cmp(&t[b])).unwrap();
-    assert!(coldest >= last_eclipse && coldest + 1 < t.len(), "coldest at {coldest}, eclipse ends at {last_eclipse}");
+    assert!(
+        coldest >= last_eclipse && coldest + 1 < t.len(),
+        "coldest at {coldest}, eclipse ends at {last_eclipse}"
+    );
     assert!(*t.last().unwrap() > t[coldest] + 0.1, "{t:?}");
 
     let read = read_manifest(dir.path()).unwrap();

@@ -17,8 +17,8 @@ pub struct RenderArgs {
     /// Frames per set [default: 20, or 4 with --demo; 120 with --sequence].
     #[arg(long)]
     pub frames: Option<usize>,
-    /// Render a rendezvous sequence instead of the study's layout: `approach` (100 m → 10 m in
-    /// light, the target tumbling) or `flyaround` (a circumnavigation at 15 m through an
+    /// Render a rendezvous sequence instead of the study's layout: `approach` (50 m → 5 m in
+    /// light, the target tumbling) or `flyaround` (a circumnavigation at 8 m through an
     /// eclipse), at 1 Hz, VIS `--vis-size`², TIR the first of `--tir-sizes`, with per-frame
     /// ground truth (`render_host::sequence`).
     #[arg(long, value_enum, value_name = "NAME")]

@@ -5,15 +5,18 @@
 //! Two named trajectories ([`SequenceName`]), both at [`SequenceConfig::frame_rate_hz`]
 //! (default 1 Hz) for [`SequenceConfig::frames`] frames (default 120):
 //!
-//! * **`approach`**: closing from 100 m to 10 m along a fixed line of sight with a slow
-//!   lateral drift of ± 10°, the range shrinking geometrically (a constant ratio per frame, as
-//!   a glide-slope approach whose closing rate is proportional to range); the target tumbles at
-//!   1.5 °/s about a tilted axis. In sunlight throughout.
-//! * **`flyaround`**: a full circumnavigation at 15 m on a plane tilted 30° from the target's
-//!   x–y plane, the target spinning at 0.5 °/s about its z axis; the pair enters the Earth's
-//!   shadow at 35 % of the sequence and leaves it at 65 %, each time through an 8 s penumbra
-//!   (the visible fraction of the solar disc as the Earth's limb crosses it: a circular
-//!   segment, not a switch).
+//! * **`approach`**: closing from 50 m to 5 m along a fixed line of sight on the sunlit side
+//!   (16° from the sun) with a slow lateral drift of ± 10°; the range shrinks geometrically (a
+//!   constant ratio per frame, as a glide-slope approach whose closing rate is proportional to
+//!   range), so the 0.74 m target spans 24 px of the VIS frame at the start and 237 px at the
+//!   end (the study's working ranges); the target tumbles at 1 °/s about a tilted axis. In
+//!   sunlight throughout.
+//! * **`flyaround`**: a full circumnavigation at 8 m (the target ≈ 150 px across in VIS) on a
+//!   plane tilted 30° from the target's x–y plane, starting and ending on the sunlit side, the
+//!   target spinning at 0.5 °/s about its z axis; the pair enters the Earth's shadow at 35 % of
+//!   the sequence and leaves it at 65 %, each time through an 8 s penumbra (the visible
+//!   fraction of the solar disc as the Earth's limb crosses it: a circular segment, not a
+//!   switch).
 //!
 //! The thermal state follows the sequence: the node temperatures start from the sunlit steady
 //! state and are integrated frame to frame ([`crate::thermal::advance`]) with the sun direction
@@ -47,9 +50,9 @@ use std::path::Path;
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize, clap::ValueEnum)]
 #[serde(rename_all = "snake_case")]
 pub enum SequenceName {
-    /// Closing from 100 m to 10 m in sunlight, the target tumbling.
+    /// Closing from 50 m to 5 m in sunlight, the target tumbling.
     Approach,
-    /// A circumnavigation at 15 m through an eclipse (entry and exit through the penumbra).
+    /// A circumnavigation at 8 m through an eclipse (entry and exit through the penumbra).
     Flyaround,
 }
 
@@ -175,6 +178,11 @@ pub struct InertialState {
     pub sun_fraction: f64,
 }
 
+/// Approach: first and last range, m.
+pub const APPROACH_RANGE_M: (f64, f64) = (50.0, 5.0);
+/// Flyaround: the constant range, m.
+pub const FLYAROUND_RANGE_M: f64 = 8.0;
+
 /// Penumbra duration of the flyaround's eclipse entry and exit, s.
 pub const PENUMBRA_S: f64 = 8.0;
 
@@ -196,13 +204,14 @@ pub fn state(cfg: &SequenceConfig, i: usize) -> InertialState {
     let sun = cfg.vis.sun_dir.normalize();
     match cfg.name {
         SequenceName::Approach => {
-            let range = 100.0 * (10.0f64 / 100.0).powf(u);
+            let range = APPROACH_RANGE_M.0 * (APPROACH_RANGE_M.1 / APPROACH_RANGE_M.0).powf(u);
             let drift = (10.0f64.to_radians() * (std::f64::consts::PI * u).sin()) as f32;
-            let base = Vec3::new(-0.55, 0.75, 0.36).normalize();
+            // On the sunlit side (16° from the sun): the approach sees the lit panel and two lit sides.
+            let base = Vec3::new(0.6, 0.45, 0.65).normalize();
             let dir = Quat::from_axis_angle(Vec3::Z, drift) * base;
             let axis = Vec3::new(0.3, 0.2, 1.0).normalize();
             InertialState {
-                attitude: Quat::from_axis_angle(axis, (1.5f64.to_radians() * t) as f32),
+                attitude: Quat::from_axis_angle(axis, (1.0f64.to_radians() * t) as f32),
                 eye: dir * range as f32,
                 up: Vec3::Z,
                 sun,
@@ -211,11 +220,12 @@ pub fn state(cfg: &SequenceConfig, i: usize) -> InertialState {
         }
         SequenceName::Flyaround => {
             let normal = Quat::from_axis_angle(Vec3::X, 30f32.to_radians()) * Vec3::Z;
-            let start = Vec3::new(-0.35, 0.94, 0.0).normalize();
-            let start = (start - normal * start.dot(normal)).normalize();
+            // Start (and end) on the sunlit side: the sun's direction projected on the plane; the
+            // eclipse falls while the camera is on the far side.
+            let start = (sun - normal * sun.dot(normal)).normalize();
             // A full circle over the sequence (the last frame one step short of the first).
             let angle = std::f64::consts::TAU * t / (cfg.duration() + 1.0 / cfg.frame_rate_hz);
-            let eye = Quat::from_axis_angle(normal, angle as f32) * start * 15.0;
+            let eye = Quat::from_axis_angle(normal, angle as f32) * start * FLYAROUND_RANGE_M as f32;
             let duration = cfg.duration();
             let (entry, exit) = (0.35 * duration, 0.65 * duration);
             let sun_fraction = if t < entry {

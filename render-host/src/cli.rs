@@ -157,6 +157,11 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     let cfg = args.config()?;
     let start = Instant::now();
     if let Some(name) = args.sequence {
+        if args.mesh.is_some() || args.flat {
+            bail!(
+                "--sequence renders the procedural target with its surface detail; --mesh and --flat do not apply"
+            );
+        }
         let seq = sequence_config(name, args, &cfg);
         let m = render_sequence(&seq, &args.out, !args.quiet)?;
         if !args.quiet {

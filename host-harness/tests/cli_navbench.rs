@@ -78,3 +78,36 @@ fn navbench_refuses_bad_arguments_in_one_line() {
     assert_eq!(String::from_utf8_lossy(&o.stderr).trim().lines().count(), 1);
     assert!(!out.exists(), "nothing written");
 }
+
+#[test]
+fn render_sequence_writes_frames_masks_and_manifest() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("seq");
+    let o = fusion(&[
+        "render",
+        "--sequence",
+        "flyaround",
+        "--frames",
+        "3",
+        "--vis-size",
+        "64",
+        "--tir-sizes",
+        "32",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let said = String::from_utf8_lossy(&o.stdout);
+    assert!(said.contains("flyaround") && said.contains("3 frames"), "{said}");
+    for sub in ["vis", "tir", "vis_clean", "tir_clean", "vis_mask", "tir_mask"] {
+        for i in 0..3 {
+            assert!(out.join(format!("{sub}/frame_{i:03}.png")).is_file(), "{sub} {i}");
+        }
+    }
+    let m: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("manifest.json")).unwrap()).unwrap();
+    assert_eq!(m["frames"].as_array().unwrap().len(), 3);
+    assert_eq!(m["vis_camera"]["size"], 64);
+    assert_eq!(m["tir_camera"]["size"], 32);
+    assert!(m["frames"][0]["quaternion_wxyz"].as_array().unwrap().len() == 4);
+}

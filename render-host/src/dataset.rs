@@ -370,6 +370,7 @@ pub fn render_dataset(cfg: &DatasetConfig, out_dir: &Path, progress: bool) -> Re
     let face_t_eclipse = eclipse_t.as_ref().map(|t| face_temperatures(&scene, t));
     let set_list = sets(cfg);
     let traj = trajectory(cfg, scene.centre);
+    let tir_params = TirParams { earth_dir: cfg.vis.earth_dir, ..cfg.tir };
 
     std::fs::create_dir_all(out_dir).with_context(|| format!("cannot create {}", out_dir.display()))?;
     for s in &set_list {
@@ -414,9 +415,9 @@ pub fn render_dataset(cfg: &DatasetConfig, out_dir: &Path, progress: bool) -> Re
                         &cam,
                         &VisParams { sun_dir: sun, ..cfg.vis }.with_illumination(illumination),
                     ),
-                    SetKind::Tir => render_tir(&scene, &cam, &face_t, &cfg.tir),
+                    SetKind::Tir => render_tir(&scene, &cam, &face_t, &tir_params),
                     SetKind::TirEclipse => {
-                        render_tir(&scene, &cam, face_t_eclipse.as_deref().unwrap_or(&face_t), &cfg.tir)
+                        render_tir(&scene, &cam, face_t_eclipse.as_deref().unwrap_or(&face_t), &tir_params)
                     }
                 };
                 // The noisy frame is the clean frame as stored (clipped to [0, 1]) through the

@@ -402,11 +402,18 @@ pub fn render_sequence(cfg: &SequenceConfig, out_dir: &Path, progress: bool) -> 
         .map(|(i, (st, node_t))| {
             let pose = camera_pose(&st, &scene);
             let sun_body = (st.attitude.inverse() * st.sun).normalize();
-            let vis_params = VisParams { sun_dir: sun_body, sun_fraction: st.sun_fraction as f32, ..cfg.vis };
+            let vis_params = VisParams {
+                sun_dir: sun_body,
+                earth_dir: (st.attitude.inverse() * cfg.vis.earth_dir).normalize(),
+                sun_fraction: st.sun_fraction as f32,
+                ..cfg.vis
+            };
             let face_t = face_temperatures(&scene, &node_t);
             let (vis_cam, tir_cam) = (Camera::study(cfg.vis_size, pose), Camera::study(cfg.tir_size, pose));
             let mut vis = render_vis(&scene, &vis_cam, &vis_params);
-            let mut tir = render_tir(&scene, &tir_cam, &face_t, &cfg.tir);
+            let earth_body = (st.attitude.inverse() * cfg.vis.earth_dir).normalize();
+            let tir_params = TirParams { earth_dir: earth_body, ..cfg.tir };
+            let mut tir = render_tir(&scene, &tir_cam, &face_t, &tir_params);
             vis.clip();
             tir.clip();
             let vis_noisy = apply_sensor_noise(

@@ -11,6 +11,13 @@
 //! | white paint | 8 mm dark bolt heads every 60 mm along the perimeter, 20 mm in | bolt heads at metal emittance; electronics boxes behind the radiator as warm patches (+8 K) |
 //! | aluminium | unchanged | unchanged |
 //!
+//! In TIR every detailed face also **mirrors the Earth's infrared glow** (`render_tir`): a
+//! fraction `1 − ε` of the Earth's radiance (a 255 K black body filling a disc of ≈ 68° radius
+//! seen from low orbit) wherever the relief turns the reflected ray into that disc. On the
+//! crinkled MLI (ε 0.63) this mottles the blanket with warm and cold patches that move with
+//! the view — the strongest texture a microbolometer sees on a real blanket, in light and in
+//! eclipse alike; polished aluminium (ε 0.08) mirrors almost all of it.
+//!
 //! And on every face, **conduction**: a face exchanges heat with the bus through its mount,
 //! so the pixels near the mount (the face centre for the bus sides and the panel, which sits on
 //! the bus) sit closer to the bus temperature than the edges. The temperature offsets scale

@@ -59,7 +59,18 @@ pub struct TirParams {
     pub t_max: f64,
     /// Reference range `S_ref` of the study mode, m.
     pub study_reference_range: f64,
+    /// Unit vector from the target towards the Earth (target frame): with surface detail, the
+    /// faces mirror the Earth's infrared glow where their relief turns the reflected ray
+    /// towards it (see [`render_tir`]). Manifests without the field read the default.
+    #[serde(default = "crate::vis::default_earth_dir")]
+    pub earth_dir: glam::Vec3,
 }
+
+/// Brightness temperature of the Earth's infrared emission seen from orbit, K (≈ 240 W/m²).
+pub const EARTH_IR_TEMPERATURE_K: f64 = 255.0;
+
+/// Cosine of the Earth's angular radius seen from low orbit (≈ 68° at 500 km altitude).
+pub const EARTH_COS_HALF_ANGLE: f32 = 0.37;
 
 impl Default for TirParams {
     fn default() -> Self {
@@ -70,6 +81,7 @@ impl Default for TirParams {
             t_max: 400.0,
             // The mean of the ellipse's semi-axes (7.25 m, 4 m).
             study_reference_range: 5.625,
+            earth_dir: crate::vis::default_earth_dir(),
         }
     }
 }
@@ -102,6 +114,8 @@ pub fn render_tir(scene: &Scene, camera: &Camera, face_temperatures: &[f32], par
     let w = camera.width as usize;
     let background = params.value_of_radiance(0.0) as f32;
     let axis = camera.pose.forward();
+    let earth = params.earth_dir.normalize_or_zero();
+    let earth_radiance = TirParams::blackbody_radiance(EARTH_IR_TEMPERATURE_K);
     img.data.par_chunks_mut(w.max(1)).enumerate().for_each(|(y, row)| {
         for (x, px) in row.iter_mut().enumerate() {
             let d = camera.pixel_ray(x as u32, y as u32);
@@ -111,12 +125,18 @@ pub fn render_tir(scene: &Scene, camera: &Camera, face_temperatures: &[f32], par
             };
             let face = &scene.faces[hit.face as usize];
             let t = f64::from(face_temperatures.get(hit.face as usize).copied().unwrap_or(0.0));
-            let (t, eps) = match &scene.detail {
+            let (t, eps, reflected) = match &scene.detail {
                 Some(detail) => {
                     let s = detail.at(scene, hit.face, hit.point, hit.t / camera.focal_px, t);
-                    (t + s.delta_t, s.emittance)
+                    // The relief's mirror image of the Earth: (1 − ε) of its radiance where the
+                    // reflected ray points inside the Earth's disc (soft limb).
+                    let n = if s.normal.dot(d) > 0.0 { -s.normal } else { s.normal };
+                    let r = d - 2.0 * d.dot(n) * n;
+                    let c = r.dot(earth);
+                    let cover = ((c - EARTH_COS_HALF_ANGLE) / 0.1 + 0.5).clamp(0.0, 1.0);
+                    (t + s.delta_t, s.emittance, (1.0 - s.emittance) * f64::from(cover) * earth_radiance)
                 }
-                None => (t, face.material.props().ir_emittance),
+                None => (t, face.material.props().ir_emittance, 0.0),
             };
             let cos_c = f64::from(axis.dot(d)).max(0.0);
             let weight = match params.radiometry {
@@ -127,7 +147,8 @@ pub fn render_tir(scene: &Scene, camera: &Camera, face_temperatures: &[f32], par
                     cos_c * cos_f * (params.study_reference_range / s).powi(2)
                 }
             };
-            *px = params.value_of_radiance(weight * eps * TirParams::blackbody_radiance(t)) as f32;
+            *px = params.value_of_radiance(weight * (eps * TirParams::blackbody_radiance(t) + reflected))
+                as f32;
         }
     });
     img

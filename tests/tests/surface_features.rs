@@ -1,7 +1,8 @@
 //! The rendered target gives a feature tracker something to hold on to (issue 20, item 1): with
 //! the procedural surface detail, the navigation front end's detector
 //! (`host_harness::nav::features::detect`) finds several times more corners on the target than
-//! on the flat-shaded target of the same views, in VIS, and more in TIR in light and in eclipse.
+//! on the flat-shaded target of the same views: at least 3× in VIS, 2× in TIR in light and in
+//! eclipse.
 
 use host_harness::nav::features::{detect, grow_mask};
 use render_host::dataset::trajectory;
@@ -43,6 +44,6 @@ fn surface_detail_multiplies_the_features_on_the_target() {
         counts[0], counts[1], counts[2]
     );
     assert!(counts[0][1] >= 3 * counts[0][0], "VIS: {:?}", counts[0]);
-    assert!(counts[1][1] * 10 >= counts[1][0] * 13, "TIR light: {:?}", counts[1]);
-    assert!(counts[2][1] * 10 >= counts[2][0] * 13, "TIR eclipse: {:?}", counts[2]);
+    assert!(counts[1][1] >= 2 * counts[1][0], "TIR light: {:?}", counts[1]);
+    assert!(counts[2][1] >= 2 * counts[2][0], "TIR eclipse: {:?}", counts[2]);
 }

@@ -23,6 +23,8 @@ pub enum Style {
     Lines,
     /// Markers only, x on a log axis (time against error).
     PointsLogX,
+    /// Markers only, linear axes (per-frame values with gaps: no line bridges a missing frame).
+    Points,
 }
 
 /// Axis titles and the chart title.
@@ -144,7 +146,10 @@ where
                     chart.draw_series(LineSeries::new(pts.clone(), colour.stroke_width(2))).map_err(err)?;
                     chart.draw_series(pts.iter().map(|&p| Circle::new(p, 3, colour.filled()))).map_err(err)?
                 } else {
-                    chart.draw_series(pts.iter().map(|&p| Circle::new(p, 6, colour.filled()))).map_err(err)?
+                    let size = if style == Style::Points { 3 } else { 6 };
+                    chart
+                        .draw_series(pts.iter().map(|&p| Circle::new(p, size, colour.filled())))
+                        .map_err(err)?
                 };
                 anno.label(s.name.clone())
                     .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 14, y + 5)], colour.filled()));

@@ -110,8 +110,8 @@ fn csv(rows: &[FrameResult]) -> String {
     s
 }
 
-/// Per sequence: rotation error and target features against the frame, eclipse shaded, for
-/// vis, tir and the flight variants.
+/// Per sequence: rotation error (points: lost pairs have none) and target features (lines)
+/// against the frame, penumbra and eclipse shaded, for vis, tir and the flight variants.
 fn charts(out: &Path, rows: &[FrameResult]) -> Result<Vec<PathBuf>> {
     let shown = ["vis", "tir", "adf-flight", "tsifsd-flight", "ifevip-flight"];
     let mut written = Vec::new();
@@ -146,7 +146,7 @@ fn charts(out: &Path, rows: &[FrameResult]) -> Result<Vec<PathBuf>> {
                 y: "rotation error, degrees",
             },
             &series(&|r| r.rot_err_deg),
-            Style::Lines,
+            Style::Points,
             &shaded,
         )?);
         let stem = out.join(format!("{}_features", name.as_str()));

@@ -13,11 +13,11 @@
 
 use anyhow::{Context, Result};
 use host_harness::nav::features::{FAST_THRESHOLD, PRESMOOTH_SIGMA, detect, grow_mask};
-use render_host::dataset::{contact_sheet, noise_stream, trajectory};
+use render_host::dataset::{contact_sheet, noise_stream, target_square, trajectory};
 use render_host::noise::rng_for;
 use render_host::output::save_gray8;
 use render_host::{
-    Band, Camera, DatasetConfig, Image, Scene, ThermalParams, apply_sensor_noise, eclipse_transient,
+    Band, Camera, DatasetConfig, Scene, ThermalParams, apply_sensor_noise, eclipse_transient,
     face_temperatures, render_tir, render_vis, steady_state,
 };
 use std::fmt::Write as _;
@@ -76,7 +76,8 @@ fn main() -> Result<()> {
             for (k, im) in [&img, &noisy].into_iter().enumerate() {
                 counts[r][k] += detect(&im.to_gray8(), Some(&mask)).len();
             }
-            column.push(crop(&img, &cam, scene, pose.position));
+            let (x0, y0, side) = target_square(scene, &cam);
+            column.push(img.crop_thumbnail(x0, y0, side, 200));
         }
         per_frame.push(column);
     }
@@ -97,12 +98,4 @@ fn main() -> Result<()> {
     print!("{md}");
     std::fs::write(out.join("features.md"), md)?;
     Ok(())
-}
-
-/// The square around the target's bounding sphere, 15 % margin, 200 px.
-fn crop(img: &Image, cam: &Camera, scene: &Scene, eye: render_host::glam::Vec3) -> Image {
-    let (u, v) = cam.project(scene.centre).unwrap_or((cam.cx, cam.cy));
-    let range = (eye - scene.centre).length().max(1e-3);
-    let side = (2.3 * cam.focal_px * scene.radius / range).min(img.width as f32);
-    img.crop_thumbnail(u - side / 2.0, v - side / 2.0, side, 200)
 }

@@ -445,11 +445,7 @@ pub fn render_dataset(cfg: &DatasetConfig, out_dir: &Path, progress: bool) -> Re
                     }
                 }
                 if columns.contains(&i) {
-                    // A square around the target's bounding sphere, 15 % margin.
-                    let (u, v) = cam.project(scene.centre).unwrap_or((cam.cx, cam.cy));
-                    let range = (tp.pose.position - scene.centre).length().max(1e-3);
-                    let side = (2.3 * cam.focal_px * scene.radius / range).min(s.width as f32);
-                    let (x0, y0) = (u - side / 2.0, v - side / 2.0);
+                    let (x0, y0, side) = target_square(&scene, &cam);
                     thumbs.push(clean.crop_thumbnail(x0, y0, side, thumb));
                     thumbs.push(noisy.crop_thumbnail(x0, y0, side, thumb));
                 }
@@ -514,6 +510,15 @@ pub fn render_dataset(cfg: &DatasetConfig, out_dir: &Path, progress: bool) -> Re
     };
     write_json(&out_dir.join("manifest.json"), &manifest)?;
     Ok(manifest)
+}
+
+/// The square around the target's bounding sphere (15 % margin) in `cam`'s image: top-left
+/// corner and side, px, at most the image width (the contact sheets' tiles).
+pub fn target_square(scene: &Scene, cam: &Camera) -> (f32, f32, f32) {
+    let (u, v) = cam.project(scene.centre).unwrap_or((cam.cx, cam.cy));
+    let range = (cam.pose.position - scene.centre).length().max(1e-3);
+    let side = (2.3 * cam.focal_px * scene.radius / range).min(cam.width as f32);
+    (u - side / 2.0, v - side / 2.0, side)
 }
 
 /// Row-major entries of a 3 × 3 matrix.

@@ -307,6 +307,17 @@ pub struct SequenceFrame {
     pub files: SequenceFiles,
 }
 
+impl SequenceFrame {
+    /// The camera pose this frame was rendered with (from the manifest's position and
+    /// rotation).
+    pub fn pose(&self) -> Pose {
+        Pose {
+            position: Vec3::from_array(self.position_m),
+            rotation: glam::Mat3::from_cols_array_2d(&self.rotation_cam_to_target).transpose(),
+        }
+    }
+}
+
 /// Intrinsics of one camera of the sequence.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Intrinsics {
@@ -346,6 +357,7 @@ pub struct SequenceManifest {
 fn timeline(cfg: &SequenceConfig, scene: &Scene) -> Vec<(InertialState, Vec<f64>)> {
     let mut out = Vec::with_capacity(cfg.frames);
     let mut temps: Vec<f64> = Vec::new();
+    let mut prev_fraction = 1.0;
     for i in 0..cfg.frames {
         let st = state(cfg, i);
         let sun_body = st.attitude.inverse() * st.sun;
@@ -355,10 +367,11 @@ fn timeline(cfg: &SequenceConfig, scene: &Scene) -> Vec<(InertialState, Vec<f64>
         } else {
             // Over the frame interval, with this frame's geometry and the mean sun fraction of
             // the interval's ends.
-            let prev = state(cfg, i - 1).sun_fraction;
             let balance = NodeBalance::new(scene, &params);
-            temps = advance(&balance, &temps, 1.0 / cfg.frame_rate_hz, 0.5 * (prev + st.sun_fraction));
+            temps =
+                advance(&balance, &temps, 1.0 / cfg.frame_rate_hz, 0.5 * (prev_fraction + st.sun_fraction));
         }
+        prev_fraction = st.sun_fraction;
         out.push((st, temps.clone()));
     }
     out

@@ -3,9 +3,8 @@
 //! renders, and the benchmark's measures where physics fixes their order.
 
 use host_harness::nav::bench::{run_sequence, streams, summary};
-use render_host::glam::{Mat3, Vec3};
 use render_host::sequence::{Phase, SequenceConfig, SequenceName, read_manifest, render_sequence};
-use render_host::{Camera, Pose, Scene};
+use render_host::{Camera, Scene};
 
 fn small(name: SequenceName, frames: usize) -> SequenceConfig {
     SequenceConfig { frames, vis_size: 160, tir_size: 80, ..SequenceConfig::new(name) }
@@ -35,10 +34,7 @@ fn approach_closes_from_50_to_5_metres_in_light() {
     // the principal point (the camera looks at it).
     let scene = Scene::tango().unwrap();
     for f in &m.frames {
-        let pose = Pose {
-            position: Vec3::from_array(f.position_m),
-            rotation: Mat3::from_cols_array_2d(&f.rotation_cam_to_target).transpose(),
-        };
+        let pose = f.pose();
         let (u, v) = Camera::study(160, pose).project(scene.centre).unwrap();
         assert!((u - 80.0).abs() < 0.01 && (v - 80.0).abs() < 0.01, "frame {}: ({u}, {v})", f.index);
     }

@@ -6,7 +6,7 @@ use crate::nav::bench::{FrameResult, PhaseSummary, Summary, run_sequence, stream
 use crate::plot::{Labels, Series, Style, chart_shaded};
 use anyhow::{Result, bail};
 use clap::Args;
-use render_host::sequence::{Phase, SequenceConfig, SequenceName, read_manifest, render_sequence};
+use render_host::sequence::{Phase, SequenceConfig, SequenceName, render_sequence};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -56,14 +56,10 @@ pub fn run(args: &NavbenchArgs) -> Result<()> {
             eprintln!("rendering {} ({} frames) into {}", name.as_str(), cfg.frames, dir.display());
             render_sequence(&cfg, &dir, false)?;
         }
-        let m = read_manifest(&dir)?;
-        eprintln!(
-            "navbench: {} ({} frames, {} streams)",
-            name.as_str(),
-            args.frames.unwrap_or(m.frames.len()).min(m.frames.len()),
-            streams().len()
-        );
-        rows.extend(run_sequence(&dir, args.frames)?);
+        let seq = run_sequence(&dir, args.frames)?;
+        let streams = streams().len();
+        eprintln!("navbench: {} ({} frames, {streams} streams)", name.as_str(), seq.len() / streams.max(1));
+        rows.extend(seq);
     }
     let s = summary(&rows);
     write_text(&args.out.join("navbench.json"), &serde_json::to_string_pretty(&s)?)?;

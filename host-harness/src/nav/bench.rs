@@ -27,9 +27,9 @@ use fusion_nostd::pipeline::SkipPolicy;
 use fusion_nostd::{AdfParams, Filter, IfevipParams, Method, Pipeline, RescalePolicy, TsifsdParams};
 use image::GrayImage;
 use rayon::prelude::*;
-use render_host::glam::{DVec2, DVec3, Mat3, Vec3};
+use render_host::glam::{DVec2, DVec3};
 use render_host::sequence::{Phase, SequenceManifest, read_manifest};
-use render_host::{Camera, Pose, Scene};
+use render_host::{Camera, Scene};
 use serde::Serialize;
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -195,12 +195,19 @@ pub fn ring(mask: &[bool], w: usize, h: usize, inner: usize, outer: usize) -> Ve
     a.iter().zip(&b).map(|(&a, &b)| b && !a).collect()
 }
 
-/// One frame of a sequence, loaded: inputs, masks and the camera.
+/// One frame of a sequence, loaded: inputs, the masks every stream is measured on (computed
+/// once per frame, not per stream) and the camera.
 struct FrameData {
     vis: Gray<u8>,
     tir: Gray<u8>,
+    /// The VIS target mask (CNR's target).
     vis_mask: Vec<bool>,
-    tir_mask_on_vis: Vec<bool>,
+    /// The VIS mask grown by 3 px: where features count as on the target.
+    feature_mask: Vec<bool>,
+    /// The CNR background ring, 8–24 px outside the VIS mask.
+    ring_mask: Vec<bool>,
+    /// Target pixels of either camera (TIR mask mapped to the VIS grid): the skip coverage.
+    either_mask: Vec<bool>,
     camera: Camera,
     phase: Phase,
 }
@@ -217,25 +224,30 @@ fn load_frame(dir: &Path, m: &SequenceManifest, i: usize) -> Result<FrameData> {
     let tir_mask = load_gray_u8(&dir.join(&f.files.tir_mask), ColorPolicy::Refuse)?;
     let (w, h) = (vis.width, vis.height);
     let (sx, sy) = (tir_mask.width as f64 / w as f64, tir_mask.height as f64 / h as f64);
-    let tir_mask_on_vis = (0..w * h)
+    let either_mask = (0..w * h)
         .map(|k| {
             let (x, y) = ((k % w) as f64 * sx, (k / w) as f64 * sy);
-            tir_mask.at((x as usize).min(tir_mask.width - 1), (y as usize).min(tir_mask.height - 1)) > 127
+            vis_mask[k]
+                || tir_mask.at((x as usize).min(tir_mask.width - 1), (y as usize).min(tir_mask.height - 1))
+                    > 127
         })
         .collect();
-    let rows = f.rotation_cam_to_target;
-    let pose = Pose {
-        position: Vec3::from_array(f.position_m),
-        rotation: Mat3::from_cols_array_2d(&rows).transpose(),
-    };
     Ok(FrameData {
+        feature_mask: grow_mask(&vis_mask, w, h, 3),
+        ring_mask: ring(&vis_mask, w, h, 8, 24),
+        either_mask,
         vis,
         tir,
         vis_mask,
-        tir_mask_on_vis,
-        camera: Camera::study(m.vis_camera.size, pose),
+        camera: Camera::study(m.vis_camera.size, f.pose()),
         phase: f.phase,
     })
+}
+
+/// Normalised image coordinates `((x + ½ − cx)/f, (y + ½ − cy)/f)` of pixel `(x, y)`'s centre.
+fn normalised(cam: &Camera, x: u32, y: u32) -> DVec2 {
+    let f = f64::from(cam.focal_px);
+    DVec2::new((f64::from(x) + 0.5 - f64::from(cam.cx)) / f, (f64::from(y) + 0.5 - f64::from(cam.cy)) / f)
 }
 
 /// The stream's image of one frame (VIS grid) and, for skip streams, (coverage, window share).
@@ -260,11 +272,9 @@ fn stream_image(stream: &Stream, fd: &FrameData) -> Result<(Gray<u8>, f64, f64)>
             )?;
             let win = report.skip.computed;
             let (mut inside, mut total) = (0usize, 0usize);
-            for k in 0..w * h {
-                if fd.vis_mask[k] || fd.tir_mask_on_vis[k] {
-                    total += 1;
-                    inside += usize::from(win.contains(k % w, k / w));
-                }
+            for (k, _) in fd.either_mask.iter().enumerate().filter(|(_, m)| **m) {
+                total += 1;
+                inside += usize::from(win.contains(k % w, k / w));
             }
             let coverage = if total == 0 { 1.0 } else { inside as f64 / total as f64 };
             let frac = ((win.x1 - win.x0) * (win.y1 - win.y0)) as f64 / (w * h) as f64;
@@ -304,31 +314,22 @@ pub fn run_sequence(dir: &Path, frames: Option<usize>) -> Result<Vec<FrameResult
                     stream_image(stream, fd).with_context(|| format!("{name} frame {i} {source}"))?;
                 let (w, h) = (img.width, img.height);
                 let gray = GrayImage::from_raw(w as u32, h as u32, img.data.clone()).context("image size")?;
-                let mask = grow_mask(&fd.vis_mask, w, h, 3);
-                let corners = detect(&gray, Some(&mask));
+                let corners = detect(&gray, Some(&fd.feature_mask));
                 let features = describe(&gray, &corners, &pairs);
                 let cam = &fd.camera;
                 let points = features
                     .iter()
                     .map(|f| {
-                        depths[i][f.y as usize * w + f.x as usize].map(|d| {
-                            let dir = DVec3::new(
-                                (f64::from(f.x) + 0.5 - f64::from(cam.cx)) / f64::from(cam.focal_px),
-                                (f64::from(f.y) + 0.5 - f64::from(cam.cy)) / f64::from(cam.focal_px),
-                                1.0,
-                            )
-                            .normalize();
-                            dir * f64::from(d)
-                        })
+                        depths[i][f.y as usize * w + f.x as usize]
+                            .map(|d| normalised(cam, f.x, f.y).extend(1.0).normalize() * f64::from(d))
                     })
                     .collect();
-                let ring_mask = ring(&fd.vis_mask, w, h, 8, 24);
                 let mut row = FrameResult {
                     sequence: name.clone(),
                     frame: i,
                     phase: fd.phase,
                     source: source.clone(),
-                    cnr: cnr(&img.data, &fd.vis_mask, &ring_mask),
+                    cnr: cnr(&img.data, &fd.vis_mask, &fd.ring_mask),
                     target_features: corners.len(),
                     tracks: 0,
                     inliers: 0,
@@ -344,12 +345,8 @@ pub fn run_sequence(dir: &Path, frames: Option<usize>) -> Result<Vec<FrameResult
                     let (mut x3, mut x2) = (Vec::new(), Vec::new());
                     for &(a, b) in &matches {
                         if let Some(x) = p.points[a] {
-                            let f = &features[b];
                             x3.push(x);
-                            x2.push(DVec2::new(
-                                (f64::from(f.x) + 0.5 - f64::from(cam.cx)) / f64::from(cam.focal_px),
-                                (f64::from(f.y) + 0.5 - f64::from(cam.cy)) / f64::from(cam.focal_px),
-                            ));
+                            x2.push(normalised(cam, features[b].x, features[b].y));
                         }
                     }
                     let prev_cam = &data[i - 1].camera;

@@ -171,6 +171,7 @@ pub mod strips;
 
 pub use error::Error;
 pub use frame::{Frame, Frame512, Frame1024, FrameMut, FrameRef, MAX_DIMENSION};
+pub use fuse::adaptive::AdaptiveParams;
 pub use fuse::adf::AdfParams;
 pub use fuse::ifevip::IfevipParams;
 pub use fuse::tsifsd::TsifsdParams;

@@ -47,6 +47,7 @@
 //!   sum, is ≈ 5 % and kept).
 
 use crate::fuse::Guards;
+use crate::fuse::adaptive::{AdaptiveParams, Decision, decide, decide_frames, fuse_adaptive};
 use crate::fuse::adf::{AdfParams, fuse_adf, fuse_adf_raw};
 use crate::fuse::ifevip::{IfevipParams, fuse_ifevip};
 use crate::fuse::tsifsd::{TsifsdParams, fuse_tsifsd, fuse_tsifsd_raw};
@@ -74,6 +75,9 @@ pub enum Method {
     Tsifsd(TsifsdParams),
     /// Infrared feature extraction + visual information preservation.
     Ifevip(IfevipParams),
+    /// Illumination-adaptive two-scale fusion for navigation ([`crate::fuse::adaptive`]): the
+    /// VIS share comes from the scene analysis of the input frames.
+    Adaptive(AdaptiveParams),
 }
 
 impl Default for Method {
@@ -128,7 +132,7 @@ impl Pipeline {
         let (w, h) = fusion_grid(vis, tir, self.rescale)?;
         let pixels = w.checked_mul(h).ok_or(Error::DimensionTooLarge { value: w.max(h) })?;
         Ok(match &self.method {
-            Method::Adf(_) | Method::Tsifsd(_) => pixels,
+            Method::Adf(_) | Method::Tsifsd(_) | Method::Adaptive(_) => pixels,
             Method::Ifevip(p) => crate::fuse::ifevip::scratch_pixels(w, h, p).max(pixels),
         })
     }
@@ -243,6 +247,11 @@ pub fn fusion_grid(
 }
 
 /// Runs one method on two frames of the same size.
+///
+/// The adaptive method takes its per-frame [`Decision`] from the scene analysis (default
+/// [`SceneParams`]) of these two frames; [`fuse`] takes it from the input frames before any
+/// rescale ([`adaptive_decision`]), so call [`fuse_method_decided`] with that decision to get
+/// [`fuse`]'s bits from frames already on the grid.
 pub fn fuse_method(
     vis: FrameRef<'_, u8>,
     tir: FrameRef<'_, u8>,
@@ -250,10 +259,43 @@ pub fn fuse_method(
     method: &Method,
     scratch: &mut ScratchMut<'_>,
 ) -> Result<Guards, Error> {
+    fuse_method_decided(vis, tir, out, method, scratch, None)
+}
+
+/// [`fuse_method`] with the adaptive method's per-frame decision given (`None`: taken from
+/// these frames as [`fuse_method`] does; ignored by the other methods).
+pub fn fuse_method_decided(
+    vis: FrameRef<'_, u8>,
+    tir: FrameRef<'_, u8>,
+    out: FrameMut<'_, u8>,
+    method: &Method,
+    scratch: &mut ScratchMut<'_>,
+    decision: Option<Decision>,
+) -> Result<Guards, Error> {
     match method {
         Method::Adf(p) => fuse_adf(vis, tir, out, p, scratch),
         Method::Tsifsd(p) => fuse_tsifsd(vis, tir, out, p, scratch),
         Method::Ifevip(p) => fuse_ifevip(vis, tir, out, p, scratch),
+        Method::Adaptive(p) => {
+            let decision = match decision {
+                Some(d) => d,
+                None => decide_frames(vis, tir, &SceneParams::default(), p)?,
+            };
+            fuse_adaptive(vis, tir, out, p, decision, scratch)
+        }
+    }
+}
+
+/// The adaptive method's per-frame decision for an input pair, as [`fuse`] takes it: the scene
+/// analysis of the two frames as given, with `pipeline.scene`. `None` for the other methods.
+pub fn adaptive_decision(
+    vis: FrameRef<'_, u8>,
+    tir: FrameRef<'_, u8>,
+    pipeline: &Pipeline,
+) -> Result<Option<Decision>, Error> {
+    match &pipeline.method {
+        Method::Adaptive(p) => Ok(Some(decide_frames(vis, tir, &pipeline.scene, p)?)),
+        _ => Ok(None),
     }
 }
 
@@ -273,8 +315,10 @@ pub fn fuse(
     if pipeline.skip != SkipPolicy::None {
         return fuse_skipping(vis, tir, out, scratch, pipeline);
     }
+    pipeline.method.validate()?;
+    let decision = adaptive_decision(vis, tir, pipeline)?;
     on_grid(vis, tir, out.size(), scratch, pipeline.rescale, |v, t, s| {
-        fuse_method(v, t, out, &pipeline.method, s)
+        fuse_method_decided(v, t, out, &pipeline.method, s, decision)
     })
 }
 
@@ -283,7 +327,8 @@ pub fn fuse(
 /// [`crate::fuse::round_away_sat_u8`]`(raw, 16)`.
 ///
 /// ADF and TSIFSD only: IFEVIP's published arithmetic saturates to `uint8` at every step, so
-/// its pre-cast value is its output; for it this returns [`Error::InvalidParameter`]
+/// its pre-cast value is its output, and the adaptive method has no published pre-cast value
+/// to compare with; for them this returns [`Error::InvalidParameter`]
 /// (`name: "method"`).
 pub fn fuse_raw(
     vis: FrameRef<'_, u8>,
@@ -295,7 +340,7 @@ pub fn fuse_raw(
     on_grid(vis, tir, raw.size(), scratch, pipeline.rescale, |v, t, s| match &pipeline.method {
         Method::Adf(p) => fuse_adf_raw(v, t, raw, p, s),
         Method::Tsifsd(p) => fuse_tsifsd_raw(v, t, raw, p, s),
-        Method::Ifevip(_) => Err(Error::InvalidParameter { name: "method" }),
+        Method::Ifevip(_) | Method::Adaptive(_) => Err(Error::InvalidParameter { name: "method" }),
     })
 }
 
@@ -343,17 +388,20 @@ impl Method {
             Method::Adf(p) => p.validate(),
             Method::Tsifsd(p) => p.validate(),
             Method::Ifevip(p) => p.validate(),
+            Method::Adaptive(p) => p.validate(),
         }
     }
 
     /// Radius of the neighbourhood an output pixel depends on (grid pixels): the window halo
     /// of the ROI plan. ADF: one pixel per diffusion iteration; TSIFSD: the mean filter's
-    /// radius (the 3×3 median / Scharr is inside it) plus one; IFEVIP: none (it is global).
+    /// radius (the 3×3 median / Scharr is inside it) plus one; IFEVIP: none (it is global);
+    /// adaptive: the base box's radius (the 3×3 binomial is inside it).
     pub fn halo(&self) -> Option<usize> {
         match self {
             Method::Adf(p) => Some(usize::from(p.iterations)),
             Method::Tsifsd(p) => Some(usize::from(p.mean_size / 2) + 1),
             Method::Ifevip(_) => None,
+            Method::Adaptive(p) => Some(p.halo()),
         }
     }
 }
@@ -384,7 +432,13 @@ fn align_even(r: Rect, (w, h): (usize, usize)) -> Rect {
     Rect { x0: r.x0 & !1, y0: r.y0 & !1, x1: hi(r.x1, w), y1: hi(r.y1, h) }
 }
 
-fn plan(scene: &Scene, pipeline: &Pipeline, grid: (usize, usize), eclipse: bool) -> Plan {
+fn plan(
+    scene: &Scene,
+    pipeline: &Pipeline,
+    grid: (usize, usize),
+    eclipse: bool,
+    decision: Option<Decision>,
+) -> Plan {
     if let Some(d) = scene.decline {
         return Plan::Full(Some(d));
     }
@@ -443,6 +497,21 @@ fn plan(scene: &Scene, pipeline: &Pipeline, grid: (usize, usize), eclipse: bool)
                 if computed.y0 == 0 || computed.y1 == grid.1 {
                     (computed.y0, computed.y1) = (0, grid.1);
                 }
+            }
+            if too_large(&computed) {
+                return Plan::Full(Some(Decline::RoiTooLarge));
+            }
+            Plan::Window { computed, roi: computed.shrink_inner(halo, grid) }
+        }
+        Method::Adaptive(_) => {
+            // Local like TSIFSD flight (replicate borders); when the TIR frame passes through,
+            // the window must hold its target alone.
+            let target =
+                if eclipse || decision == Some(Decision::TirOnly) { scene.target_tir } else { scene.target };
+            let Some(target) = target else { return Plan::Empty };
+            let mut computed = target.grow(halo, grid);
+            if rescale2 {
+                computed = align_even(computed, grid);
             }
             if too_large(&computed) {
                 return Plan::Full(Some(Decline::RoiTooLarge));
@@ -573,15 +642,25 @@ fn fuse_skipping(
     }
     let scene = analyze(vis, tir, grid, &pipeline.scene)?;
     let eclipse = pipeline.skip == SkipPolicy::All && scene.illumination == Illumination::Eclipse;
-    let plan = plan(&scene, pipeline, grid, eclipse);
+    let decision = match &pipeline.method {
+        Method::Adaptive(p) => Some(decide(&scene.vis, p)),
+        _ => None,
+    };
+    let plan = plan(&scene, pipeline, grid, eclipse, decision);
     let rescaled = scene.rescale_needed;
     let mut report = SkipReport::none(pipeline.skip, grid, rescaled);
     report.illumination = Some(scene.illumination);
-    let background = background_value(&scene);
+    let background = match decision {
+        // The adaptive method's value on a flat pair: max(level_VIS, level_TIR), or the TIR
+        // level when the TIR frame passes through.
+        Some(Decision::TirOnly) => scene.tir.background,
+        Some(Decision::Blend { .. }) => scene.vis.background.max(scene.tir.background),
+        None => background_value(&scene),
+    };
     let (computed, roi, vis_constant) = match plan {
         Plan::Full(declined) => {
             let mut r = on_grid(vis, tir, grid, scratch, pipeline.rescale, |v, t, s| {
-                fuse_method(v, t, out, &pipeline.method, s)
+                fuse_method_decided(v, t, out, &pipeline.method, s, decision)
             })?;
             r.skip = SkipReport { declined, ..report };
             return Ok(r);
@@ -648,7 +727,8 @@ fn fuse_skipping(
             g
         }
         _ => {
-            let g = fuse_method(vis_w, tir_w, out_w.reborrow(), &pipeline.method, &mut planes)?;
+            let g =
+                fuse_method_decided(vis_w, tir_w, out_w.reborrow(), &pipeline.method, &mut planes, decision)?;
             fill_outside(&mut out, computed, background);
             report.exact_outside = roi == Rect::full(grid);
             g
@@ -666,7 +746,7 @@ fn fuse_skipping(
     if vis_constant {
         report.taken |= Skips::ECLIPSE_VIS;
     }
-    if eclipse && matches!(pipeline.method, Method::Tsifsd(_)) {
+    if eclipse && matches!(pipeline.method, Method::Tsifsd(_) | Method::Adaptive(_)) {
         report.taken |= Skips::ECLIPSE_TIR_TARGET;
     }
     Ok(FuseReport { grid, rescaled, guards, skip: report })

@@ -17,6 +17,7 @@
 //! | TSIFSD flight | the flight kernel started at the strip's first row: column sums of the 35×35 window and a ring of `2r + 3` rows of lane words | `max(r, 1)` = 17 (the mean's radius; the Scharr rows `y ± 1` lie inside it) | 1 | `(W + 2r + 1) + (2r + 3)·W` words (152.1 KiB at W = 1024) |
 //! | TSIFSD classic | the column sums of the circular 35×35 window slid down the strip, the box row by the circular horizontal pass, the zero-padded median's rows | `max(r, 1)` = 17, plus up to `r` rows from the frame's other edge for the strips near the top and bottom (the circular window wraps; the band keeps a tail for them) | 1 | `4·W` words: column sums and box row of both bands (16 KiB at W = 1024) |
 //! | ADF (both variants) | the diffusion's row pipeline of both bands (all iterations in one group) | `iterations` = 10 | 2: the covariance (global KL weights), then the output | `32 768 + iterations·3·(W + 2) + W` words: the flux table, the pipeline and its output row (252.2 KiB at W = 1024, 10 iterations) |
+//! | adaptive | `fuse::adaptive::fuse_adaptive_rows`: column sums of the box slid down the strip, the binomial's rows read in place | `max(n/2, 1)` = 17 | 1 | `2·W` words (8 KiB at W = 1024) |
 //! | IFEVIP (both variants) | `fuse::ifevip::stream` (crate-private): the IR onto the quadtree grid a few rows at a time (quadtree block ranges, erosion at every candidate crossing from a ring of rows); the background rows from the leaves' Bézier rows; `R` and the top-`k` keys; the output | pass 1: the vertical taps of the IR onto the `D` grid, less one (9 at 1024 → 512); passes 2 and 3: none | 3: analysis, keys (`R` kept in the output frame), output | the crossings' minima, then per pass its tables and row buffers, up to 32 rows a chunk, and the top-`k` buffer (250.8 KiB at W = 1024, `D` = 512) |
 //!
 //! ADF's weights come from the covariance of the whole frame's detail layers, which no strip
@@ -46,6 +47,7 @@
 //! 246), five strips per frame; 185 rows, six strips, for TSIFSD classic (the band's tail holds
 //! the wrapped rows).
 
+use crate::fuse::adaptive::{decide_frames, fuse_adaptive_rows, work_words as adaptive_words};
 use crate::fuse::adf::{Covariance, diffuse_rows, stream_words};
 use crate::fuse::ifevip::stream::{Analysis, Keys, Tree, crossing_words, output_rows};
 use crate::fuse::ifevip::{EntropyRatio, GainTables, Gains, top_k};
@@ -156,6 +158,7 @@ enum Streamed<'p> {
     TsifsdClassic(&'p crate::TsifsdParams),
     Adf(&'p crate::AdfParams),
     Ifevip(&'p crate::IfevipParams),
+    Adaptive(&'p crate::fuse::adaptive::AdaptiveParams),
 }
 
 /// Grid rows of a band outside its strip window.
@@ -461,6 +464,9 @@ pub fn fuse_strips(
         // Pass 1's halo holds the vertical taps of the IR onto the quadtree grid; passes 2
         // and 3 read the strip's own rows only.
         Method::Ifevip(p) => (Streamed::Ifevip(p), Analysis::halo(grid, p), 3, 0),
+        // Rows y − r … y + r of both bands (the binomial's y ± 1 inside): two rows of column
+        // sums; the frame's decision comes from the scene analysis of the input frames first.
+        Method::Adaptive(p) => (Streamed::Adaptive(p), p.halo(), 1, adaptive_words(w)),
     };
     if scratch.work.len() < words {
         return Err(Error::ScratchTooSmall { needed: words, capacity: scratch.work.len() });
@@ -555,6 +561,27 @@ pub fn fuse_strips(
             if saturated {
                 guards |= Guards::OUTPUT_SATURATED;
             }
+        }
+        Streamed::Adaptive(p) => {
+            let decision = decide_frames(vis, tir, &pipeline.scene, p)?;
+            let (cv, ct) =
+                work.split_at_mut_checked(w).ok_or(Error::ScratchTooSmall { needed: 2 * w, capacity: 0 })?;
+            walk.run(band, &mut report, |win| {
+                let Window { vis: vis_w, tir: tir_w, y0, strip, .. } = win;
+                let mut rows = out.sub_rect_mut(0, strip.start, w, strip.len())?;
+                guards |= fuse_adaptive_rows(
+                    vis_w,
+                    tir_w,
+                    y0,
+                    h,
+                    strip,
+                    &mut rows,
+                    p,
+                    decision,
+                    [&mut *cv, &mut *ct],
+                )?;
+                Ok(vis_w.height())
+            })?;
         }
         Streamed::Ifevip(p) => {
             let (used, saturated) = fuse_ifevip_strips(&walk, &rest, band, work, &mut out, p, &mut report)?;

@@ -1,8 +1,10 @@
-//! Fusion methods: ADF, TSIFSD, IFEVIP (specs: `shared/reference/fusion-algorithms.md`).
+//! Fusion methods: ADF, TSIFSD, IFEVIP (specs: `shared/reference/fusion-algorithms.md`) and
+//! the illumination-adaptive fusion for navigation ([`adaptive`]).
 //!
 //! Every method takes two aligned `u8` frames of the same size (VIS, TIR), writes a `u8`
 //! fused frame and borrows its work planes from a [`crate::ScratchMut`].
 
+pub mod adaptive;
 pub mod adf;
 pub mod ifevip;
 pub mod tsifsd;
@@ -35,6 +37,12 @@ impl Guards {
     pub const IFEVIP_ZERO_PEAK: Guards = Guards(1 << 6);
     /// Some output pixel was saturated to 0 or 255 by the final 8-bit cast.
     pub const OUTPUT_SATURATED: Guards = Guards(1 << 7);
+    /// Adaptive (a decision, not a repair): VIS had no usable signal, the TIR frame passed
+    /// through unchanged.
+    pub const ADAPTIVE_TIR_ONLY: Guards = Guards(1 << 8);
+    /// Adaptive (a decision): some pixel's smoothed VIS was above the glare level and took
+    /// (part of) the TIR pixel instead.
+    pub const ADAPTIVE_GLARE: Guards = Guards(1 << 9);
 
     /// Whether every bit of `other` is set in `self`.
     pub const fn contains(self, other: Guards) -> bool {

@@ -193,6 +193,7 @@ impl RunSpec {
             MethodArg::Adf => 0,
             MethodArg::Tsifsd => 1,
             MethodArg::Ifevip => 2,
+            MethodArg::Adaptive => 3,
         };
         let variant = match self.variant {
             VariantArg::Classic => 0,
@@ -219,6 +220,7 @@ impl RunSpec {
             0 => MethodArg::Adf,
             1 => MethodArg::Tsifsd,
             2 => MethodArg::Ifevip,
+            3 => MethodArg::Adaptive,
             _ => bail!("bad method {method}"),
         };
         let variant = match variant {

@@ -33,6 +33,7 @@ pub fn method_key(m: MethodArg) -> &'static str {
         MethodArg::Adf => "adf",
         MethodArg::Tsifsd => "tsifsd",
         MethodArg::Ifevip => "ifevip",
+        MethodArg::Adaptive => "adaptive",
     }
 }
 
@@ -49,6 +50,9 @@ fn method_stages(m: MethodArg) -> &'static [(&'static str, &'static str, &'stati
             "ifevip.background",
             "IR background: resize, quadtree, erosion, Bézier, smoothing",
         )],
+        MethodArg::Adaptive => {
+            &[("share", "adaptive.share", "scene analysis of both input frames: the VIS share")]
+        }
     }
 }
 
@@ -61,6 +65,7 @@ fn remainder_stage(m: MethodArg) -> (&'static str, &'static str) {
             "one pass: 35×35 window sums of IR − VIS, Scharr saliency, weights, reconstruction",
         ),
         MethodArg::Ifevip => ("features_reconstruct", "entropy, IR features, peak, reconstruction"),
+        MethodArg::Adaptive => ("blend", "one pass: box means of both bands, VIS binomial, blend"),
     }
 }
 
@@ -69,12 +74,13 @@ fn method_region(m: MethodArg) -> &'static str {
         MethodArg::Adf => "adf.fuse",
         MethodArg::Tsifsd => "tsifsd.fuse",
         MethodArg::Ifevip => "ifevip.fuse",
+        MethodArg::Adaptive => "adaptive.fuse",
     }
 }
 
 /// Whether the method runs in strips ([`fusion_nostd::strips`]: every method, both variants).
 pub fn has_strips(m: MethodArg) -> bool {
-    matches!(m, MethodArg::Adf | MethodArg::Tsifsd | MethodArg::Ifevip)
+    matches!(m, MethodArg::Adf | MethodArg::Tsifsd | MethodArg::Ifevip | MethodArg::Adaptive)
 }
 
 /// One row of the stage table.
@@ -386,8 +392,14 @@ fn progress(msg: &str) {
 fn exactness_jobs(opts: &Options, pair: &(Gray<u8>, Gray<u8>)) -> Result<Vec<(String, Job)>> {
     let all = |policies: &[RescaleArg]| {
         let mut runs = Vec::new();
-        for &method in &[MethodArg::Adf, MethodArg::Tsifsd, MethodArg::Ifevip] {
-            for &variant in &[VariantArg::Flight, VariantArg::Classic] {
+        for &method in &[MethodArg::Adf, MethodArg::Tsifsd, MethodArg::Ifevip, MethodArg::Adaptive] {
+            // The adaptive method has no variants.
+            let variants: &[VariantArg] = if method == MethodArg::Adaptive {
+                &[VariantArg::Flight]
+            } else {
+                &[VariantArg::Flight, VariantArg::Classic]
+            };
+            for &variant in variants {
                 for &policy in policies {
                     runs.push(RunSpec::plain(method, variant, policy));
                 }
@@ -681,7 +693,7 @@ pub fn memory_report(out: &Outcome) -> Result<String> {
     s.push_str("\nWhat the core needs per method (`Pipeline::scratch_pixels`: three `i32` planes + the `u8` band plane, plus the frames VIS in, TIR in, fused out):\n\n");
     s.push_str("| grid | method | scratch | frames | total |\n|---|---|---|---|---|\n");
     for grid in [Grid::G512, Grid::G1024] {
-        for m in [MethodArg::Adf, MethodArg::Tsifsd, MethodArg::Ifevip] {
+        for m in [MethodArg::Adf, MethodArg::Tsifsd, MethodArg::Ifevip, MethodArg::Adaptive] {
             let pipeline = Pipeline {
                 rescale: grid.policy().into(),
                 method: method_for(m, VariantArg::Flight),

@@ -51,7 +51,7 @@ pub fn target_mean(method: MethodArg) -> Option<u64> {
     match method {
         MethodArg::Tsifsd => Some(40_000_000),
         MethodArg::Adf => Some(80_000_000),
-        MethodArg::Ifevip => None,
+        MethodArg::Ifevip | MethodArg::Adaptive => None,
     }
 }
 

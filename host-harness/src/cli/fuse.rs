@@ -11,7 +11,7 @@ use anyhow::{Context, Result, bail};
 use clap::{Args, ValueEnum};
 use fusion_nostd::fuse::{Guards, Variant};
 use fusion_nostd::pipeline::{Method, Pipeline, RescalePolicy, fusion_grid};
-use fusion_nostd::{AdfParams, IfevipParams, TsifsdParams};
+use fusion_nostd::{AdaptiveParams, AdfParams, IfevipParams, TsifsdParams};
 use std::path::PathBuf;
 
 /// The core's fusion methods (also the method names of `fusion budget`).
@@ -23,6 +23,8 @@ pub enum MethodArg {
     Tsifsd,
     /// Infrared feature extraction + visual information preservation.
     Ifevip,
+    /// Illumination-adaptive fusion for navigation (no variants: `--variant` is ignored).
+    Adaptive,
 }
 
 /// Every method `fusion fuse` knows: the core's three and the study's four host-only ones.
@@ -34,6 +36,8 @@ pub enum FuseMethod {
     Tsifsd,
     /// Infrared feature extraction + visual information preservation (core or f64 reference).
     Ifevip,
+    /// Illumination-adaptive fusion for navigation (core or f64 reference).
+    Adaptive,
     /// Guided-filter fusion, Li et al. 2013 (host f64 only).
     Gff,
     /// Multi-scale guided-filter fusion, Bavirisetti et al. 2019 (host f64 only).
@@ -52,6 +56,7 @@ impl FuseMethod {
             FuseMethod::Adf => Ok(MethodArg::Adf),
             FuseMethod::Tsifsd => Ok(MethodArg::Tsifsd),
             FuseMethod::Ifevip => Ok(MethodArg::Ifevip),
+            FuseMethod::Adaptive => Ok(MethodArg::Adaptive),
             FuseMethod::Gff => Err(HostMethod::Gff),
             FuseMethod::Mgff => Err(HostMethod::Mgff),
             FuseMethod::Tepgfl => Err(HostMethod::Tepgfl),
@@ -232,6 +237,7 @@ pub fn method_for(method: MethodArg, variant: VariantArg) -> Method {
         MethodArg::Adf => Method::Adf(AdfParams { variant, ..AdfParams::default() }),
         MethodArg::Tsifsd => Method::Tsifsd(TsifsdParams { variant, ..TsifsdParams::default() }),
         MethodArg::Ifevip => Method::Ifevip(IfevipParams { variant, ..IfevipParams::default() }),
+        MethodArg::Adaptive => Method::Adaptive(AdaptiveParams::default()),
     }
 }
 
@@ -275,6 +281,7 @@ pub fn fuse_core(vis: &Gray<u8>, tir: &Gray<u8>, pipeline: &Pipeline, with_raw: 
 
 /// Fuses `vis` and `tir` with the f64 references (rescale and method).
 pub fn fuse_reference(vis: &Gray<u8>, tir: &Gray<u8>, pipeline: &Pipeline) -> Result<Fused> {
+    let (vis_in, tir_in) = (vis, tir);
     let (w, h) = fusion_grid((vis.width, vis.height), (tir.width, tir.height), pipeline.rescale)?;
     let to_grid = |img: &Gray<u8>, filter| {
         if (img.width, img.height) == (w, h) {
@@ -289,6 +296,11 @@ pub fn fuse_reference(vis: &Gray<u8>, tir: &Gray<u8>, pipeline: &Pipeline) -> Re
         Method::Adf(p) => reference::adf::fuse_adf(&vis, &tir, p),
         Method::Tsifsd(p) => reference::tsifsd::fuse_tsifsd(&vis, &tir, p),
         Method::Ifevip(p) => reference::ifevip::fuse_ifevip(&vis, &tir, p),
+        Method::Adaptive(p) => {
+            let decision =
+                fusion_nostd::pipeline::adaptive_decision(vis_in.view()?, tir_in.view()?, pipeline)?;
+            reference::adaptive::fuse_adaptive(&vis, &tir, p, decision)
+        }
     };
     let image = Gray { width: w, height: h, data: raw.data.iter().map(|&v| matlab_uint8(v)).collect() };
     Ok(Fused { image, raw: Some(raw), guards: Guards::NONE })

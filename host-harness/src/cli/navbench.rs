@@ -2,7 +2,7 @@
 //! navigation front end, against the rendered ground truth (`crate::nav::bench`).
 
 use crate::io::write_atomically;
-use crate::nav::bench::{FrameResult, PhaseSummary, Summary, run_sequence, streams, summary};
+use crate::nav::bench::{FrameResult, PhaseSummary, Summary, run_sequence, selected, summary};
 use crate::plot::{Labels, Series, Style, chart_shaded};
 use anyhow::{Result, bail};
 use clap::Args;
@@ -27,6 +27,9 @@ pub struct NavbenchArgs {
     /// VIS size of sequences rendered here (TIR is half) [default: 1024].
     #[arg(long, default_value_t = 1024, value_name = "PX")]
     pub vis_size: u32,
+    /// Only these sources, comma-separated (e.g. `vis,tir,adaptive`) [default: all].
+    #[arg(long, value_delimiter = ',', value_name = "NAMES")]
+    pub sources: Option<Vec<String>>,
 }
 
 /// The phases in table order.
@@ -40,6 +43,8 @@ pub fn run(args: &NavbenchArgs) -> Result<()> {
     if args.vis_size < 64 || !args.vis_size.is_multiple_of(2) {
         bail!("--vis-size must be even and at least 64");
     }
+    let only = args.sources.as_deref();
+    let streams = selected(only)?.len();
     let start = Instant::now();
     let data = args.data.clone().unwrap_or_else(|| args.out.join("data"));
     std::fs::create_dir_all(&args.out)?;
@@ -56,8 +61,7 @@ pub fn run(args: &NavbenchArgs) -> Result<()> {
             eprintln!("rendering {} ({} frames) into {}", name.as_str(), cfg.frames, dir.display());
             render_sequence(&cfg, &dir, false)?;
         }
-        let seq = run_sequence(&dir, args.frames)?;
-        let streams = streams().len();
+        let seq = run_sequence(&dir, args.frames, only)?;
         eprintln!("navbench: {} ({} frames, {streams} streams)", name.as_str(), seq.len() / streams.max(1));
         rows.extend(seq);
     }

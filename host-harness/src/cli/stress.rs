@@ -275,6 +275,9 @@ pub fn bound(method: &Method, guards: Guards, weights: Option<(f64, f64)>) -> Op
             Some((2.0 * gain - 1e-6).ceil().min(255.0) as u8)
         }
         Method::Adf(_) | Method::Tsifsd(_) => Some(2),
+        // One exact rational and one rounding: a level only at a rounding tie the f64 sums
+        // resolve the other way.
+        Method::Adaptive(_) => Some(1),
         Method::Ifevip(_) => Some(3),
     }
 }

@@ -24,7 +24,9 @@ use crate::io::{ColorPolicy, Gray, load_gray_u8};
 use anyhow::{Context, Result};
 use fusion_nostd::fuse::Variant;
 use fusion_nostd::pipeline::SkipPolicy;
-use fusion_nostd::{AdfParams, Filter, IfevipParams, Method, Pipeline, RescalePolicy, TsifsdParams};
+use fusion_nostd::{
+    AdaptiveParams, AdfParams, Filter, IfevipParams, Method, Pipeline, RescalePolicy, TsifsdParams,
+};
 use image::GrayImage;
 use rayon::prelude::*;
 use render_host::glam::{DVec2, DVec3};
@@ -45,10 +47,18 @@ pub enum Stream {
     Fused(Pipeline),
 }
 
-/// The streams of the benchmark with their names: `vis`, `tir`, `<method>-<variant>`,
+/// The streams of the benchmark with their names: `vis`, `tir`, `adaptive`, `<method>-<variant>`,
 /// `<method>-<variant>-skip` (scene skipping with the eclipse plan, [`SkipPolicy::All`]).
 pub fn streams() -> Vec<(String, Stream)> {
     let mut out = vec![("vis".to_string(), Stream::Vis), ("tir".to_string(), Stream::Tir)];
+    out.push((
+        "adaptive".to_string(),
+        Stream::Fused(Pipeline {
+            rescale: RescalePolicy::TirUp,
+            method: Method::Adaptive(AdaptiveParams::default()),
+            ..Pipeline::default()
+        }),
+    ));
     for skip in [SkipPolicy::None, SkipPolicy::All] {
         for (m, variant) in [
             ("adf", Variant::Classic),
@@ -77,6 +87,17 @@ pub fn streams() -> Vec<(String, Stream)> {
         }
     }
     out
+}
+
+/// The streams named in `only` (every stream when `None`), in [`streams`] order.
+pub fn selected(only: Option<&[String]>) -> Result<Vec<(String, Stream)>> {
+    let all = streams();
+    let Some(only) = only else { return Ok(all) };
+    if let Some(bad) = only.iter().find(|n| !all.iter().any(|(s, _)| s == *n)) {
+        let names: Vec<&str> = all.iter().map(|(s, _)| s.as_str()).collect();
+        anyhow::bail!("unknown source '{bad}'; the sources are {}", names.join(", "));
+    }
+    Ok(all.into_iter().filter(|(s, _)| only.contains(s)).collect())
 }
 
 /// What one stream gave on one frame.
@@ -292,13 +313,15 @@ struct Tracked {
 
 /// Runs the benchmark over one sequence folder: every stream, every frame (or the first
 /// `frames`). Frames are processed in order per stream; streams run in parallel.
-pub fn run_sequence(dir: &Path, frames: Option<usize>) -> Result<Vec<FrameResult>> {
+///
+/// `only`: the stream names to run (all when `None`; an unknown name is an error).
+pub fn run_sequence(dir: &Path, frames: Option<usize>, only: Option<&[String]>) -> Result<Vec<FrameResult>> {
     let m = read_manifest(dir)?;
     let n = frames.unwrap_or(m.frames.len()).min(m.frames.len());
     let scene = Scene::tango()?.with_surface_detail(m.config.surface_seed);
     let name = m.config.name.as_str().to_string();
     let pairs = test_pairs();
-    let all = streams();
+    let all = selected(only)?;
     // Depth per frame, shared by the streams.
     let data: Vec<FrameData> =
         (0..n).into_par_iter().map(|i| load_frame(dir, &m, i)).collect::<Result<_>>()?;

@@ -1,0 +1,309 @@
+//! Illumination-adaptive fusion for navigation: the fused stream never worse than the better
+//! single camera (issue 20; measured with `fusion navbench`, `BENCHMARKS.md`).
+//!
+//! The published methods weigh the two bands by pixel statistics alone. In eclipse that halves
+//! the target (a black VIS frame is averaged in), and in light their output is noisier than
+//! the thermal frame. This method decides from the [scene analysis](crate::scene) how much
+//! each camera contributes, once per frame, and per pixel where VIS is clipped.
+//!
+//! # The rule
+//!
+//! With `B_k` the `n × n` box mean (replicate border; `n` = [`AdaptiveParams::base_size`],
+//! 35 as TSIFSD's base layer), `G_VIS` the VIS smoothed by the 3×3 binomial `[1 2 1]ᵀ[1 2 1]/16`
+//! (replicate border) and `a` the **VIS share** of the frame in `[0, 1]`:
+//!
+//! ```text
+//! F = max(B_VIS, B_TIR) + (G_VIS − B_VIS) + (1 − a)·(I_TIR − B_TIR)       (a > 0)
+//! F = I_TIR                                                              (a = 0)
+//! out = (1 − g)·F + g·I_TIR,   g = clamp((16·G_VIS − 16·glare_level) / 256, 0, 1)
+//! ```
+//!
+//! rounded half away from zero and saturated to `0..=255`.
+//!
+//! * **Base**: the brighter band's local mean. The target is bright in whichever band sees it
+//!   (sunlit in VIS, warm in TIR), so it is never darkened by the other band's black.
+//! * **Detail**: the VIS detail, smoothed by the binomial (σ ≈ 0.7 px: the sensor noise of the
+//!   black background falls to ≈ 40 %, corners stay), plus the TIR detail weighted by the share
+//!   VIS does not cover.
+//! * **VIS share `a`** ([`vis_weight_q8`]): the analysis counts each band's signal samples (above
+//!   its 6σ noise threshold, [`crate::scene::BandStats`]). Their frame fractions' ratio
+//!   `ρ = (s_VIS/n_VIS) / (s_TIR/n_TIR)` says how much of what TIR sees is lit in VIS:
+//!   `a = clamp((ρ − lo)/(hi − lo), 0, 1)` with `lo` = 2.5 %, `hi` = 12.5 %; `a = 0` when VIS
+//!   has fewer than [`AdaptiveParams::min_vis_samples`] signal samples (eclipse, or the unlit
+//!   side), `a = 1` when TIR has none. At `a = 0` the **thermal frame passes through**
+//!   unchanged ([`Guards::ADAPTIVE_TIR_ONLY`]): in eclipse the fused stream *is* the thermal
+//!   stream, bit for bit.
+//! * **Glare**: where the smoothed VIS is above `glare_level` (239) the pixel fades to the TIR
+//!   pixel, fully at 255: clipped VIS carries no structure, TIR does ([`Guards::ADAPTIVE_GLARE`]).
+//!
+//! # Number formats
+//!
+//! With `N = n²`, box sums `Σ_k` (scale `1/N`), binomial sum `Γ` (scale `1/16`), `ā = 256 − a_q8`
+//! and `D = 4096·N`:
+//!
+//! ```text
+//! U = 4096·max(0, Σ_TIR − Σ_VIS) + 256·N·Γ + 16·ā·(N·I_TIR − Σ_TIR)       F = U / D
+//! ```
+//!
+//! exact in `i64` (`|U| < 2³²` for `n ≤ 35`); one rounding, the final one. Outside glare the
+//! 8-bit output is `⌊(2U + D) / 2D⌋` for `0 < U < 255.5·D` — one unsigned 32-bit division per
+//! pixel, no 64-bit division (a library call on the 32-bit targets). A glare pixel (rare) takes
+//! one `i64` division.
+//!
+//! # Memory and strips
+//!
+//! Two rows of column sums (`2·W` `i32` words) slid down the frame; no plane. The row form
+//! ([`fuse_adaptive_rows`]) starts at any row of a window that holds the rows it reads
+//! (`max(n/2, 1)` above and below, cut at the frame's edges), which is the strip form
+//! ([`crate::strips`]); the whole frame is the window of one strip.
+
+use super::Guards;
+use crate::scene::{BandStats, SceneParams, analyze};
+use crate::{Error, FrameMut, FrameRef};
+use core::ops::Range;
+
+/// Parameters of the adaptive fusion. [`Default`] is the setting measured in `BENCHMARKS.md`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct AdaptiveParams {
+    /// Side of the base layer's box mean, odd, `3..=35`.
+    pub base_size: u16,
+    /// Fewer VIS signal samples than this (of the analysis's subsample, above the 6σ
+    /// threshold): VIS has no usable signal and the TIR frame passes through.
+    pub min_vis_samples: u32,
+    /// Local VIS mean above the VIS background level from which a pixel counts as lit, grey
+    /// levels.
+    pub lit_offset: u8,
+    /// Grey levels over which the lit share rises from 0 to 1, `≥ 1`.
+    pub lit_span: u8,
+    /// Smoothed VIS level from which a pixel fades to TIR (fully at 255), `< 255`.
+    pub glare_level: u8,
+}
+
+impl Default for AdaptiveParams {
+    fn default() -> Self {
+        Self { base_size: 35, min_vis_samples: 4, lit_offset: 8, lit_span: 48, glare_level: 239 }
+    }
+}
+
+impl AdaptiveParams {
+    /// Checks every field's documented range ([`Error::InvalidParameter`] names the field).
+    pub fn validate(&self) -> Result<(), Error> {
+        if self.base_size.is_multiple_of(2) || !(3..=35).contains(&self.base_size) {
+            return Err(Error::InvalidParameter { name: "base_size" });
+        }
+        if self.lit_span == 0 {
+            return Err(Error::InvalidParameter { name: "lit_span" });
+        }
+        if self.glare_level == 255 {
+            return Err(Error::InvalidParameter { name: "glare_level" });
+        }
+        Ok(())
+    }
+
+    /// Rows (and columns) the output reads on each side: the box's radius, at least the
+    /// binomial's 1.
+    pub fn halo(&self) -> usize {
+        usize::from(self.base_size / 2).max(1)
+    }
+}
+
+/// The per-frame decision of the adaptive method, from the scene analysis of the input frames.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Decision {
+    /// VIS has no usable signal: the TIR frame passes through.
+    TirOnly,
+    /// Blend, with the VIS background level the lit share is measured from.
+    Blend {
+        /// VIS background level (the analysis's median).
+        vis_level: u8,
+    },
+}
+
+/// The decision for a frame pair from its VIS band statistics.
+pub fn decide(vis: &BandStats, p: &AdaptiveParams) -> Decision {
+    if vis.signal_samples < p.min_vis_samples.max(1) {
+        Decision::TirOnly
+    } else {
+        Decision::Blend { vis_level: vis.background }
+    }
+}
+
+/// The decision for a frame pair, from [`crate::scene::analyze`] of the two frames as given.
+pub fn decide_frames(
+    vis: FrameRef<'_, u8>,
+    tir: FrameRef<'_, u8>,
+    scene: &SceneParams,
+    p: &AdaptiveParams,
+) -> Result<Decision, Error> {
+    let s = analyze(vis, tir, vis.size(), scene)?;
+    Ok(decide(&s.vis, p))
+}
+
+/// Frame row `y` clamped to `0..=last` (replicate), read from a window starting at frame row
+/// `y0`.
+#[inline(always)]
+fn window_row(f: FrameRef<'_, u8>, y0: usize, last: usize, y: isize) -> &[u8] {
+    let y = (y.max(0) as usize).min(last);
+    f.row(y.saturating_sub(y0))
+}
+
+/// `i32` work words of the row form at width `w`: two rows of column sums.
+pub fn work_words(w: usize) -> usize {
+    2 * w
+}
+
+/// Fuses a whole same-size pair with the frame's `decision` into `out`; the
+/// scratch lends one row of two of its planes.
+pub fn fuse_adaptive(
+    vis: FrameRef<'_, u8>,
+    tir: FrameRef<'_, u8>,
+    mut out: FrameMut<'_, u8>,
+    p: &AdaptiveParams,
+    decision: Decision,
+    scratch: &mut crate::ScratchMut<'_>,
+) -> Result<Guards, Error> {
+    super::check_sizes(&vis, &tir, out.size())?;
+    let (w, h) = vis.size();
+    let [a, b, _] = scratch.planes(w)?;
+    fuse_adaptive_rows(vis, tir, 0, h, 0..h, &mut out, p, decision, [a, b])
+}
+
+/// The row form: `vis` and `tir` are rows `y0..` of a frame `frame_h` rows high (a window that
+/// holds every row the output rows `strip` read: [`AdaptiveParams::halo`] above and below, cut at
+/// the frame's edges); `out` holds the rows `strip` only; `cols` are two rows of at least `W`
+/// words (column sums). Bit-identical to the same rows of [`fuse_adaptive`] on the whole frame.
+#[allow(clippy::too_many_arguments)]
+pub fn fuse_adaptive_rows(
+    vis: FrameRef<'_, u8>,
+    tir: FrameRef<'_, u8>,
+    y0: usize,
+    frame_h: usize,
+    strip: Range<usize>,
+    out: &mut FrameMut<'_, u8>,
+    p: &AdaptiveParams,
+    decision: Decision,
+    cols: [&mut [i32]; 2],
+) -> Result<Guards, Error> {
+    p.validate()?;
+    let (w, wh) = vis.size();
+    if tir.size() != (w, wh) {
+        return Err(Error::SizeMismatch { expected: (w, wh), got: tir.size() });
+    }
+    if out.size() != (w, strip.len()) {
+        return Err(Error::SizeMismatch { expected: (w, strip.len()), got: out.size() });
+    }
+    let r = usize::from(p.base_size / 2);
+    let halo = p.halo();
+    // Every row the strip reads, clamped to the frame, must be in the window.
+    let need0 = strip.start.saturating_sub(halo);
+    let need1 = strip.end.saturating_add(halo).min(frame_h);
+    if strip.start > strip.end || strip.end > frame_h || need0 < y0 || need1 > y0 + wh {
+        return Err(Error::InvalidParameter { name: "strip" });
+    }
+    let mut guards = Guards::NONE;
+    let Decision::Blend { vis_level } = decision else {
+        for (o, y) in out.rows_mut().zip(strip) {
+            o.copy_from_slice(tir.row(y - y0));
+        }
+        return Ok(guards.with(Guards::ADAPTIVE_TIR_ONLY));
+    };
+    let [col_v, col_t] = cols;
+    let capacity = col_v.len().min(col_t.len());
+    let too_small = Error::ScratchTooSmall { needed: w, capacity };
+    let col_v = col_v.get_mut(..w).ok_or(too_small)?;
+    let col_t = col_t.get_mut(..w).ok_or(too_small)?;
+    let last = frame_h.saturating_sub(1);
+    // A frame row, clamped to the frame (replicate), from the window.
+
+    let n = (2 * r + 1) as i64;
+    let big_n = n * n;
+    let d = 4096 * big_n;
+    // Lit share a = clamp((Σ_VIS − N·(level + offset)) / (N·span), 0, 1) in Q8, one 32-bit
+    // division: the numerator is at most N·span·256 < 2²⁴.
+    let lit0 = (big_n * (i64::from(vis_level) + i64::from(p.lit_offset))) as i32;
+    let lit_den = (big_n * i64::from(p.lit_span)) as i32;
+    let glare16 = 16 * i32::from(p.glare_level);
+    let (r_i, xmax) = (r as isize, w as isize - 1);
+    let at = |x: isize| (x.clamp(0, xmax)) as usize;
+    for (k, (orow, y)) in out.rows_mut().zip(strip.clone()).enumerate() {
+        let yi = y as isize;
+        if k == 0 {
+            col_v.fill(0);
+            col_t.fill(0);
+            for dy in -r_i..=r_i {
+                for ((cv, ct), (&v, &t)) in col_v
+                    .iter_mut()
+                    .zip(col_t.iter_mut())
+                    .zip(window_row(vis, y0, last, yi + dy).iter().zip(window_row(tir, y0, last, yi + dy)))
+                {
+                    *cv += i32::from(v);
+                    *ct += i32::from(t);
+                }
+            }
+        } else {
+            let (add_v, sub_v) =
+                (window_row(vis, y0, last, yi + r_i), window_row(vis, y0, last, yi - r_i - 1));
+            let (add_t, sub_t) =
+                (window_row(tir, y0, last, yi + r_i), window_row(tir, y0, last, yi - r_i - 1));
+            for (cv, (&a, &s)) in col_v.iter_mut().zip(add_v.iter().zip(sub_v)) {
+                *cv += i32::from(a) - i32::from(s);
+            }
+            for (ct, (&a, &s)) in col_t.iter_mut().zip(add_t.iter().zip(sub_t)) {
+                *ct += i32::from(a) - i32::from(s);
+            }
+        }
+        let (vu, vc, vd) = (
+            window_row(vis, y0, last, yi - 1),
+            window_row(vis, y0, last, yi),
+            window_row(vis, y0, last, yi + 1),
+        );
+        let trow = window_row(tir, y0, last, yi);
+        let px = |r: &[u8], x: usize| i32::from(r.get(x).copied().unwrap_or(0));
+        let vert = |x: usize| px(vu, x) + 2 * px(vc, x) + px(vd, x);
+        let col = |c: &[i32], x: isize| c.get(at(x)).copied().unwrap_or(0);
+        let (mut sv, mut st) = (0i32, 0i32);
+        for dx in -r_i..=r_i {
+            sv += col(col_v, dx);
+            st += col(col_t, dx);
+        }
+        let (mut c_prev, mut c_here) = (vert(0), vert(0));
+        for (x, (o, &t)) in orow.iter_mut().zip(trow).enumerate() {
+            let xi = x as isize;
+            let c_next = vert(at(xi + 1));
+            let gamma = c_prev + 2 * c_here + c_next;
+            let t = i64::from(t);
+            let lit = (sv - lit0).clamp(0, lit_den);
+            let a_bar = 256 - i64::from((lit as u32 * 256) / lit_den.max(1) as u32);
+            let u = 4096 * i64::from((st - sv).max(0))
+                + 256 * big_n * i64::from(gamma)
+                + 16 * a_bar * (big_n * t - i64::from(st));
+            let g = (gamma - glare16).clamp(0, 256);
+            let value = if g == 0 {
+                if u <= 0 {
+                    if 2 * u <= -d { -1 } else { 0 }
+                } else if 2 * u >= 511 * d {
+                    256
+                } else {
+                    // 0 < U < 255.5·D < 2³¹ (n ≤ 35): exact in u32.
+                    ((2 * u + d) as u32 / (2 * d) as u32) as i64
+                }
+            } else {
+                guards |= Guards::ADAPTIVE_GLARE;
+                let g = i64::from(g);
+                let num = (256 - g) * u + g * t * d;
+                let den = 256 * d;
+                if num >= 0 { (2 * num + den) / (2 * den) } else { -((-2 * num + den) / (2 * den)) }
+            };
+            if !(0..=255).contains(&value) {
+                guards |= Guards::OUTPUT_SATURATED;
+            }
+            *o = value.clamp(0, 255) as u8;
+            // Slide the box and the binomial one column right.
+            sv += col(col_v, xi + r_i + 1) - col(col_v, xi - r_i);
+            st += col(col_t, xi + r_i + 1) - col(col_t, xi - r_i);
+            c_prev = c_here;
+            c_here = c_next;
+        }
+    }
+    Ok(guards)
+}

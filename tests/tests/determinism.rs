@@ -10,7 +10,9 @@
 //! with this test build's (x86-64, debug assertions on) when the images and QEMU are there.
 
 use fusion_nostd::pipeline::{Method, Pipeline, RescalePolicy, fuse};
-use fusion_nostd::{AdfParams, FrameMut, FrameRef, IfevipParams, ScratchMut, TsifsdParams, Variant};
+use fusion_nostd::{
+    AdaptiveParams, AdfParams, FrameMut, FrameRef, IfevipParams, ScratchMut, TsifsdParams, Variant,
+};
 use fusion_tests::{TestRng, scene};
 use host_harness::io::Gray;
 
@@ -21,6 +23,7 @@ fn methods() -> Vec<Method> {
         all.push(Method::Tsifsd(TsifsdParams { variant, ..TsifsdParams::default() }));
         all.push(Method::Ifevip(IfevipParams { variant, ..IfevipParams::default() }));
     }
+    all.push(Method::Adaptive(AdaptiveParams::default()));
     all
 }
 
@@ -196,6 +199,7 @@ fn fw_selftest_matches_the_host() {
         ("adf", Method::Adf(AdfParams::default())),
         ("tsifsd", Method::Tsifsd(TsifsdParams::default())),
         ("ifevip", Method::Ifevip(IfevipParams::default())),
+        ("adaptive", Method::Adaptive(AdaptiveParams::default())),
     ] {
         let p = Pipeline { rescale: RescalePolicy::TirUp, method, ..Default::default() };
         let fused = host_harness::cli::fuse::fuse_core(&vis, &tir, &p, false).unwrap();

@@ -3,13 +3,13 @@
 
 use fusion_nostd::fuse::{Guards, round_away_sat_u8};
 use fusion_nostd::pipeline::{Method, Pipeline, RescalePolicy, fuse, fuse_raw, fusion_grid};
-use fusion_nostd::{AdfParams, Error, Filter, IfevipParams, TsifsdParams, Variant, rescale};
+use fusion_nostd::{AdaptiveParams, AdfParams, Error, Filter, IfevipParams, TsifsdParams, Variant, rescale};
 use fusion_tests::{assert_same, scene};
 use host_harness::CoreScratch;
 use host_harness::cli::fuse::{fuse_core, fuse_reference};
 use host_harness::io::Gray;
 
-fn methods() -> [Method; 6] {
+fn methods() -> [Method; 7] {
     let (c, f) = (Variant::Classic, Variant::Flight);
     [
         Method::Adf(AdfParams { variant: c, ..AdfParams::default() }),
@@ -18,6 +18,7 @@ fn methods() -> [Method; 6] {
         Method::Tsifsd(TsifsdParams { variant: f, ..TsifsdParams::default() }),
         Method::Ifevip(IfevipParams { variant: c, ..IfevipParams::default() }),
         Method::Ifevip(IfevipParams::default()),
+        Method::Adaptive(AdaptiveParams::default()),
     ]
 }
 
@@ -45,13 +46,14 @@ fn resized(img: &Gray<u8>, w: usize, h: usize, filter: Filter) -> Gray<u8> {
 
 /// TIR up (bicubic onto the VIS grid) and VIS down (area onto the TIR grid) equal the rescale
 /// followed by the method on the same-size pair, for every method and variant, at an odd
-/// VIS size and a 2:1 ratio.
+/// VIS size and a 2:1 ratio. (The adaptive method decides per frame on the input frames,
+/// before the rescale: `tests/adaptive.rs` checks it with that decision.)
 #[test]
 fn policies_equal_rescale_then_fuse() -> Result<(), Error> {
     for (vw, vh) in [(96, 64), (75, 41)] {
         let (tw, th) = (vw / 2 + vw % 2, vh / 2);
         let (vis, tir) = (scene(vw, vh, 1), scene(tw, th, 2));
-        for method in methods() {
+        for method in methods().into_iter().filter(|m| !matches!(m, Method::Adaptive(_))) {
             let up =
                 run(&vis, &tir, &Pipeline { rescale: RescalePolicy::TirUp, method, ..Default::default() })?;
             let by_hand = run(
@@ -114,7 +116,9 @@ fn raw_value_casts_to_the_output() -> Result<(), Error> {
             &p,
         );
         match method {
-            Method::Ifevip(_) => assert_eq!(r, Err(Error::InvalidParameter { name: "method" })),
+            Method::Ifevip(_) | Method::Adaptive(_) => {
+                assert_eq!(r, Err(Error::InvalidParameter { name: "method" }))
+            }
             _ => {
                 r?;
                 let cast: Vec<u8> = raw.data.iter().map(|&v| round_away_sat_u8(i64::from(v), 16)).collect();

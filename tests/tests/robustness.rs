@@ -8,14 +8,14 @@ use fusion_nostd::fuse::tsifsd::{fuse_tsifsd, fuse_tsifsd_raw};
 use fusion_nostd::pipeline::{Method, Pipeline, RescalePolicy, fuse, fuse_method, fuse_raw};
 use fusion_nostd::rescale::F32_MAX_MAGNITUDE;
 use fusion_nostd::{
-    AdfParams, Error, Filter, FrameMut, FrameRef, IfevipParams, MAX_DIMENSION, ScratchMut, TsifsdParams,
-    Variant, rescale,
+    AdaptiveParams, AdfParams, Error, Filter, FrameMut, FrameRef, IfevipParams, MAX_DIMENSION, ScratchMut,
+    TsifsdParams, Variant, rescale,
 };
 use fusion_tests::{TestRng, scene};
 use host_harness::CoreScratch;
 use host_harness::io::Gray;
 
-fn methods() -> [Method; 6] {
+fn methods() -> [Method; 7] {
     let (c, f) = (Variant::Classic, Variant::Flight);
     [
         Method::Adf(AdfParams { variant: c, ..AdfParams::default() }),
@@ -24,6 +24,7 @@ fn methods() -> [Method; 6] {
         Method::Tsifsd(TsifsdParams { variant: f, ..TsifsdParams::default() }),
         Method::Ifevip(IfevipParams { variant: c, ..IfevipParams::default() }),
         Method::Ifevip(IfevipParams { variant: f, ..IfevipParams::default() }),
+        Method::Adaptive(AdaptiveParams::default()),
     ]
 }
 

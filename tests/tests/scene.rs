@@ -6,7 +6,7 @@
 use anyhow::Result;
 use fusion_nostd::pipeline::{Method, Pipeline, RescalePolicy, SkipPolicy, Skips};
 use fusion_nostd::scene::{Decline, Illumination, Rect, SceneParams, analyze};
-use fusion_nostd::{AdfParams, Error, IfevipParams, TsifsdParams, Variant};
+use fusion_nostd::{AdaptiveParams, AdfParams, Error, IfevipParams, TsifsdParams, Variant};
 use host_harness::io::{Gray, vifb_pairs};
 use host_harness::skip::{first_difference_in, fuse_once, skip_error};
 use host_harness::study::Dataset;
@@ -22,6 +22,7 @@ fn methods() -> Vec<(&'static str, Method)> {
             Method::Tsifsd(TsifsdParams { variant: Variant::Classic, ..TsifsdParams::default() }),
         ),
         ("ifevip", Method::Ifevip(IfevipParams::default())),
+        ("adaptive", Method::Adaptive(AdaptiveParams::default())),
     ]
 }
 

@@ -1,5 +1,6 @@
 //! Strip processing (`fusion_nostd::strips::fuse_strips`): the output and the guards are
-//! bit-identical to the whole-frame pipeline for TSIFSD, ADF and IFEVIP (both variants each), every
+//! bit-identical to the whole-frame pipeline for TSIFSD, ADF and IFEVIP (both variants each) and
+//! the adaptive method, every
 //! rescale policy, many strip heights, on synthetic, rendered and VIFB frames; the working set
 //! stays within the 512 KiB scratch; what strips do not run is an `Err` that leaves the output
 //! untouched.
@@ -7,7 +8,7 @@
 use anyhow::Result;
 use fusion_nostd::pipeline::{Method, Pipeline, RescalePolicy, SkipPolicy};
 use fusion_nostd::strips::{STRIP_SCRATCH_BYTES, StripScratchMut, fuse_strips};
-use fusion_nostd::{AdfParams, Error, IfevipParams, TsifsdParams, Variant};
+use fusion_nostd::{AdaptiveParams, AdfParams, Error, IfevipParams, TsifsdParams, Variant};
 use host_harness::io::{Gray, vifb_pairs};
 use host_harness::skip::fuse_once;
 use host_harness::strips::{HostStripScratch, fuse_strips_once};
@@ -26,6 +27,8 @@ fn methods() -> Vec<(&'static str, Method)> {
         ("adf", Method::Adf(AdfParams::default())),
         ("adf-classic", Method::Adf(AdfParams { variant: Variant::Classic, ..AdfParams::default() })),
         ("adf-3it", Method::Adf(AdfParams { iterations: 3, ..AdfParams::default() })),
+        ("adaptive", Method::Adaptive(AdaptiveParams::default())),
+        ("adaptive-n7", Method::Adaptive(AdaptiveParams { base_size: 7, ..AdaptiveParams::default() })),
         ("ifevip", Method::Ifevip(IfevipParams::default())),
         (
             "ifevip-classic",

@@ -10,36 +10,45 @@
 //!
 //! With `B_k` the `n × n` box mean (replicate border; `n` = [`AdaptiveParams::base_size`],
 //! 35 as TSIFSD's base layer), `G_VIS` the VIS smoothed by the 3×3 binomial `[1 2 1]ᵀ[1 2 1]/16`
-//! (replicate border) and `a` the **VIS share** of the frame in `[0, 1]`:
+//! (replicate border), `ℓ` the VIS background level and `a` the pixel's **lit share**:
 //!
 //! ```text
-//! F = max(B_VIS, B_TIR) + (G_VIS − B_VIS) + (1 − a)·(I_TIR − B_TIR)       (a > 0)
-//! F = I_TIR                                                              (a = 0)
-//! out = (1 − g)·F + g·I_TIR,   g = clamp((16·G_VIS − 16·glare_level) / 256, 0, 1)
+//! per frame:  VIS has no signal  →  out = I_TIR                        (the TIR frame passes through)
+//! per pixel:  a = clamp((B_VIS − ℓ − lit_offset) / lit_span, 0, 1)     (quantised to ⌊256·a⌋/256)
+//!             F = max(B_VIS, B_TIR) + (G_VIS − B_VIS) + (1 − a)·(I_TIR − B_TIR)
+//!             g = clamp((G_VIS − glare_level) / 16, 0, 1)
+//!             out = (1 − g)·F + g·I_TIR
 //! ```
 //!
 //! rounded half away from zero and saturated to `0..=255`.
 //!
+//! * **Per frame** ([`decide`]): VIS has no usable signal when the analysis finds fewer than
+//!   [`AdaptiveParams::min_vis_samples`] samples above its 6σ noise threshold
+//!   ([`crate::scene::BandStats`]) — eclipse, or the target's unlit side. Then the thermal frame
+//!   passes through unchanged ([`Guards::ADAPTIVE_TIR_ONLY`]): in eclipse the fused stream *is*
+//!   the thermal stream, bit for bit, never darker.
 //! * **Base**: the brighter band's local mean. The target is bright in whichever band sees it
 //!   (sunlit in VIS, warm in TIR), so it is never darkened by the other band's black.
 //! * **Detail**: the VIS detail, smoothed by the binomial (σ ≈ 0.7 px: the sensor noise of the
-//!   black background falls to ≈ 40 %, corners stay), plus the TIR detail weighted by the share
-//!   VIS does not cover.
-//! * **VIS share `a`** ([`vis_weight_q8`]): the analysis counts each band's signal samples (above
-//!   its 6σ noise threshold, [`crate::scene::BandStats`]). Their frame fractions' ratio
-//!   `ρ = (s_VIS/n_VIS) / (s_TIR/n_TIR)` says how much of what TIR sees is lit in VIS:
-//!   `a = clamp((ρ − lo)/(hi − lo), 0, 1)` with `lo` = 2.5 %, `hi` = 12.5 %; `a = 0` when VIS
-//!   has fewer than [`AdaptiveParams::min_vis_samples`] signal samples (eclipse, or the unlit
-//!   side), `a = 1` when TIR has none. At `a = 0` the **thermal frame passes through**
-//!   unchanged ([`Guards::ADAPTIVE_TIR_ONLY`]): in eclipse the fused stream *is* the thermal
-//!   stream, bit for bit.
+//!   black background falls to ≈ 40 %, corners stay), plus the TIR detail where VIS is not lit:
+//!   weight `1 − a`, 1 on the unlit side and on the background, 0 where the local VIS mean is
+//!   `lit_offset + lit_span` (8 + 48) levels above the background. The unlit parts of a sunlit
+//!   target keep their thermal corners; the lit parts their finer VIS texture.
 //! * **Glare**: where the smoothed VIS is above `glare_level` (239) the pixel fades to the TIR
-//!   pixel, fully at 255: clipped VIS carries no structure, TIR does ([`Guards::ADAPTIVE_GLARE`]).
+//!   pixel, fully at 255: clipped VIS carries no structure, TIR does
+//!   ([`Guards::ADAPTIVE_GLARE`]).
+//!
+//! The rule was chosen on `fusion navbench` (the rendezvous sequences, study noise) among
+//! variants measured side by side (`BENCHMARKS.md`, "Navigation benchmark"): a frame-wide VIS
+//! share instead of the per-pixel lit share lost tracking on the frames where VIS sees a sliver
+//! of the target (lost 0.24 against 0.16); no smoothing of the VIS detail left the CNR below the
+//! thermal frame's; smoothing the TIR detail too halved the thermal corners in eclipse.
 //!
 //! # Number formats
 //!
-//! With `N = n²`, box sums `Σ_k` (scale `1/N`), binomial sum `Γ` (scale `1/16`), `ā = 256 − a_q8`
-//! and `D = 4096·N`:
+//! With `N = n²`, box sums `Σ_k` (scale `1/N`), binomial sum `Γ` (scale `1/16`), the lit share
+//! `a_q8 = ⌊256·clamp(Σ_VIS − N·(ℓ + lit_offset), 0, N·lit_span) / (N·lit_span)⌋` (one 32-bit
+//! division), `ā = 256 − a_q8` and `D = 4096·N`:
 //!
 //! ```text
 //! U = 4096·max(0, Σ_TIR − Σ_VIS) + 256·N·Γ + 16·ā·(N·I_TIR − Σ_TIR)       F = U / D
@@ -152,8 +161,9 @@ pub fn work_words(w: usize) -> usize {
     2 * w
 }
 
-/// Fuses a whole same-size pair with the frame's `decision` into `out`; the
-/// scratch lends one row of two of its planes.
+/// Fuses a whole same-size pair with the frame's `decision` into `out`. The scratch is checked
+/// against the pipeline's contract (`W·H` per plane, as every method) though only one row of
+/// two planes is used; the strip form needs just those `2·W` words.
 pub fn fuse_adaptive(
     vis: FrameRef<'_, u8>,
     tir: FrameRef<'_, u8>,
@@ -164,7 +174,7 @@ pub fn fuse_adaptive(
 ) -> Result<Guards, Error> {
     super::check_sizes(&vis, &tir, out.size())?;
     let (w, h) = vis.size();
-    let [a, b, _] = scratch.planes(w)?;
+    let [a, b, _] = scratch.planes(w.saturating_mul(h))?;
     fuse_adaptive_rows(vis, tir, 0, h, 0..h, &mut out, p, decision, [a, b])
 }
 

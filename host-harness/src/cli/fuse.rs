@@ -260,7 +260,7 @@ pub fn fuse_core(vis: &Gray<u8>, tir: &Gray<u8>, pipeline: &Pipeline, with_raw: 
     let (out, (w, h)) = (run.fused, run.report.grid);
     let raw = match (with_raw, &pipeline.method) {
         (false, _) => None,
-        (true, Method::Ifevip(_)) => Some(to_f64(&out)),
+        (true, Method::Ifevip(_) | Method::Adaptive(_)) => Some(to_f64(&out)),
         (true, _) => {
             let mut raw = Gray::<i32>::new(w, h);
             let mut scratch =

@@ -17,7 +17,7 @@
 //! `SceneParams::default()` (the host builds the same [`Pipeline`] for its comparison run).
 
 use fusion_nostd::pipeline::{Method, Pipeline, RescalePolicy, SkipPolicy};
-use fusion_nostd::{AdfParams, IfevipParams, TsifsdParams, Variant};
+use fusion_nostd::{AdaptiveParams, AdfParams, IfevipParams, TsifsdParams, Variant};
 
 /// Most runs in one job.
 pub const MAX_RUNS: usize = 32;
@@ -84,7 +84,7 @@ impl Job {
                 2 => RescalePolicy::None,
                 _ => return Err("job.bin: bad rescale policy"),
             };
-            if method > 2 {
+            if method > 3 {
                 return Err("job.bin: bad method");
             }
             let skip = match (flags >> 2) & 3 {
@@ -139,6 +139,7 @@ impl Run {
         let method = match self.method {
             0 => Method::Adf(AdfParams { variant: v, ..AdfParams::default() }),
             2 => Method::Ifevip(IfevipParams { variant: v, ..IfevipParams::default() }),
+            3 => Method::Adaptive(AdaptiveParams::default()),
             _ => Method::Tsifsd(TsifsdParams { variant: v, ..TsifsdParams::default() }),
         };
         Pipeline { rescale: self.policy, method, skip: self.skip, ..Default::default() }
@@ -163,6 +164,7 @@ impl Run {
         match self.method {
             0 => "adf.fuse",
             2 => "ifevip.fuse",
+            3 => "adaptive.fuse",
             _ => "tsifsd.fuse",
         }
     }
@@ -191,15 +193,17 @@ pub fn name_of(method: &Method) -> &'static str {
         Method::Adf(_) => "adf",
         Method::Tsifsd(_) => "tsifsd",
         Method::Ifevip(_) => "ifevip",
+        Method::Adaptive(_) => "adaptive",
     }
 }
 
-/// The three methods with default (flight) parameters.
-pub fn default_methods() -> [Method; 3] {
+/// The four methods with default (flight) parameters.
+pub fn default_methods() -> [Method; 4] {
     [
         Method::Adf(AdfParams::default()),
         Method::Tsifsd(TsifsdParams::default()),
         Method::Ifevip(IfevipParams::default()),
+        Method::Adaptive(AdaptiveParams::default()),
     ]
 }
 

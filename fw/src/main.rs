@@ -266,11 +266,12 @@ fn exercise_entry_points() {
     #[cfg(not(feature = "rescale-only"))]
     {
         use fusion_nostd::pipeline::{Method, Pipeline, RescalePolicy, fuse, fuse_raw};
-        use fusion_nostd::{AdfParams, IfevipParams, ScratchMut, TsifsdParams};
+        use fusion_nostd::{AdaptiveParams, AdfParams, IfevipParams, ScratchMut, TsifsdParams};
         let methods = [
             Method::Adf(AdfParams::default()),
             Method::Tsifsd(TsifsdParams::default()),
             Method::Ifevip(IfevipParams::default()),
+            Method::Adaptive(AdaptiveParams::default()),
         ];
         let policies = [RescalePolicy::TirUp, RescalePolicy::VisDown, RescalePolicy::None];
         let (vw, vh, tw, th, ow, oh) =

@@ -6,7 +6,9 @@ use crate::{Meter, OUT, SCRATCH, STRIP_SCRATCH, TIR, VIS, fnv1a, job, say, sizes
 use core::fmt::Write;
 use fusion_nostd::fuse::adf::{Band, diffuse_pair};
 use fusion_nostd::fuse::ifevip::background;
-use fusion_nostd::pipeline::{FuseReport, Method, Pipeline, RescalePolicy, fuse, fuse_method, fusion_grid};
+use fusion_nostd::pipeline::{
+    FuseReport, Method, Pipeline, RescalePolicy, adaptive_decision, fuse, fuse_method_decided, fusion_grid,
+};
 use fusion_nostd::scene::Decline;
 use fusion_nostd::strips::fuse_strips;
 use fusion_nostd::{Filter, FrameMut, FrameRef, Guards, ScratchMut, rescale};
@@ -83,9 +85,15 @@ fn staged(
         Method::Ifevip(p) => {
             m.region("ifevip.background", || background(tg, p, &mut planes))?;
         }
+        Method::Adaptive(_) => {}
     }
+    // The adaptive method decides on the input frames (the scene analysis), as the pipeline;
+    // its region holds that analysis and the blend.
     let method = &pipeline.method;
-    let guards = m.region(tag, || fuse_method(vg, tg, out, method, &mut planes))?;
+    let guards = m.region(tag, || {
+        let decision = adaptive_decision(vis, tir, pipeline)?;
+        fuse_method_decided(vg, tg, out, method, &mut planes, decision)
+    })?;
     Ok(guards)
 }
 

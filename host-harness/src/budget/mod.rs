@@ -50,9 +50,8 @@ fn method_stages(m: MethodArg) -> &'static [(&'static str, &'static str, &'stati
             "ifevip.background",
             "IR background: resize, quadtree, erosion, Bézier, smoothing",
         )],
-        MethodArg::Adaptive => {
-            &[("share", "adaptive.share", "scene analysis of both input frames: the VIS share")]
-        }
+        // One pass after the analysis; the analysis is inside the method's region.
+        MethodArg::Adaptive => &[],
     }
 }
 
@@ -65,7 +64,10 @@ fn remainder_stage(m: MethodArg) -> (&'static str, &'static str) {
             "one pass: 35×35 window sums of IR − VIS, Scharr saliency, weights, reconstruction",
         ),
         MethodArg::Ifevip => ("features_reconstruct", "entropy, IR features, peak, reconstruction"),
-        MethodArg::Adaptive => ("blend", "one pass: box means of both bands, VIS binomial, blend"),
+        MethodArg::Adaptive => (
+            "analysis_blend",
+            "scene analysis of the input frames (the decision), then one pass: box means, VIS binomial, blend",
+        ),
     }
 }
 

@@ -44,7 +44,7 @@ pub struct BudgetArgs {
     /// Fusion grid(s) to measure.
     #[arg(long, value_enum, default_value_t = SizeArg::All)]
     pub size: SizeArg,
-    /// Methods to measure (comma-separated) [default: all three].
+    /// Methods to measure (comma-separated) [default: all four].
     #[arg(long, value_enum, value_delimiter = ',')]
     pub methods: Vec<MethodArg>,
     /// Runs of each budget job; the counts of all runs must be identical.
@@ -141,7 +141,7 @@ pub fn run(args: &BudgetArgs) -> Result<()> {
         SizeArg::All => vec![Grid::G512, Grid::G1024],
     };
     let methods = if args.methods.is_empty() {
-        vec![MethodArg::Adf, MethodArg::Tsifsd, MethodArg::Ifevip]
+        vec![MethodArg::Adf, MethodArg::Tsifsd, MethodArg::Ifevip, MethodArg::Adaptive]
     } else {
         args.methods.clone()
     };

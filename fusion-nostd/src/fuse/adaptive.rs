@@ -69,6 +69,7 @@
 use super::Guards;
 use crate::scene::{BandStats, SceneParams, analyze};
 use crate::{Error, FrameMut, FrameRef};
+use core::num::NonZeroU32;
 use core::ops::Range;
 
 /// Parameters of the adaptive fusion. [`Default`] is the setting measured in `BENCHMARKS.md`.
@@ -199,8 +200,11 @@ pub fn fuse_adaptive_rows(
     if tir.size() != (w, wh) {
         return Err(Error::SizeMismatch { expected: (w, wh), got: tir.size() });
     }
-    if out.size() != (w, strip.len()) {
-        return Err(Error::SizeMismatch { expected: (w, strip.len()), got: out.size() });
+    if out.size() != (w, strip.end.saturating_sub(strip.start)) {
+        return Err(Error::SizeMismatch {
+            expected: (w, strip.end.saturating_sub(strip.start)),
+            got: out.size(),
+        });
     }
     let r = usize::from(p.base_size / 2);
     let halo = p.halo();
@@ -213,7 +217,9 @@ pub fn fuse_adaptive_rows(
     let mut guards = Guards::NONE;
     let Decision::Blend { vis_level } = decision else {
         for (o, y) in out.rows_mut().zip(strip) {
-            o.copy_from_slice(tir.row(y - y0));
+            for (o, &t) in o.iter_mut().zip(tir.row(y.saturating_sub(y0))) {
+                *o = t;
+            }
         }
         return Ok(guards.with(Guards::ADAPTIVE_TIR_ONLY));
     };
@@ -232,9 +238,12 @@ pub fn fuse_adaptive_rows(
     // division: the numerator is at most N·span·256 < 2²⁴.
     let lit0 = (big_n * (i64::from(vis_level) + i64::from(p.lit_offset))) as i32;
     let lit_den = (big_n * i64::from(p.lit_span)) as i32;
+    let (Some(lit_div), Some(d2)) = (NonZeroU32::new(lit_den as u32), NonZeroU32::new((2 * d) as u32)) else {
+        return Err(Error::InvalidParameter { name: "base_size" });
+    };
     let glare16 = 16 * i32::from(p.glare_level);
     let (r_i, xmax) = (r as isize, w as isize - 1);
-    let at = |x: isize| (x.clamp(0, xmax)) as usize;
+    let at = |x: isize| x.min(xmax).max(0) as usize; // not clamp: its min ≤ max assert
     for (k, (orow, y)) in out.rows_mut().zip(strip.clone()).enumerate() {
         let yi = y as isize;
         if k == 0 {
@@ -282,8 +291,8 @@ pub fn fuse_adaptive_rows(
             let c_next = vert(at(xi + 1));
             let gamma = c_prev + 2 * c_here + c_next;
             let t = i64::from(t);
-            let lit = (sv - lit0).clamp(0, lit_den);
-            let a_bar = 256 - i64::from((lit as u32 * 256) / lit_den.max(1) as u32);
+            let lit = (sv - lit0).min(lit_den).max(0);
+            let a_bar = 256 - i64::from((lit as u32 * 256) / lit_div);
             let u = 4096 * i64::from((st - sv).max(0))
                 + 256 * big_n * i64::from(gamma)
                 + 16 * a_bar * (big_n * t - i64::from(st));
@@ -295,14 +304,21 @@ pub fn fuse_adaptive_rows(
                     256
                 } else {
                     // 0 < U < 255.5·D < 2³¹ (n ≤ 35): exact in u32.
-                    ((2 * u + d) as u32 / (2 * d) as u32) as i64
+                    i64::from((2 * u + d) as u32 / d2)
                 }
             } else {
                 guards |= Guards::ADAPTIVE_GLARE;
                 let g = i64::from(g);
                 let num = (256 - g) * u + g * t * d;
                 let den = 256 * d;
-                if num >= 0 { (2 * num + den) / (2 * den) } else { -((-2 * num + den) / (2 * den)) }
+                // |num| < 2⁴¹, den = 2⁸·D > 0: neither the zero nor the overflow case of the
+                // checked division can occur.
+                let q = if num >= 0 {
+                    (2 * num + den).checked_div(2 * den)
+                } else {
+                    (-2 * num + den).checked_div(2 * den).map(|q| -q)
+                };
+                q.unwrap_or(0)
             };
             if !(0..=255).contains(&value) {
                 guards |= Guards::OUTPUT_SATURATED;

@@ -9,6 +9,15 @@ fn fusion(args: &[&str]) -> std::process::Output {
 
 #[test]
 fn navbench_writes_the_summary_shape_csv_and_charts() {
+    // A source the benchmark does not know: one line naming it, nothing written.
+    let dir0 = tempfile::tempdir().unwrap();
+    let o = fusion(&["navbench", "--out", dir0.path().join("x").to_str().unwrap(), "--sources", "vis,nope"]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        !o.status.success() && err.contains("unknown source 'nope'") && err.trim().lines().count() == 1,
+        "{err}"
+    );
+    assert!(!dir0.path().join("x").exists());
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("nb");
     let o = fusion(&["navbench", "--out", out.to_str().unwrap(), "--frames", "44", "--vis-size", "128"]);
@@ -20,7 +29,7 @@ fn navbench_writes_the_summary_shape_csv_and_charts() {
     let json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("navbench.json")).unwrap()).unwrap();
     let sources = json["sources"].as_object().unwrap();
-    let mut expected = vec!["vis".to_string(), "tir".to_string()];
+    let mut expected = vec!["vis".to_string(), "tir".to_string(), "adaptive".to_string()];
     for m in ["adf", "tsifsd", "ifevip"] {
         for v in ["classic", "flight"] {
             expected.push(format!("{m}-{v}"));

@@ -25,7 +25,9 @@
 //!   `None`; the halo ring keeps the window's values; outside the window the output is the
 //!   background rule `round(½(level_VIS + level_TIR))` (the method's exact value on a flat
 //!   pair). The error outside is measured, not bounded a priori.
-//! * **ADF** (global KL covariance): only when the frame outside the *varying box* (pixels
+//! * **ADF** (global KL covariance): never on a noisy frame (a band analysed in blocks,
+//!   [`crate::scene::BlockStats`]): [`Decline::GlobalStatistic`]. Otherwise only when the frame
+//!   outside the *varying box* (pixels
 //!   differing from their band's level at all) is exactly constant — noiseless frames — and,
 //!   classic (zero padding), that level is 0. Then the detail layers vanish outside the box
 //!   grown by N (iterations), the covariance is the sum over that region with the frame's
@@ -451,6 +453,11 @@ fn plan(
         |r: &Rect| r.area() as u64 * 100 > full.area() as u64 * u64::from(pipeline.scene.max_roi_percent);
     let rescale2 = scene.rescale_needed;
     match &pipeline.method {
+        // Noisy frames: the KL covariance sums the detail layers of the whole frame, which a
+        // window cannot reproduce (and VIS is not the constant the eclipse plan assumes).
+        Method::Adf(_) if scene.vis_blocks.is_some() || scene.tir_blocks.is_some() => {
+            Plan::Full(Some(Decline::GlobalStatistic))
+        }
         Method::Adf(p) => {
             let vis_constant = eclipse;
             let varying = if vis_constant { scene.varying_tir } else { scene.varying };

@@ -13,12 +13,14 @@
 use super::fw::{self, Grid, Job, RunOut, RunSpec, Target};
 use crate::cli::fuse::{MethodArg, RescaleArg, SkipArg, VariantArg};
 use crate::io::Gray;
+use crate::io::{ColorPolicy, load_gray_u8};
 use crate::plot::{Labels, Series, Style, chart};
 use crate::skip::fuse_once;
 use crate::study::{Dataset, version};
 use anyhow::{Context, Result, bail, ensure};
 use fusion_nostd::pipeline::{FuseReport, Skips};
 use fusion_nostd::scene::Rect;
+use render_host::sequence::{SequenceManifest, SequenceName, read_manifest};
 use std::fmt::Write as _;
 use std::path::PathBuf;
 use std::time::Duration;
@@ -250,12 +252,81 @@ fn progress(msg: &str) {
     eprintln!("skip-study: {msg}");
 }
 
+/// Where the study's frame pairs come from: a study-layout dataset (`fusion render`: sets
+/// `vis_light`, `vis_eclipse`, the first `frames` frames) or a folder of rendezvous sequences
+/// (`fusion render --sequence`, or `fusion navbench`'s `data/`: `approach/`, `flyaround/`,
+/// `frames` frames spread evenly over each).
+enum Source {
+    Dataset(Box<Dataset>),
+    Sequences(Vec<(&'static str, PathBuf, SequenceManifest)>),
+}
+
+impl Source {
+    fn open(dir: &std::path::Path) -> Result<Source> {
+        if dir.join("manifest.json").is_file() {
+            return Ok(Source::Dataset(Box::new(Dataset::open(dir)?)));
+        }
+        let mut seqs = Vec::new();
+        for name in SequenceName::ALL {
+            let d = dir.join(name.as_str());
+            if d.join("manifest.json").is_file() {
+                seqs.push((name.as_str(), d.clone(), read_manifest(&d)?));
+            }
+        }
+        ensure!(
+            !seqs.is_empty(),
+            "{} holds neither a dataset (manifest.json) nor sequences (approach/, flyaround/)",
+            dir.display()
+        );
+        Ok(Source::Sequences(seqs))
+    }
+
+    /// `(set, frame)` of the pairs to study: at most `frames` per set.
+    fn pairs(&self, frames: usize) -> Vec<(&'static str, usize)> {
+        match self {
+            Source::Dataset(ds) => ["vis_light", "vis_eclipse"]
+                .into_iter()
+                .flat_map(|set| (0..frames.min(ds.frames())).map(move |f| (set, f)))
+                .collect(),
+            Source::Sequences(seqs) => seqs
+                .iter()
+                .flat_map(|(name, _, m)| {
+                    let n = m.frames.len();
+                    let k = frames.clamp(1, n.max(1));
+                    (0..k).map(move |i| (*name, i * n / k))
+                })
+                .collect(),
+        }
+    }
+
+    fn images(&self, set: &str, frame: usize, noisy: bool, tir_set: &str) -> Result<(Gray<u8>, Gray<u8>)> {
+        match self {
+            Source::Dataset(ds) => Ok((ds.image(set, frame, noisy)?, ds.image(tir_set, frame, noisy)?)),
+            Source::Sequences(seqs) => {
+                let (_, dir, m) = seqs.iter().find(|(n, _, _)| *n == set).context("no such sequence")?;
+                let f = m.frames.get(frame).context("no such frame")?;
+                let (v, t) = if noisy {
+                    (Some(&f.files.vis), Some(&f.files.tir))
+                } else {
+                    (f.files.vis_clean.as_ref(), f.files.tir_clean.as_ref())
+                };
+                let load = |rel: Option<&String>| -> Result<Gray<u8>> {
+                    let rel = rel.context("the sequence has no clean frames")?;
+                    load_gray_u8(&dir.join(rel), ColorPolicy::Refuse)
+                };
+                Ok((load(v)?, load(t)?))
+            }
+        }
+    }
+}
+
 /// Runs the study; writes `emulator_<target>.{md,csv}` into `report_dir` after every frame (so
 /// a cut run leaves its partial table). Fails when any target run differs from the host.
 pub fn run(opts: &StudyOptions) -> Result<Vec<Row>> {
-    let ds = Dataset::open(&opts.dataset)?;
-    let frames = opts.frames.min(ds.frames());
-    ensure!(frames > 0, "the dataset has no frames");
+    let src = Source::open(&opts.dataset)?;
+    let pairs = src.pairs(opts.frames);
+    let frames = opts.frames;
+    ensure!(!pairs.is_empty(), "the dataset has no frames");
     std::fs::create_dir_all(&opts.work).with_context(|| format!("cannot create {}", opts.work.display()))?;
     std::fs::create_dir_all(&opts.report_dir)?;
     let target = opts.target;
@@ -271,11 +342,10 @@ pub fn run(opts: &StudyOptions) -> Result<Vec<Row>> {
     let mut diffs = Vec::new();
     let csv_path = opts.report_dir.join(format!("emulator_{target}.csv"));
     let md_path = opts.report_dir.join(format!("emulator_{target}.md"));
-    for set in ["vis_light", "vis_eclipse"] {
-        for &noisy in &opts.versions {
-            for frame in 0..frames {
-                let vis = ds.image(set, frame, noisy)?;
-                let tir = ds.image(&opts.tir, frame, noisy)?;
+    for &noisy in &opts.versions {
+        {
+            for (k, &(set, frame)) in pairs.iter().enumerate() {
+                let (vis, tir) = src.images(set, frame, noisy, &opts.tir)?;
                 let grid = (vis.width * vis.height) as f64;
                 let mut host = Vec::new();
                 let mut runs = Vec::new();
@@ -284,7 +354,8 @@ pub fn run(opts: &StudyOptions) -> Result<Vec<Row>> {
                     let whole = report.skip.computed == Rect::full(report.grid);
                     let costly =
                         spec.method != MethodArg::Tsifsd && (whole || spec.method == MethodArg::Ifevip);
-                    let emulate = !costly || frame < opts.whole_frames;
+                    let first = pairs.iter().position(|&(s, _)| s == set).unwrap_or(0);
+                    let emulate = !costly || k - first < opts.whole_frames;
                     if emulate {
                         runs.push(spec);
                     }
@@ -357,9 +428,9 @@ pub fn run(opts: &StudyOptions) -> Result<Vec<Row>> {
 /// the two targets as flat lines.
 fn chart_per_frame(opts: &StudyOptions, rows: &[Row]) -> Result<PathBuf> {
     let mut series: Vec<Series> = Vec::new();
-    for r in rows
-        .iter()
-        .filter(|r| r.version == "clean" && r.method != MethodArg::Ifevip && r.skip != SkipArg::None)
+    let shown = if rows.iter().any(|r| r.version == "clean") { "clean" } else { "noisy" };
+    for r in
+        rows.iter().filter(|r| r.version == shown && r.method != MethodArg::Ifevip && r.skip != SkipArg::None)
     {
         let Some(n) = r.instructions else { continue };
         let name =
@@ -380,7 +451,8 @@ fn chart_per_frame(opts: &StudyOptions, rows: &[Row]) -> Result<PathBuf> {
             });
         }
     }
-    let title = format!("{} instructions per 1024² frame, clean renders, with skipping", opts.target.core());
+    let title =
+        format!("{} instructions per 1024² frame, {shown} renders, with skipping", opts.target.core());
     chart(
         &opts.report_dir.join(format!("emulator_{}_frames", opts.target)),
         Labels { title: &title, x: "frame", y: "million instructions (whole pipeline)" },

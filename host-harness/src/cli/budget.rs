@@ -71,10 +71,12 @@ pub struct BudgetArgs {
     /// Instead of the budgets: scene skipping over this rendered dataset (`fusion render`) —
     /// whole-pipeline instructions per frame pair and skip level (TSIFSD and ADF at none, roi,
     /// all; IFEVIP at all), each fused frame checked against the host. One target (`--target
-    /// arm` or `riscv`); writes `emulator_<target>.{md,csv}` into `--study-out`.
+    /// arm` or `riscv`); writes `emulator_<target>.{md,csv}` into `--study-out`. DATASET is a
+    /// study-layout dataset (`fusion render`) or a folder of rendezvous sequences (`approach/`,
+    /// `flyaround/`: `fusion navbench`'s `data/`).
     #[arg(long, value_name = "DATASET")]
     pub skip_study: Option<PathBuf>,
-    /// Skip study: frames per set and version (from the first).
+    /// Skip study: frames per set and version (a dataset: the first; sequences: spread evenly).
     #[arg(long, default_value_t = 20)]
     pub frames: usize,
     /// Skip study: emulate ADF/IFEVIP runs that fuse the whole frame (~20 s each at 1024² on

@@ -29,7 +29,8 @@ fn navbench_writes_the_summary_shape_csv_and_charts() {
     let json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("navbench.json")).unwrap()).unwrap();
     let sources = json["sources"].as_object().unwrap();
-    let mut expected = vec!["vis".to_string(), "tir".to_string(), "adaptive".to_string()];
+    let mut expected =
+        vec!["vis".to_string(), "tir".to_string(), "adaptive".to_string(), "adaptive-skip".to_string()];
     for m in ["adf", "tsifsd", "ifevip"] {
         for v in ["classic", "flight"] {
             expected.push(format!("{m}-{v}"));

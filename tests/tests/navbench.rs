@@ -69,7 +69,7 @@ fn flyaround_crosses_an_eclipse_and_fusion_is_judged_per_phase() {
 
     let read = read_manifest(dir.path()).unwrap();
     assert_eq!(read.frames.len(), 48);
-    let rows = run_sequence(dir.path(), None, None).unwrap();
+    let rows = run_sequence(dir.path(), None, None, false).unwrap();
     assert_eq!(rows.len(), 48 * streams().len());
     let s = summary(&rows);
     assert_eq!(s.sources.len(), streams().len());

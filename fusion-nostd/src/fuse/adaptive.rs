@@ -67,7 +67,7 @@
 //! ([`crate::strips`]); the whole frame is the window of one strip.
 
 use super::Guards;
-use crate::scene::{BandStats, SceneParams, analyze};
+use crate::scene::{BandStats, SceneParams, band_stats};
 use crate::{Error, FrameMut, FrameRef};
 use core::num::NonZeroU32;
 use core::ops::Range;
@@ -138,15 +138,16 @@ pub fn decide(vis: &BandStats, p: &AdaptiveParams) -> Decision {
     }
 }
 
-/// The decision for a frame pair, from [`crate::scene::analyze`] of the two frames as given.
+/// The decision for a frame pair, from the scene analysis's statistics of the VIS frame as
+/// given ([`crate::scene::band_stats`]; TIR is not needed: it is always there).
 pub fn decide_frames(
     vis: FrameRef<'_, u8>,
-    tir: FrameRef<'_, u8>,
+    _tir: FrameRef<'_, u8>,
     scene: &SceneParams,
     p: &AdaptiveParams,
 ) -> Result<Decision, Error> {
-    let s = analyze(vis, tir, vis.size(), scene)?;
-    Ok(decide(&s.vis, p))
+    scene.validate()?;
+    Ok(decide(&band_stats(vis, scene), p))
 }
 
 /// Frame row `y` clamped to `0..=last` (replicate), read from a window starting at frame row

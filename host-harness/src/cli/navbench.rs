@@ -30,6 +30,10 @@ pub struct NavbenchArgs {
     /// Only these sources, comma-separated (e.g. `vis,tir,adaptive`) [default: all].
     #[arg(long, value_delimiter = ',', value_name = "NAMES")]
     pub sources: Option<Vec<String>>,
+    /// Use the noiseless renders instead of the noisy ones (e.g. the skip windows on clean
+    /// frames).
+    #[arg(long)]
+    pub clean: bool,
 }
 
 /// The phases in table order.
@@ -61,7 +65,7 @@ pub fn run(args: &NavbenchArgs) -> Result<()> {
             eprintln!("rendering {} ({} frames) into {}", name.as_str(), cfg.frames, dir.display());
             render_sequence(&cfg, &dir, false)?;
         }
-        let seq = run_sequence(&dir, args.frames, only)?;
+        let seq = run_sequence(&dir, args.frames, only, args.clean)?;
         eprintln!("navbench: {} ({} frames, {streams} streams)", name.as_str(), seq.len() / streams.max(1));
         rows.extend(seq);
     }

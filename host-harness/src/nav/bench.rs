@@ -47,18 +47,22 @@ pub enum Stream {
     Fused(Pipeline),
 }
 
-/// The streams of the benchmark with their names: `vis`, `tir`, `adaptive`, `<method>-<variant>`,
+/// The streams of the benchmark with their names: `vis`, `tir`, `adaptive`, `adaptive-skip`,
+/// `<method>-<variant>`,
 /// `<method>-<variant>-skip` (scene skipping with the eclipse plan, [`SkipPolicy::All`]).
 pub fn streams() -> Vec<(String, Stream)> {
     let mut out = vec![("vis".to_string(), Stream::Vis), ("tir".to_string(), Stream::Tir)];
-    out.push((
-        "adaptive".to_string(),
-        Stream::Fused(Pipeline {
-            rescale: RescalePolicy::TirUp,
-            method: Method::Adaptive(AdaptiveParams::default()),
-            ..Pipeline::default()
-        }),
-    ));
+    for skip in [SkipPolicy::None, SkipPolicy::All] {
+        out.push((
+            if skip == SkipPolicy::None { "adaptive" } else { "adaptive-skip" }.to_string(),
+            Stream::Fused(Pipeline {
+                rescale: RescalePolicy::TirUp,
+                method: Method::Adaptive(AdaptiveParams::default()),
+                skip,
+                ..Pipeline::default()
+            }),
+        ));
+    }
     for skip in [SkipPolicy::None, SkipPolicy::All] {
         for (m, variant) in [
             ("adf", Variant::Classic),
@@ -233,10 +237,17 @@ struct FrameData {
     phase: Phase,
 }
 
-fn load_frame(dir: &Path, m: &SequenceManifest, i: usize) -> Result<FrameData> {
+fn load_frame(dir: &Path, m: &SequenceManifest, i: usize, clean: bool) -> Result<FrameData> {
     let f = &m.frames[i];
-    let vis = load_gray_u8(&dir.join(&f.files.vis), ColorPolicy::Refuse)?;
-    let tir = load_gray_u8(&dir.join(&f.files.tir), ColorPolicy::Refuse)?;
+    let pick = |noisy: &String, clean_file: &Option<String>| -> Result<std::path::PathBuf> {
+        if !clean {
+            return Ok(dir.join(noisy));
+        }
+        let rel = clean_file.as_ref().context("the sequence was rendered without clean frames")?;
+        Ok(dir.join(rel))
+    };
+    let vis = load_gray_u8(&pick(&f.files.vis, &f.files.vis_clean)?, ColorPolicy::Refuse)?;
+    let tir = load_gray_u8(&pick(&f.files.tir, &f.files.tir_clean)?, ColorPolicy::Refuse)?;
     let vis_mask: Vec<bool> = load_gray_u8(&dir.join(&f.files.vis_mask), ColorPolicy::Refuse)?
         .data
         .iter()
@@ -314,8 +325,14 @@ struct Tracked {
 /// Runs the benchmark over one sequence folder: every stream, every frame (or the first
 /// `frames`). Frames are processed in order per stream; streams run in parallel.
 ///
-/// `only`: the stream names to run (all when `None`; an unknown name is an error).
-pub fn run_sequence(dir: &Path, frames: Option<usize>, only: Option<&[String]>) -> Result<Vec<FrameResult>> {
+/// `only`: the stream names to run (all when `None`; an unknown name is an error); `clean`:
+/// the noiseless renders instead of the noisy ones.
+pub fn run_sequence(
+    dir: &Path,
+    frames: Option<usize>,
+    only: Option<&[String]>,
+    clean: bool,
+) -> Result<Vec<FrameResult>> {
     let m = read_manifest(dir)?;
     let n = frames.unwrap_or(m.frames.len()).min(m.frames.len());
     let scene = Scene::tango()?.with_surface_detail(m.config.surface_seed);
@@ -324,7 +341,7 @@ pub fn run_sequence(dir: &Path, frames: Option<usize>, only: Option<&[String]>) 
     let all = selected(only)?;
     // Depth per frame, shared by the streams.
     let data: Vec<FrameData> =
-        (0..n).into_par_iter().map(|i| load_frame(dir, &m, i)).collect::<Result<_>>()?;
+        (0..n).into_par_iter().map(|i| load_frame(dir, &m, i, clean)).collect::<Result<_>>()?;
     let depths: Vec<Vec<Option<f32>>> =
         data.par_iter().map(|fd| render_host::truth::depth(&scene, &fd.camera)).collect();
     let results: Vec<Result<Vec<FrameResult>>> = all

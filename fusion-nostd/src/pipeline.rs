@@ -36,8 +36,12 @@
 //!   [`Decline::GlobalStatistic`].
 //! * **IFEVIP** (global histograms, quadtree background of the whole IR, top-k peak): always
 //!   declined ([`Decline::GlobalStatistic`]).
-//! * The analysis declines a non-dark or noisy background ([`Decline::BackgroundNotDark`],
-//!   [`Decline::TooNoisy`]), and a window above `max_roi_percent` is not worth it
+//! * **Noisy frames** (sensor noise above `max_noise_spread`): the target box comes from the
+//!   analysis's block means ([`crate::scene::BlockStats`]), so TSIFSD and the adaptive method
+//!   skip them as above (outside the window: the background value, here the noise's level);
+//!   ADF declines them.
+//! * The analysis declines a non-dark background, or one whose block means are still noisy
+//!   ([`Decline::BackgroundNotDark`], [`Decline::TooNoisy`]), and a window above `max_roi_percent` is not worth it
 //!   ([`Decline::RoiTooLarge`]); a declined frame is fused whole, bit-identical to `None`.
 //! * **Rescale**: for an exact 2× ratio only the source pixels the window's taps read are
 //!   rescaled (the same bits: same phase, no tap crosses the cut); other ratios rescale the whole

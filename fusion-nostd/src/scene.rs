@@ -15,14 +15,19 @@
 //!   12 grey levels in VIS, ≈ 17 in TIR on black), so the 6σ pixel threshold (≈ 72 and ≈ 105)
 //!   sits above most of the target and its signal box misses the dim parts. A band whose pixel
 //!   spread is above [`SceneParams::max_noise_spread`] is analysed again in `b × b` block means
-//!   ([`block_side`]: `b` brings white noise to half the limit, 4 for the study's noise in
-//!   both bands; noise σ/b): the same median,
-//!   spread and `k`σ threshold on the block means, and the box of the blocks above it that have a neighbour above it too (a lone noisy block
-//!   does not count unless it is 12σ above), grown by
-//!   one block. Two passes over the band, ≈ 1.3 instructions per pixel each on the Cortex-M7.
+//!   ([`block_side`]: `b` brings white noise to half the limit, 4 for the study's noise in both
+//!   bands; noise σ/b): the same median and spread, a threshold of
+//!   [`SceneParams::block_k_sigma_tenths`] (5σ); a block counts when an 8-connected neighbour is
+//!   above the threshold too, or alone at twice the distance (10σ), so a lone block of 1/f noise
+//!   does not; the box is cut to the run of block columns and rows around the signal's mean
+//!   with gaps of at most 8 blocks (a noise pair far away is dropped), grown by one block and
+//!   [`SceneParams::noisy_margin`]. Two passes over the band (the first on every other block
+//!   row), four pixels to a word. Tuned on the rendezvous sequences: every target pixel of both
+//!   cameras inside the window on all 240 noisy frames (`BENCHMARKS.md`).
 //! * **Target box** ([`Scene::target`]): the bounding box, on the fusion grid, of the signal of
-//!   both bands (block signal for a noisy band) (each band's box mapped onto the grid with a margin covering the rescaler's
-//!   taps), `None` when neither band has signal.
+//!   both bands (a noisy band's block box, grown by the noisy margin; each band's box mapped
+//!   onto the grid with a margin covering the rescaler's taps), `None` when neither band has
+//!   signal.
 //! * **Varying box** ([`Scene::varying`]): the bounding box, on the grid, of the pixels that
 //!   differ *at all* from their band's background level — what a method with a frame-global
 //!   statistic needs to prove the rest of the frame is exactly constant (noiseless frames).
@@ -722,7 +727,7 @@ pub fn block_stats(f: FrameRef<'_, u8>, pixel_spread_q8: u16, p: &SceneParams) -
     let threshold = u16::from(background) + delta;
     let mut hit: Option<(usize, usize, usize, usize)> = None;
     // A signal block needs a neighbour (8-connected) above the threshold too, as the pixels
-    // need their 2-pixel runs, or a mean twice as far above the background (12σ): a lone block
+    // need their 2-pixel runs, or a mean twice as far above the background (10σ): a lone block
     // of 1/f noise does not stretch the box. Each
     // adjacent pair is seen from its later block (left, or the row above); the rows' blocks
     // above the threshold are kept as bits.

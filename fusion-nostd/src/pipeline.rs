@@ -41,7 +41,8 @@
 //!   skip them as above (outside the window: the background value, here the noise's level);
 //!   ADF declines them.
 //! * The analysis declines a non-dark background, or one whose block means are still noisy
-//!   ([`Decline::BackgroundNotDark`], [`Decline::TooNoisy`]), and a window above `max_roi_percent` is not worth it
+//!   ([`Decline::BackgroundNotDark`], [`Decline::TooNoisy`]), and a window above
+//!   `max_roi_percent` is not worth it
 //!   ([`Decline::RoiTooLarge`]); a declined frame is fused whole, bit-identical to `None`.
 //! * **Rescale**: for an exact 2× ratio only the source pixels the window's taps read are
 //!   rescaled (the same bits: same phase, no tap crosses the cut); other ratios rescale the whole
@@ -53,7 +54,7 @@
 //!   sum, is ≈ 5 % and kept).
 
 use crate::fuse::Guards;
-use crate::fuse::adaptive::{AdaptiveParams, Decision, decide, decide_frames, fuse_adaptive};
+use crate::fuse::adaptive::{AdaptiveParams, Decision, decide, decide_frame, fuse_adaptive};
 use crate::fuse::adf::{AdfParams, fuse_adf, fuse_adf_raw};
 use crate::fuse::ifevip::{IfevipParams, fuse_ifevip};
 use crate::fuse::tsifsd::{TsifsdParams, fuse_tsifsd, fuse_tsifsd_raw};
@@ -82,7 +83,8 @@ pub enum Method {
     /// Infrared feature extraction + visual information preservation.
     Ifevip(IfevipParams),
     /// Illumination-adaptive two-scale fusion for navigation ([`crate::fuse::adaptive`]): the
-    /// VIS share comes from the scene analysis of the input frames.
+    /// per-frame decision (TIR passes through when VIS has no signal) comes from the scene
+    /// analysis of the input VIS frame.
     Adaptive(AdaptiveParams),
 }
 
@@ -255,7 +257,7 @@ pub fn fusion_grid(
 /// Runs one method on two frames of the same size.
 ///
 /// The adaptive method takes its per-frame [`Decision`] from the scene analysis (default
-/// [`SceneParams`]) of these two frames; [`fuse`] takes it from the input frames before any
+/// [`SceneParams`]) of this VIS frame; [`fuse`] takes it from the input VIS frame before any
 /// rescale ([`adaptive_decision`]), so call [`fuse_method_decided`] with that decision to get
 /// [`fuse`]'s bits from frames already on the grid.
 pub fn fuse_method(
@@ -285,7 +287,7 @@ pub fn fuse_method_decided(
         Method::Adaptive(p) => {
             let decision = match decision {
                 Some(d) => d,
-                None => decide_frames(vis, tir, &SceneParams::default(), p)?,
+                None => decide_frame(vis, &SceneParams::default(), p)?,
             };
             fuse_adaptive(vis, tir, out, p, decision, scratch)
         }
@@ -293,14 +295,10 @@ pub fn fuse_method_decided(
 }
 
 /// The adaptive method's per-frame decision for an input pair, as [`fuse`] takes it: the scene
-/// analysis of the two frames as given, with `pipeline.scene`. `None` for the other methods.
-pub fn adaptive_decision(
-    vis: FrameRef<'_, u8>,
-    tir: FrameRef<'_, u8>,
-    pipeline: &Pipeline,
-) -> Result<Option<Decision>, Error> {
+/// analysis of the VIS frame as given, with `pipeline.scene`. `None` for the other methods.
+pub fn adaptive_decision(vis: FrameRef<'_, u8>, pipeline: &Pipeline) -> Result<Option<Decision>, Error> {
     match &pipeline.method {
-        Method::Adaptive(p) => Ok(Some(decide_frames(vis, tir, &pipeline.scene, p)?)),
+        Method::Adaptive(p) => Ok(Some(decide_frame(vis, &pipeline.scene, p)?)),
         _ => Ok(None),
     }
 }
@@ -322,7 +320,7 @@ pub fn fuse(
         return fuse_skipping(vis, tir, out, scratch, pipeline);
     }
     pipeline.method.validate()?;
-    let decision = adaptive_decision(vis, tir, pipeline)?;
+    let decision = adaptive_decision(vis, pipeline)?;
     on_grid(vis, tir, out.size(), scratch, pipeline.rescale, |v, t, s| {
         fuse_method_decided(v, t, out, &pipeline.method, s, decision)
     })

@@ -47,7 +47,7 @@
 //! 246), five strips per frame; 185 rows, six strips, for TSIFSD classic (the band's tail holds
 //! the wrapped rows).
 
-use crate::fuse::adaptive::{decide_frames, fuse_adaptive_rows, work_words as adaptive_words};
+use crate::fuse::adaptive::{decide_frame, fuse_adaptive_rows, work_words as adaptive_words};
 use crate::fuse::adf::{Covariance, diffuse_rows, stream_words};
 use crate::fuse::ifevip::stream::{Analysis, Keys, Tree, crossing_words, output_rows};
 use crate::fuse::ifevip::{EntropyRatio, GainTables, Gains, top_k};
@@ -563,7 +563,7 @@ pub fn fuse_strips(
             }
         }
         Streamed::Adaptive(p) => {
-            let decision = decide_frames(vis, tir, &pipeline.scene, p)?;
+            let decision = decide_frame(vis, &pipeline.scene, p)?;
             let (cv, ct) =
                 work.split_at_mut_checked(w).ok_or(Error::ScratchTooSmall { needed: 2 * w, capacity: 0 })?;
             walk.run(band, &mut report, |win| {

@@ -91,7 +91,7 @@ fn staged(
     // its region holds that analysis and the blend.
     let method = &pipeline.method;
     let guards = m.region(tag, || {
-        let decision = adaptive_decision(vis, tir, pipeline)?;
+        let decision = adaptive_decision(vis, pipeline)?;
         fuse_method_decided(vg, tg, out, method, &mut planes, decision)
     })?;
     Ok(guards)

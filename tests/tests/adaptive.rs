@@ -4,7 +4,7 @@
 //! black band, and the pipeline's decision taken from the input frames.
 
 use anyhow::Result;
-use fusion_nostd::fuse::adaptive::{AdaptiveParams, Decision, decide_frames};
+use fusion_nostd::fuse::adaptive::{AdaptiveParams, Decision, decide_frame};
 use fusion_nostd::pipeline::{Method, Pipeline, RescalePolicy, adaptive_decision, fuse_method_decided};
 use fusion_nostd::scene::SceneParams;
 use fusion_nostd::{Filter, Guards, rescale};
@@ -105,7 +105,7 @@ fn eclipse_passes_the_thermal_frame_through() -> Result<()> {
     for frame in 0..ds.frames() {
         let vis = ds.image("vis_eclipse", frame, true)?;
         let tir = ds.image("tir64", frame, true)?;
-        let d = decide_frames(vis.view()?, tir.view()?, &SceneParams::default(), &AdaptiveParams::default())?;
+        let d = decide_frame(vis.view()?, &SceneParams::default(), &AdaptiveParams::default())?;
         assert_eq!(d, Decision::TirOnly, "frame {frame}");
         let fused = fuse_core(&vis, &tir, &adaptive(), false)?;
         assert!(fused.guards.contains(Guards::ADAPTIVE_TIR_ONLY));
@@ -173,7 +173,7 @@ fn the_pipeline_decides_on_the_input_frames() -> Result<()> {
     for set in ["vis_light", "vis_eclipse"] {
         let (vis, tir) = (ds.image(set, 0, true)?, ds.image("tir64", 0, true)?);
         let piped = fuse_core(&vis, &tir, &p, false)?;
-        let decision = adaptive_decision(vis.view()?, tir.view()?, &p)?;
+        let decision = adaptive_decision(vis.view()?, &p)?;
         assert!(decision.is_some());
         let up = upscaled(&tir, vis.width, vis.height);
         let mut out = Gray::new(vis.width, vis.height);

@@ -138,11 +138,10 @@ pub fn decide(vis: &BandStats, p: &AdaptiveParams) -> Decision {
     }
 }
 
-/// The decision for a frame pair, from the scene analysis's statistics of the VIS frame as
-/// given ([`crate::scene::band_stats`]; TIR is not needed: it is always there).
-pub fn decide_frames(
+/// The decision for a frame pair, from the scene analysis's statistics of its VIS frame as
+/// given ([`crate::scene::band_stats`]; the TIR frame is always used).
+pub fn decide_frame(
     vis: FrameRef<'_, u8>,
-    _tir: FrameRef<'_, u8>,
     scene: &SceneParams,
     p: &AdaptiveParams,
 ) -> Result<Decision, Error> {

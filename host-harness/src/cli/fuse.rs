@@ -281,7 +281,8 @@ pub fn fuse_core(vis: &Gray<u8>, tir: &Gray<u8>, pipeline: &Pipeline, with_raw: 
 
 /// Fuses `vis` and `tir` with the f64 references (rescale and method).
 pub fn fuse_reference(vis: &Gray<u8>, tir: &Gray<u8>, pipeline: &Pipeline) -> Result<Fused> {
-    let (vis_in, tir_in) = (vis, tir);
+    // The adaptive method decides on the input VIS frame, before the rescale (as the core).
+    let decision = fusion_nostd::pipeline::adaptive_decision(vis.view()?, pipeline)?;
     let (w, h) = fusion_grid((vis.width, vis.height), (tir.width, tir.height), pipeline.rescale)?;
     let to_grid = |img: &Gray<u8>, filter| {
         if (img.width, img.height) == (w, h) {
@@ -296,11 +297,7 @@ pub fn fuse_reference(vis: &Gray<u8>, tir: &Gray<u8>, pipeline: &Pipeline) -> Re
         Method::Adf(p) => reference::adf::fuse_adf(&vis, &tir, p),
         Method::Tsifsd(p) => reference::tsifsd::fuse_tsifsd(&vis, &tir, p),
         Method::Ifevip(p) => reference::ifevip::fuse_ifevip(&vis, &tir, p),
-        Method::Adaptive(p) => {
-            let decision =
-                fusion_nostd::pipeline::adaptive_decision(vis_in.view()?, tir_in.view()?, pipeline)?;
-            reference::adaptive::fuse_adaptive(&vis, &tir, p, decision)
-        }
+        Method::Adaptive(p) => reference::adaptive::fuse_adaptive(&vis, &tir, p, decision),
     };
     let image = Gray { width: w, height: h, data: raw.data.iter().map(|&v| matlab_uint8(v)).collect() };
     Ok(Fused { image, raw: Some(raw), guards: Guards::NONE })

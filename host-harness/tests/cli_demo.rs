@@ -12,7 +12,7 @@ fn demo_writes_fused_images_sheet_and_summary() {
         .output()
         .unwrap();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let methods = ["adf", "tsifsd-classic", "tsifsd", "ifevip"];
+    let methods = ["adf", "tsifsd-classic", "tsifsd", "ifevip", "adaptive"];
     for ill in ["light", "eclipse"] {
         for m in methods {
             let f = load_gray_u8(&out.join(format!("fused/{ill}/{m}/frame_000.png")), ColorPolicy::Refuse)
@@ -22,7 +22,7 @@ fn demo_writes_fused_images_sheet_and_summary() {
         }
     }
     let sheet = load_gray_u8(&out.join("contact_sheet.png"), ColorPolicy::Refuse).unwrap();
-    assert_eq!((sheet.width, sheet.height), (6 * 256 + 7 * 4, 2 * 256 + 3 * 4), "2 rows x 6 tiles");
+    assert_eq!((sheet.width, sheet.height), (7 * 256 + 8 * 4, 2 * 256 + 3 * 4), "2 rows x 7 tiles");
     // In eclipse the VIS tile (row 2, column 1) is darker than in light (row 1, column 1).
     let mean = |x0: usize, y0: usize| {
         let mut s = 0u64;

@@ -71,7 +71,13 @@ pub fn run(args: &DemoArgs) -> Result<()> {
         }
     };
 
-    let methods = core_methods();
+    // The published methods and the adaptive fusion for navigation (no published counterpart,
+    // so not among the study's methods).
+    let mut methods = core_methods();
+    methods.push(crate::study::NamedMethod {
+        name: "adaptive",
+        method: fusion_nostd::Method::Adaptive(fusion_nostd::AdaptiveParams::default()),
+    });
     let illuminations = ["light", "eclipse"];
     let frames = args.frames.min(dataset.frames()).max(1);
     let mut rows: Vec<Vec<Row>> = vec![vec![Row::default(); methods.len()]; illuminations.len()];

@@ -110,6 +110,55 @@ pub fn load_png(path: &Path, color: ColorPolicy) -> Result<GrayPng> {
     })
 }
 
+/// An 8-bit image as stored: one grey plane, or three colour planes (R, G, B); row-major.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Channels {
+    /// Pixels per row.
+    pub width: usize,
+    /// Rows.
+    pub height: usize,
+    /// One plane (grey) or three (R, G, B), each `width * height` samples.
+    pub planes: Vec<Vec<u8>>,
+}
+
+impl Channels {
+    /// A grey image as one plane.
+    pub fn from_gray(g: Gray<u8>) -> Self {
+        Self { width: g.width, height: g.height, planes: vec![g.data] }
+    }
+
+    /// Each plane as a grey image (for per-channel processing such as rescaling).
+    pub fn plane(&self, k: usize) -> Gray<u8> {
+        Gray { width: self.width, height: self.height, data: self.planes[k].clone() }
+    }
+}
+
+/// Loads an 8-bit PNG keeping its colour: grey (with or without alpha) as one plane, colour as
+/// three (alpha dropped). 16-bit PNGs are refused.
+pub fn load_channels_u8(path: &Path) -> Result<Channels> {
+    let img = decode(path)?;
+    let (w, h) = (img.width() as usize, img.height() as usize);
+    if w == 0 || h == 0 {
+        bail!("{} has zero size", path.display());
+    }
+    use image::DynamicImage as D;
+    match img {
+        D::ImageLuma8(_) | D::ImageLumaA8(_) => {
+            Ok(Channels { width: w, height: h, planes: vec![img.to_luma8().into_raw()] })
+        }
+        D::ImageRgb8(_) | D::ImageRgba8(_) => {
+            let rgb = img.to_rgb8();
+            let planes = (0..3).map(|k| rgb.pixels().map(|p| p.0[k]).collect()).collect();
+            Ok(Channels { width: w, height: h, planes })
+        }
+        other => bail!(
+            "{} is a {:?} image; an 8-bit grey or RGB PNG is needed here",
+            path.display(),
+            other.color()
+        ),
+    }
+}
+
 /// One named VIS/IR pair: `(NAME, VIS, IR)`.
 pub type NamedPair = (String, Gray<u8>, Gray<u8>);
 

@@ -8,6 +8,9 @@
 use crate::io::Gray;
 use rayon::prelude::*;
 
+mod fft;
+pub mod vifb;
+
 fn same_size<T, U>(a: &Gray<T>, b: &Gray<U>) {
     assert_eq!((a.width, a.height), (b.width, b.height), "metric inputs must have the same size");
 }
@@ -88,13 +91,29 @@ pub fn ssim(a: &Gray<u8>, b: &Gray<u8>) -> f64 {
         }
         return index(ma, mb, va / n, vb / n, cov / n);
     }
+    ssim_valid_windows(&a.data, &b.data, w, h)
+}
+
+/// SSIM over a VIFB channel pair (the same windows and constants as [`ssim`]; the caller
+/// guarantees both sides are at least 11).
+pub(crate) fn ssim_valid(a: vifb::Plane, b: vifb::Plane) -> f64 {
+    ssim_valid_windows(a.data, b.data, a.width, a.height)
+}
+
+/// Mean SSIM over the valid 11 × 11 windows of two `w × h` images (`w, h ≥ 11`): MATLAB's
+/// `filter2(window, ·, 'valid')` of the five moment images, then the index, then `mean2`.
+fn ssim_valid_windows(a: &[u8], b: &[u8], w: usize, h: usize) -> f64 {
+    let (c1, c2) = ((0.01f64 * 255.0).powi(2), (0.03f64 * 255.0).powi(2));
+    let index = |ma: f64, mb: f64, va: f64, vb: f64, cov: f64| {
+        ((2.0 * ma * mb + c1) * (2.0 * cov + c2)) / ((ma * ma + mb * mb + c1) * (va + vb + c2))
+    };
     // Separable: the five moment images filtered along rows (valid part), then along columns.
     let g = ssim_window();
     let wv = w - 10;
     let rows: Vec<[f64; 5]> = (0..h)
         .into_par_iter()
         .flat_map_iter(|y| {
-            let (ra, rb) = (&a.data[y * w..(y + 1) * w], &b.data[y * w..(y + 1) * w]);
+            let (ra, rb) = (&a[y * w..(y + 1) * w], &b[y * w..(y + 1) * w]);
             (0..wv).map(move |x0| {
                 let mut m = [0.0; 5];
                 for (j, &gj) in g.iter().enumerate() {

@@ -1,7 +1,12 @@
-//! `fusion eval`: the study's fusion metrics of a fused image (and noise metrics against a reference).
+//! `fusion eval`: fusion metrics of a fused image against its two sources — the study's suite,
+//! VIFB's 13 metrics exactly as VIFB's code computes them, or both — and noise metrics against a
+//! reference. Definitions of every variant: `docs/metrics.md`.
 
-use crate::io::{ColorPolicy, Gray, load_gray_u8};
-use crate::metrics::{FusionMetrics, NoiseMetrics, format_psnr, fusion_metrics, noise_metrics};
+use crate::io::{Channels, ColorPolicy, Gray, load_channels_u8, load_gray_u8, rgb_to_gray_bt601};
+use crate::metrics::vifb::{self, VifbMetrics};
+use crate::metrics::{
+    FusionMetrics, HaghighatFeature, NoiseMetrics, fmi_haghighat, format_psnr, fusion_metrics, noise_metrics,
+};
 use anyhow::{Result, bail};
 use clap::{Args, ValueEnum};
 use fusion_nostd::{Filter, rescale};
@@ -10,17 +15,33 @@ use std::path::PathBuf;
 /// Output formats.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
 pub enum Format {
-    /// Aligned text for people.
+    /// Aligned text for people (values rounded).
     Text,
-    /// One header line and one value line.
+    /// One header line and one value line (full precision: every value round-trips).
     Csv,
-    /// One JSON object.
+    /// One JSON object (full precision; an undefined value is `null`).
     Json,
+}
+
+/// Which metrics to compute.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum Suite {
+    /// The study's: AG, MI (bits), FMI (Fast-FMI, Sobel), SSIM, RMSE — plus Haghighat's
+    /// FMI_pixel and FMI_gradient. On grey images (a colour input is converted with BT.601).
+    Study,
+    /// VIFB's 13 as its MATLAB code computes them: AG, CE, EI, EN, MI, PSNR, Qabf, Qcb, Qcv,
+    /// RMSE, SF, SSIM, SD. Colour images per channel, as VIFB does.
+    Vifb,
+    /// Both (keys prefixed `study.` / `vifb.` in text and CSV, nested objects in JSON).
+    All,
 }
 
 /// Arguments of `fusion eval`.
 #[derive(Debug, Args)]
 pub struct EvalArgs {
+    /// Metric suite (docs/metrics.md lists every variant and the code it follows).
+    #[arg(long, value_enum, default_value_t = Suite::Study)]
+    pub suite: Suite,
     /// Noise metrics (MSE_S, PSNR_S, SSIM_S) against this reference image too (same size as FUSED).
     #[arg(long, value_name = "REF.png")]
     pub r#ref: Option<PathBuf>,
@@ -45,51 +66,191 @@ pub fn on_grid(img: &Gray<u8>, w: usize, h: usize, filter: Filter) -> Result<Gra
     Ok(out)
 }
 
+/// Every channel of `img` on a `w × h` grid.
+fn channels_on_grid(img: &Channels, w: usize, h: usize, filter: Filter) -> Result<Channels> {
+    let planes = (0..img.planes.len())
+        .map(|k| Ok(on_grid(&img.plane(k), w, h, filter)?.data))
+        .collect::<Result<Vec<_>>>()?;
+    Ok(Channels { width: w, height: h, planes })
+}
+
+/// A grey image of `img`: its plane, or BT.601 of its three.
+fn to_gray(img: &Channels) -> Gray<u8> {
+    if img.planes.len() == 1 {
+        return img.plane(0);
+    }
+    let p = &img.planes;
+    let data = (0..img.width * img.height).map(|i| rgb_to_gray_bt601(p[0][i], p[1][i], p[2][i])).collect();
+    Gray { width: img.width, height: img.height, data }
+}
+
+/// The study suite: [`FusionMetrics`] and Haghighat's two FMIs.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StudyMetrics {
+    /// AG, MI, FMI (Fast-FMI), SSIM, RMSE as the study's tables report them.
+    pub fusion: FusionMetrics,
+    /// Haghighat's `fmi.m`, raw pixels, window 3.
+    pub fmi_pixel: f64,
+    /// Haghighat's `fmi.m`, MATLAB `gradient` features, window 3.
+    pub fmi_gradient: f64,
+}
+
+/// Computes the study suite (sources already on the fused grid).
+pub fn study_metrics(vis: &Gray<u8>, tir: &Gray<u8>, fused: &Gray<u8>) -> StudyMetrics {
+    StudyMetrics {
+        fusion: fusion_metrics(vis, tir, fused),
+        fmi_pixel: fmi_haghighat(vis, tir, fused, HaghighatFeature::Pixels),
+        fmi_gradient: fmi_haghighat(vis, tir, fused, HaghighatFeature::Gradient),
+    }
+}
+
 /// Runs `fusion eval`.
 pub fn run(args: &EvalArgs) -> Result<()> {
-    let fused = load_gray_u8(&args.fused, ColorPolicy::Bt601)?;
+    let fused = load_channels_u8(&args.fused)?;
     let (w, h) = (fused.width, fused.height);
-    let vis = on_grid(&load_gray_u8(&args.vis, ColorPolicy::Bt601)?, w, h, Filter::Area)?;
-    let tir = on_grid(&load_gray_u8(&args.tir, ColorPolicy::Bt601)?, w, h, Filter::Cubic)?;
-    let fm = fusion_metrics(&vis, &tir, &fused);
-    let nm = match &args.r#ref {
+    let vis = channels_on_grid(&load_channels_u8(&args.vis)?, w, h, Filter::Area)?;
+    let tir = channels_on_grid(&load_channels_u8(&args.tir)?, w, h, Filter::Cubic)?;
+    let study = matches!(args.suite, Suite::Study | Suite::All)
+        .then(|| study_metrics(&to_gray(&vis), &to_gray(&tir), &to_gray(&fused)));
+    let vifb = match args.suite {
+        Suite::Vifb | Suite::All => Some(vifb::vifb_metrics(&vis, &tir, &fused)?),
+        Suite::Study => None,
+    };
+    let noise = match &args.r#ref {
         Some(p) => {
             let r = load_gray_u8(p, ColorPolicy::Bt601)?;
             if (r.width, r.height) != (w, h) {
                 bail!("reference is {}x{}, the fused image {w}x{h}", r.width, r.height);
             }
-            Some(noise_metrics(&fused, &r))
+            Some(noise_metrics(&to_gray(&fused), &r))
         }
         None => None,
     };
-    print!("{}", format_metrics(&fm, nm.as_ref(), args.format));
+    let table = MetricTable::new(study.as_ref(), vifb.as_ref(), noise.as_ref(), args.suite == Suite::All);
+    for (name, v) in &table.rows {
+        if v.is_nan() {
+            eprintln!(
+                "note: {name} is undefined on these images (NaN in the reference code; see docs/metrics.md)"
+            );
+        }
+    }
+    print!("{}", table.format(args.format));
     Ok(())
 }
 
-/// Formats metrics for printing.
-pub fn format_metrics(fm: &FusionMetrics, nm: Option<&NoiseMetrics>, format: Format) -> String {
-    let mut names = vec!["AG", "MI", "FMI", "SSIM", "RMSE"];
-    let mut values = vec![
-        format!("{:.4}", fm.ag),
-        format!("{:.4}", fm.mi),
-        format!("{:.4}", fm.fmi),
-        format!("{:.4}", fm.ssim),
-        format!("{:.4}", fm.rmse),
-    ];
-    if let Some(n) = nm {
-        names.extend(["MSE_S", "PSNR_S", "SSIM_S"]);
-        values.extend([format!("{:.6}", n.mse_s), format_psnr(n.psnr_s), format!("{:.4}", n.ssim_s)]);
+/// Named metric values in print order, with the suite each belongs to.
+pub struct MetricTable {
+    /// `(name, value)`; names carry a `suite.` prefix when several suites share a key.
+    pub rows: Vec<(String, f64)>,
+    groups: Vec<(&'static str, std::ops::Range<usize>)>,
+}
+
+impl MetricTable {
+    /// The rows of the suites given; `prefixed` names them `study.AG`, `vifb.AG`, ….
+    pub fn new(
+        study: Option<&StudyMetrics>,
+        vifb: Option<&VifbMetrics>,
+        noise: Option<&NoiseMetrics>,
+        prefixed: bool,
+    ) -> Self {
+        let mut rows = Vec::new();
+        let mut groups = Vec::new();
+        let mut group = |suite: &'static str, values: Vec<(&str, f64)>, rows: &mut Vec<(String, f64)>| {
+            let start = rows.len();
+            for (k, v) in values {
+                rows.push((if prefixed { format!("{suite}.{k}") } else { k.to_string() }, v));
+            }
+            groups.push((suite, start..rows.len()));
+        };
+        if let Some(s) = study {
+            let f = &s.fusion;
+            let values = vec![
+                ("AG", f.ag),
+                ("MI", f.mi),
+                ("FMI", f.fmi),
+                ("FMI_pixel", s.fmi_pixel),
+                ("FMI_gradient", s.fmi_gradient),
+                ("SSIM", f.ssim),
+                ("RMSE", f.rmse),
+            ];
+            group("study", values, &mut rows);
+        }
+        if let Some(v) = vifb {
+            group("vifb", vifb::KEYS.iter().copied().zip(v.values()).collect(), &mut rows);
+        }
+        if let Some(n) = noise {
+            group("noise", vec![("MSE_S", n.mse_s), ("PSNR_S", n.psnr_s), ("SSIM_S", n.ssim_s)], &mut rows);
+        }
+        Self { rows, groups }
     }
-    match format {
-        Format::Text => names.iter().zip(&values).map(|(n, v)| format!("{n:<7} {v}\n")).collect(),
-        Format::Csv => format!("{}\n{}\n", names.join(","), values.join(",")),
-        Format::Json => {
-            let fields: Vec<String> = names
+
+    /// The table in `format`: text rounds for reading, CSV and JSON keep every bit.
+    pub fn format(&self, format: Format) -> String {
+        let full = |v: f64| {
+            if v.is_nan() {
+                "nan".to_string()
+            } else if v.is_infinite() {
+                if v > 0.0 { "inf" } else { "-inf" }.to_string()
+            } else {
+                format!("{v:?}")
+            }
+        };
+        match format {
+            Format::Text => self
+                .rows
                 .iter()
-                .zip(&values)
-                .map(|(n, v)| if v == "inf" { format!("\"{n}\":\"inf\"") } else { format!("\"{n}\":{v}") })
-                .collect();
-            format!("{{{}}}\n", fields.join(","))
+                .map(|(n, v)| {
+                    let shown = if n.ends_with("PSNR_S") {
+                        format_psnr(*v)
+                    } else if n.ends_with("MSE_S") {
+                        format!("{v:.6}")
+                    } else if v.is_finite() {
+                        format!("{v:.4}")
+                    } else {
+                        full(*v)
+                    };
+                    format!("{n:<18} {shown}\n")
+                })
+                .collect(),
+            Format::Csv => {
+                let names: Vec<&str> = self.rows.iter().map(|(n, _)| n.as_str()).collect();
+                let values: Vec<String> = self.rows.iter().map(|(_, v)| full(*v)).collect();
+                format!("{}\n{}\n", names.join(","), values.join(","))
+            }
+            Format::Json => {
+                // Keys in print order; infinite PSNR is the string "inf" (JSON has no
+                // infinity), NaN is null; finite values in serde_json's round-trip form.
+                let json = |v: f64| -> String {
+                    if v.is_infinite() {
+                        format!("\"{}\"", full(v))
+                    } else {
+                        serde_json::Number::from_f64(v).map_or("null".to_string(), |n| n.to_string())
+                    }
+                };
+                let object = |range: std::ops::Range<usize>, strip: bool| -> String {
+                    let fields: Vec<String> = self.rows[range]
+                        .iter()
+                        .map(|(n, v)| {
+                            let key =
+                                if strip { n.split_once('.').map_or(n.as_str(), |(_, k)| k) } else { n };
+                            format!("\"{key}\":{}", json(*v))
+                        })
+                        .collect();
+                    format!("{{{}}}", fields.join(","))
+                };
+                let prefixed = self.rows.first().is_some_and(|(n, _)| n.contains('.'));
+                let value = if prefixed {
+                    let fields: Vec<String> = self
+                        .groups
+                        .iter()
+                        .map(|(suite, range)| format!("\"{suite}\":{}", object(range.clone(), true)))
+                        .collect();
+                    format!("{{{}}}", fields.join(","))
+                } else {
+                    object(0..self.rows.len(), false)
+                };
+                format!("{value}\n")
+            }
         }
     }
 }

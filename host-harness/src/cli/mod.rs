@@ -38,7 +38,8 @@ pub enum Command {
     Fuse(fuse::FuseArgs),
     /// Render a dataset of aligned VIS/TIR pairs of a spacecraft target (ray traced).
     Render(render_host::cli::RenderArgs),
-    /// Fusion metrics (AG, MI, FMI, SSIM, RMSE) of a fused image; noise metrics with --ref.
+    /// Fusion metrics of a fused image: the study's suite, VIFB's 13 (exactly as its code), or
+    /// both; noise metrics with --ref.
     Eval(eval::EvalArgs),
     /// Instruction budgets on the emulated Cortex-M7 and RV32 (QEMU): counts per stage and
     /// method, cycle and frame-rate estimates, memory, bit-exactness against the host.

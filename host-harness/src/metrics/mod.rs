@@ -9,14 +9,17 @@ use crate::io::Gray;
 use rayon::prelude::*;
 
 mod fft;
+pub mod fmi;
 pub mod vifb;
 
-fn same_size<T, U>(a: &Gray<T>, b: &Gray<U>) {
+pub use fmi::{FmiFeature, HaghighatFeature, fmi, fmi_haghighat, fmi_pair, fmi_pair_with, sobel_magnitude};
+
+pub(crate) fn same_size<T, U>(a: &Gray<T>, b: &Gray<U>) {
     assert_eq!((a.width, a.height), (b.width, b.height), "metric inputs must have the same size");
 }
 
 /// Shannon entropy (bits) of a normalised histogram.
-fn entropy(p: &[f64]) -> f64 {
+pub(crate) fn entropy(p: &[f64]) -> f64 {
     p.iter().filter(|&&v| v > 0.0).map(|&v| -v * v.log2()).sum()
 }
 
@@ -181,154 +184,6 @@ pub fn average_gradient(a: &Gray<u8>) -> f64 {
     s / ((w - 1) * (h - 1)) as f64
 }
 
-/// Sobel gradient magnitude of an image (replicate border), the feature map of [`fmi`].
-pub fn sobel_magnitude(a: &Gray<u8>) -> Vec<f64> {
-    let (w, h) = (a.width as isize, a.height as isize);
-    let px = |x: isize, y: isize| f64::from(a.at(x.clamp(0, w - 1) as usize, y.clamp(0, h - 1) as usize));
-    let mut out = Vec::with_capacity(a.data.len());
-    for y in 0..h {
-        for x in 0..w {
-            let gx = (px(x + 1, y - 1) + 2.0 * px(x + 1, y) + px(x + 1, y + 1))
-                - (px(x - 1, y - 1) + 2.0 * px(x - 1, y) + px(x - 1, y + 1));
-            let gy = (px(x - 1, y + 1) + 2.0 * px(x, y + 1) + px(x + 1, y + 1))
-                - (px(x - 1, y - 1) + 2.0 * px(x, y - 1) + px(x + 1, y - 1));
-            out.push((gx * gx + gy * gy).sqrt());
-        }
-    }
-    out
-}
-
-/// A window's feature values as a probability vector: shifted to a zero minimum and
-/// normalised; a flat window becomes the uniform distribution.
-fn window_pdf(v: &[f64; 9]) -> [f64; 9] {
-    let min = v.iter().cloned().fold(f64::INFINITY, f64::min);
-    let shifted = v.map(|x| x - min);
-    let sum: f64 = shifted.iter().sum();
-    if sum <= 0.0 { [1.0 / 9.0; 9] } else { shifted.map(|x| x / sum) }
-}
-
-/// Normalised mutual information `2·I / (H_a + H_f)` of two windows (Fast-FMI model): the joint
-/// CDF is the correlation-weighted mix of the Fréchet bound and independence,
-/// `H = c·min(F, G) + (1 − c)·F·G` for `c ≥ 0` and `H = |c|·max(F + G − 1, 0) + (1 − |c|)·F·G`
-/// for `c < 0`, with `c` the Pearson correlation of the two pdf vectors; the joint pdf is its
-/// mixed second difference. Identical windows give 1; two flat windows give 1.
-fn window_nmi(a: &[f64; 9], f: &[f64; 9]) -> f64 {
-    if a == f {
-        return 1.0;
-    }
-    let (pa, pf) = (window_pdf(a), window_pdf(f));
-    let n = pa.len();
-    let lg = |p: &[f64; 9]| p.map(|v| if v > 0.0 { v.log2() } else { 0.0 });
-    let (la, lf) = (lg(&pa), lg(&pf));
-    let ent = |p: &[f64; 9], l: &[f64; 9]| -p.iter().zip(l).map(|(p, l)| p * l).sum::<f64>();
-    let (ha, hf) = (ent(&pa, &la), ent(&pf, &lf));
-    let mean = 1.0 / n as f64;
-    let (mut sab, mut saa, mut sff) = (0.0, 0.0, 0.0);
-    for (x, y) in pa.iter().zip(&pf) {
-        sab += (x - mean) * (y - mean);
-        saa += (x - mean) * (x - mean);
-        sff += (y - mean) * (y - mean);
-    }
-    if saa == 0.0 && sff == 0.0 {
-        return 1.0; // both flat: the same (uniform) feature distribution
-    }
-    let c = if saa == 0.0 || sff == 0.0 { 0.0 } else { sab / (saa * sff).sqrt() };
-    let cdf = |p: &[f64; 9]| {
-        let mut acc = 0.0;
-        p.map(|v| {
-            acc += v;
-            acc
-        })
-    };
-    let (fa, ff) = (cdf(&pa), cdf(&pf));
-    // p = |c|·M + k·pa⊗pf with k = 1 − |c| and M the mixed second difference of the Fréchet
-    // bound: M_ij is the length of the overlap of pa's i-th CDF step [Fa_{i−1}, Fa_i] with pf's
-    // j-th step (c ≥ 0), or with its mirror [1 − Ff_j, 1 − Ff_{j−1}] (c < 0). M is non-zero on
-    // at most 2n − 1 cells. Since p's marginals are pa and pf, MI = Σ p·log2 p + H_a + H_f, and
-    // Σ p·log2 p is first summed in closed form as if M were 0 — k·(log2 k − H_a − H_f) — and
-    // then corrected on the cells where M > 0: about 2n logarithms per window instead of n².
-    let ca = c.abs();
-    let k = 1.0 - ca;
-    let log_k = if k > 0.0 { k.log2() } else { 0.0 };
-    let mut plogp = if k > 0.0 { k * (log_k - ha - hf) } else { 0.0 };
-    for i in 0..n {
-        let (a0, a1) = (if i == 0 { 0.0 } else { fa[i - 1] }, fa[i]);
-        for j in 0..n {
-            let (f0, f1) = (if j == 0 { 0.0 } else { ff[j - 1] }, ff[j]);
-            let (f0, f1) = if c >= 0.0 { (f0, f1) } else { (1.0 - f1, 1.0 - f0) };
-            let m = a1.min(f1) - a0.max(f0);
-            if m <= 0.0 || ca == 0.0 {
-                continue;
-            }
-            let ind = k * pa[i] * pf[j];
-            if ind > 0.0 {
-                plogp -= ind * (log_k + la[i] + lf[j]);
-            }
-            let p = ca * m + ind;
-            if p > 1e-15 {
-                plogp += p * p.log2();
-            }
-        }
-    }
-    let mi = plogp + ha + hf;
-    if ha + hf <= 0.0 { 1.0 } else { (2.0 * mi / (ha + hf)).clamp(0.0, 1.0) }
-}
-
-/// Feature mutual information of `f` with one source `a`: the mean over all 3 × 3 windows of
-/// the windows' normalised MI on Sobel gradient-magnitude features. In [0, 1]; FMI(X, X) = 1.
-pub fn fmi_pair(a: &Gray<u8>, f: &Gray<u8>) -> f64 {
-    fmi_pair_with(a, f, FmiFeature::Gradient)
-}
-
-/// The feature map FMI compares.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum FmiFeature {
-    /// Sobel gradient magnitude (the default, "edge features" of metrics.md).
-    Gradient,
-    /// Raw pixel values (FMI_pixel in the literature).
-    Pixels,
-}
-
-/// [`fmi_pair`] on a chosen feature map.
-pub fn fmi_pair_with(a: &Gray<u8>, f: &Gray<u8>, feature: FmiFeature) -> f64 {
-    same_size(a, f);
-    let (w, h) = (a.width, a.height);
-    if w < 3 || h < 3 {
-        return if a.data == f.data { 1.0 } else { 0.0 };
-    }
-    let (ga, gf) = match feature {
-        FmiFeature::Gradient => (sobel_magnitude(a), sobel_magnitude(f)),
-        FmiFeature::Pixels => {
-            let raw = |g: &Gray<u8>| g.data.iter().map(|&v| f64::from(v)).collect::<Vec<_>>();
-            (raw(a), raw(f))
-        }
-    };
-    let row_sum = |y: usize| {
-        let mut wa = [0f64; 9];
-        let mut wf = [0f64; 9];
-        let mut total = 0.0;
-        for x in 0..w - 2 {
-            for k in 0..9 {
-                let idx = (y + k / 3) * w + x + k % 3;
-                wa[k] = ga[idx];
-                wf[k] = gf[idx];
-            }
-            total += window_nmi(&wa, &wf);
-        }
-        total
-    };
-    // Rows in parallel, summed in row order so the result does not depend on the thread count.
-    let rows: Vec<f64> = (0..h - 2).into_par_iter().map(row_sum).collect();
-    let total: f64 = rows.iter().sum();
-    total / ((w - 2) * (h - 2)) as f64
-}
-
-/// FMI of a fused image: the mean of [`fmi_pair`] against VIS and against TIR (so in [0, 1]).
-/// Variant: Fast-FMI (Haghighat & Razian 2014) on Sobel gradient magnitudes, 3 × 3 windows.
-pub fn fmi(vis: &Gray<u8>, tir: &Gray<u8>, fused: &Gray<u8>) -> f64 {
-    (fmi_pair(vis, fused) + fmi_pair(tir, fused)) / 2.0
-}
-
 /// The study's 1:2 fusion metrics of a fused image against its two sources.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub struct FusionMetrics {
@@ -400,75 +255,6 @@ mod tests {
         )
     }
 
-    /// The Fast-FMI window MI by the direct n² sum over the joint pdf (the definition).
-    fn window_nmi_direct(a: &[f64; 9], f: &[f64; 9]) -> f64 {
-        let (pa, pf) = (window_pdf(a), window_pdf(f));
-        let (ha, hf) = (entropy(&pa), entropy(&pf));
-        let mean = 1.0 / 9.0;
-        let (mut sab, mut saa, mut sff) = (0.0, 0.0, 0.0);
-        for (x, y) in pa.iter().zip(&pf) {
-            sab += (x - mean) * (y - mean);
-            saa += (x - mean) * (x - mean);
-            sff += (y - mean) * (y - mean);
-        }
-        let c = if saa == 0.0 || sff == 0.0 { 0.0 } else { sab / (saa * sff).sqrt() };
-        let cdf = |p: &[f64; 9]| {
-            let mut acc = 0.0;
-            p.map(|v| {
-                acc += v;
-                acc
-            })
-        };
-        let (fa, ff) = (cdf(&pa), cdf(&pf));
-        let joint = |i: usize, j: usize| -> f64 {
-            if i == 0 || j == 0 {
-                return 0.0;
-            }
-            let (u, v) = (fa[i - 1], ff[j - 1]);
-            if c >= 0.0 {
-                c * u.min(v) + (1.0 - c) * u * v
-            } else {
-                -c * (u + v - 1.0).max(0.0) + (1.0 + c) * u * v
-            }
-        };
-        let mut mi = 0.0;
-        for (i, &pai) in pa.iter().enumerate() {
-            for (j, &pfj) in pf.iter().enumerate() {
-                let p = joint(i + 1, j + 1) - joint(i, j + 1) - joint(i + 1, j) + joint(i, j);
-                let q = pai * pfj;
-                if p > 1e-15 && q > 0.0 {
-                    mi += p * (p / q).log2();
-                }
-            }
-        }
-        if ha + hf <= 0.0 { 1.0 } else { (2.0 * mi / (ha + hf)).clamp(0.0, 1.0) }
-    }
-
-    #[test]
-    fn window_nmi_equals_the_direct_sum() {
-        let mut state = 12345u64;
-        let mut next = || {
-            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-            ((state >> 33) % 50) as f64
-        };
-        for _ in 0..5000 {
-            let a: [f64; 9] = std::array::from_fn(|_| next());
-            let mut f: [f64; 9] = std::array::from_fn(|_| next());
-            if next() < 10.0 {
-                f = a.map(|v| 60.0 - v); // negatively correlated
-            }
-            if saa_is_flat(&a) && saa_is_flat(&f) {
-                continue;
-            }
-            let (fast, direct) = (window_nmi(&a, &f), window_nmi_direct(&a, &f));
-            assert!((fast - direct).abs() < 1e-9, "{a:?} {f:?}: {fast} vs {direct}");
-        }
-    }
-
-    fn saa_is_flat(v: &[f64; 9]) -> bool {
-        v.iter().all(|&x| x == v[0])
-    }
-
     #[test]
     fn mi_of_an_image_with_itself_is_its_entropy() {
         let a = pattern(40, 30, 1);
@@ -526,36 +312,6 @@ mod tests {
         }
         let direct = total / (4.0 * 7.0);
         assert!((ssim(&a, &b) - direct).abs() < 1e-12, "{} vs {direct}", ssim(&a, &b));
-    }
-
-    #[test]
-    #[ignore = "prints FMI variants on a VIFB pair; run with --ignored --nocapture"]
-    fn fmi_variants_on_vifb() {
-        let d = crate::testdata::vifb_dir();
-        let load = |n: &str| crate::io::load_gray_u8(&d.join(n), crate::io::ColorPolicy::Refuse).unwrap();
-        let (v, t, f) = (load("fight_VIS.png"), load("fight_IR.png"), load("fight_ADF_ref.png"));
-        for feature in [FmiFeature::Gradient, FmiFeature::Pixels] {
-            let x = (fmi_pair_with(&v, &f, feature) + fmi_pair_with(&t, &f, feature)) / 2.0;
-            println!("{feature:?}: {x:.4}");
-        }
-    }
-
-    #[test]
-    fn fmi_properties() {
-        let a = pattern(20, 16, 4);
-        assert!((fmi_pair(&a, &a) - 1.0).abs() < 1e-12);
-        let b = pattern(20, 16, 5);
-        let v = fmi_pair(&a, &b);
-        assert!((0.0..1.0).contains(&v), "{v}");
-        // A fused image equal to one source scores higher against it than an unrelated one.
-        assert!(fmi(&a, &b, &a) > fmi_pair(&b, &a));
-        // Hand case: perfectly correlated non-identical windows (scaled copies) have c = 1, the
-        // joint pdf is the diagonal of the common pdf, so the normalised MI is 1.
-        let w1 = [0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0];
-        let w2 = w1.map(|v| 2.0 * v);
-        assert!((window_nmi(&w1, &w2) - 1.0).abs() < 1e-9);
-        // A flat window against a structured one carries no information.
-        assert!(window_nmi(&[3.0; 9], &w1).abs() < 1e-12);
     }
 
     #[test]

@@ -11,6 +11,21 @@ use rustfft::num_complex::Complex;
 use rustfft::{Fft, FftPlanner};
 use std::sync::Arc;
 
+/// The smallest size `≥ n` whose only prime factors are 2, 3, 5 and 7 (fast to transform).
+pub(super) fn fast_size(n: usize) -> usize {
+    (n.max(1)..)
+        .find(|&m| {
+            let mut r = m;
+            for p in [2, 3, 5, 7] {
+                while r % p == 0 {
+                    r /= p;
+                }
+            }
+            r == 1
+        })
+        .expect("every n has a 7-smooth successor")
+}
+
 /// Planned transforms for one `width × height` grid.
 pub(super) struct Spectra2d {
     /// Columns of the image.
@@ -87,19 +102,14 @@ impl Spectra2d {
         out
     }
 
-    /// Transforms every column of a half spectrum in place.
+    /// Transforms every column of a half spectrum in place: transposed so that the columns
+    /// are contiguous, all transformed in one batch, transposed back.
     fn columns(&self, spec: &mut [Complex<f64>], fft: &dyn Fft<f64>) {
         let (h, half) = (self.height, self.half);
-        let mut col = vec![Complex::default(); h];
+        let mut cols = vec![Complex::default(); h * half];
+        transpose::transpose(spec, &mut cols, half, h);
         let mut scratch = vec![Complex::default(); fft.get_inplace_scratch_len()];
-        for kx in 0..half {
-            for (y, c) in col.iter_mut().enumerate() {
-                *c = spec[y * half + kx];
-            }
-            fft.process_with_scratch(&mut col, &mut scratch);
-            for (y, c) in col.iter().enumerate() {
-                spec[y * half + kx] = *c;
-            }
-        }
+        fft.process_with_scratch(&mut cols, &mut scratch);
+        transpose::transpose(&cols, spec, h, half);
     }
 }

@@ -6,9 +6,9 @@
 //! the function says which.
 
 use crate::io::Gray;
-use rayon::prelude::*;
 
 mod fft;
+mod filter;
 pub mod fmi;
 pub mod vifb;
 
@@ -110,46 +110,34 @@ fn ssim_valid_windows(a: &[u8], b: &[u8], w: usize, h: usize) -> f64 {
     let index = |ma: f64, mb: f64, va: f64, vb: f64, cov: f64| {
         ((2.0 * ma * mb + c1) * (2.0 * cov + c2)) / ((ma * ma + mb * mb + c1) * (va + vb + c2))
     };
-    // Separable: the five moment images filtered along rows (valid part), then along columns.
+    // The five moment images a, b, a², b², ab, each filtered with the window over its valid
+    // part, streamed in strips of rows; the index per window, summed in row order.
     let g = ssim_window();
-    let wv = w - 10;
-    let rows: Vec<[f64; 5]> = (0..h)
-        .into_par_iter()
-        .flat_map_iter(|y| {
+    let mut total = 0.0;
+    filter::correlate_valid_in_strips(
+        5,
+        (w, h),
+        &g,
+        |p, y, row| {
             let (ra, rb) = (&a[y * w..(y + 1) * w], &b[y * w..(y + 1) * w]);
-            (0..wv).map(move |x0| {
-                let mut m = [0.0; 5];
-                for (j, &gj) in g.iter().enumerate() {
-                    let (x, y) = (f64::from(ra[x0 + j]), f64::from(rb[x0 + j]));
-                    m[0] += gj * x;
-                    m[1] += gj * y;
-                    m[2] += gj * x * x;
-                    m[3] += gj * y * y;
-                    m[4] += gj * x * y;
-                }
-                m
-            })
-        })
-        .collect();
-    let row_totals: Vec<f64> = (0..=h - 11)
-        .into_par_iter()
-        .map(|y0| {
-            let mut total = 0.0;
-            for x0 in 0..wv {
-                let mut m = [0.0; 5];
-                for (i, &gi) in g.iter().enumerate() {
-                    let r = &rows[(y0 + i) * wv + x0];
-                    for k in 0..5 {
-                        m[k] += gi * r[k];
-                    }
-                }
-                let [ma, mb, saa, sbb, sab] = m;
-                total += index(ma, mb, saa - ma * ma, sbb - mb * mb, sab - ma * mb);
+            let moment: fn(f64, f64) -> f64 = match p {
+                0 => |x, _| x,
+                1 => |_, y| y,
+                2 => |x, _| x * x,
+                3 => |_, y| y * y,
+                _ => |x, y| x * y,
+            };
+            for ((o, &x), &y) in row.iter_mut().zip(ra).zip(rb) {
+                *o = moment(f64::from(x), f64::from(y));
             }
-            total
-        })
-        .collect();
-    let total: f64 = row_totals.iter().sum();
+        },
+        |_, n, m| {
+            for k in 0..n * (w - 10) {
+                let (ma, mb) = (m[0][k], m[1][k]);
+                total += index(ma, mb, m[2][k] - ma * ma, m[3][k] - mb * mb, m[4][k] - ma * mb);
+            }
+        },
+    );
     total / ((h - 10) * (w - 10)) as f64
 }
 

@@ -22,7 +22,7 @@
 //! transform (the filters are real and even, so VIFB's complex result differs from it only by
 //! rounding noise in the imaginary part).
 
-use super::fft::Spectra2d;
+use super::fft::{self, Spectra2d};
 use crate::io::{Channels, rgb_to_gray_bt601};
 use anyhow::{Result, bail};
 use rustfft::num_complex::Complex;
@@ -482,17 +482,45 @@ fn chen_blum(spectra: &Spectra2d, s: [&Vec<Complex<f64>>; 3]) -> f64 {
         let r = (u * u + v * v).sqrt();
         (-(r / 15.3870).powi(2)).exp() - 0.7622 * (-(r / 1.3456).powi(2)).exp()
     };
+    // The local contrast's two Gaussians, `filter2(G, I, 'same')` with zero padding, as
+    // products in the frequency domain of a grid padded by the kernels' radius 15 (so nothing
+    // wraps around): one forward and two inverse transforms per image.
+    let (pw, ph) = (fft::fast_size(w + 15), fft::fast_size(h + 15));
+    let padded = Spectra2d::new(pw, ph);
+    let kernel = |sigma: f64| -> Vec<f64> {
+        // `exp(−(x² + y²)/2σ²)/(2πσ²)` for x, y in −15..15, centred on (0, 0) of the padded grid.
+        let mut k = vec![0f64; pw * ph];
+        for dy in -15i32..=15 {
+            for dx in -15i32..=15 {
+                let (x, y) = (f64::from(dx), f64::from(dy));
+                let v = (-(x * x + y * y) / (2.0 * sigma * sigma)).exp()
+                    / (2.0 * std::f64::consts::PI * sigma * sigma);
+                k[dy.rem_euclid(ph as i32) as usize * pw + dx.rem_euclid(pw as i32) as usize] = v;
+            }
+        }
+        // An even kernel has a real spectrum (the imaginary parts are rounding noise).
+        padded.forward(&k).iter().map(|c| c.re).collect()
+    };
+    let (k2, k4) = (kernel(2.0), kernel(4.0));
+    let half = pw / 2 + 1;
     let contrast = |spec: &Vec<Complex<f64>>| -> Vec<f64> {
         let img = spectra.inverse_filtered(spec, csf);
-        let g2 = gaussian_same(&img, w, h, 2.0);
-        let g4 = gaussian_same(&img, w, h, 4.0);
-        g2.iter()
-            .zip(&g4)
-            .map(|(&x, &y)| {
-                let c = (x / y - 1.0).abs();
-                c.powi(3) / (c * c + 0.0001)
-            })
-            .collect()
+        let mut big = vec![0f64; pw * ph];
+        for y in 0..h {
+            big[y * pw..y * pw + w].copy_from_slice(&img[y * w..(y + 1) * w]);
+        }
+        let sb = padded.forward(&big);
+        let g2 = padded.inverse_filtered(&sb, |ky, kx| k2[ky * half + kx]);
+        let g4 = padded.inverse_filtered(&sb, |ky, kx| k4[ky * half + kx]);
+        let mut out = Vec::with_capacity(w * h);
+        for y in 0..h {
+            for x in 0..w {
+                // `C' = C³/(C² + 10⁻⁴)` with `C = |G₂∗I/G₄∗I − 1|`.
+                let c = (g2[y * pw + x] / g4[y * pw + x] - 1.0).abs();
+                out.push(c.powi(3) / (c * c + 0.0001));
+            }
+        }
+        out
     };
     let (ca, cb, cf) = (contrast(s[0]), contrast(s[1]), contrast(s[2]));
     // MATLAB's `(X./Y).*mask + (Y./X).*(1−mask)`: an Inf or NaN in the unused branch still
@@ -504,9 +532,7 @@ fn chen_blum(spectra: &Spectra2d, s: [&Vec<Complex<f64>>; 3]) -> f64 {
     let mut total = 0.0;
     for k in 0..w * h {
         let (a2, b2) = (ca[k] * ca[k], cb[k] * cb[k]);
-        let la = a2 / (a2 + b2);
-        let lb = b2 / (a2 + b2);
-        total += la * pres(ca[k], cf[k]) + lb * pres(cb[k], cf[k]);
+        total += a2 / (a2 + b2) * pres(ca[k], cf[k]) + b2 / (a2 + b2) * pres(cb[k], cf[k]);
     }
     total / (w * h) as f64
 }
@@ -575,47 +601,4 @@ fn chen_varshney(spectra: &Spectra2d, s: [&Vec<Complex<f64>>; 3], na: &[f64], nb
         deno += la[k] + lb[k];
     }
     nume / deno
-}
-
-/// `filter2(G, img, 'same')` with `metricsQcb.m`'s unnormalised 31 × 31 Gaussian
-/// `exp(−(x² + y²)/2σ²)/(2πσ²)`, x, y ∈ −15..15, zero padding — as two 31-tap passes.
-fn gaussian_same(img: &[f64], w: usize, h: usize, sigma: f64) -> Vec<f64> {
-    const R: usize = 15;
-    let taps: Vec<f64> = (0..=2 * R)
-        .map(|t| {
-            let x = t as f64 - R as f64;
-            (-(x * x) / (2.0 * sigma * sigma)).exp()
-        })
-        .collect();
-    let scale = 1.0 / (2.0 * std::f64::consts::PI * sigma * sigma);
-    // Vertical pass: out row y = Σ_t taps[t]·in row (y + t − R), rows outside are 0.
-    let mut tmp = vec![0f64; w * h];
-    for y in 0..h {
-        let out = &mut tmp[y * w..(y + 1) * w];
-        for (t, &k) in taps.iter().enumerate() {
-            let Some(src_y) = (y + t).checked_sub(R).filter(|&s| s < h) else { continue };
-            for (o, &v) in out.iter_mut().zip(&img[src_y * w..(src_y + 1) * w]) {
-                *o += k * v;
-            }
-        }
-    }
-    // Horizontal pass, then the 2-D kernel's scale.
-    let mut out = vec![0f64; w * h];
-    for y in 0..h {
-        let src = &tmp[y * w..(y + 1) * w];
-        let dst = &mut out[y * w..(y + 1) * w];
-        for (t, &k) in taps.iter().enumerate() {
-            // dst[x] += k·src[x + t − R] for the x where that index is inside the row.
-            let (d0, s0) = if t < R { (R - t, 0) } else { (0, t - R) };
-            if d0 >= w || s0 >= w {
-                continue;
-            }
-            let len = (w - d0).min(w - s0);
-            for (o, &v) in dst[d0..d0 + len].iter_mut().zip(&src[s0..s0 + len]) {
-                *o += k * v;
-            }
-        }
-        dst.iter_mut().for_each(|v| *v *= scale);
-    }
-    out
 }

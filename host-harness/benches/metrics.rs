@@ -1,0 +1,36 @@
+//! Host timing of the metric suites on real content at 640×480 and 4096² (one thread).
+//!
+//! `RAYON_NUM_THREADS=1 cargo bench -p host-harness --bench metrics` (add `-- 640` for the small
+//! size only). The triple is VIFB's `kettle` pair and its published TSIFSD output, rescaled to
+//! each size with the core's bicubic rescaler. Figures: BENCHMARKS.md, "Metrics".
+
+use criterion::{Criterion, criterion_group, criterion_main};
+use host_harness::cli::eval::study_metrics;
+use host_harness::io::{Channels, ColorPolicy, Gray, load_gray_u8};
+use host_harness::metrics::vifb::vifb_metrics;
+use host_harness::testdata;
+use std::hint::black_box;
+use std::time::Duration;
+
+fn triple(w: usize, h: usize) -> [Gray<u8>; 3] {
+    ["kettle_VIS.png", "kettle_IR.png", "kettle_TSIFSD_ref.png"].map(|name| {
+        let img = load_gray_u8(&testdata::file(&format!("vifb/{name}")), ColorPolicy::Refuse).unwrap();
+        host_harness::cli::eval::on_grid(&img, w, h, fusion_nostd::Filter::Cubic).unwrap()
+    })
+}
+
+fn bench(c: &mut Criterion) {
+    for (w, h, samples, secs) in [(640, 480, 20, 10), (4096, 4096, 10, 60)] {
+        let [v, i, f] = triple(w, h);
+        let ch = |g: &Gray<u8>| Channels::from_gray(g.clone());
+        let (cv, ci, cf) = (ch(&v), ch(&i), ch(&f));
+        let mut g = c.benchmark_group(format!("metrics_{w}x{h}"));
+        g.sample_size(samples).measurement_time(Duration::from_secs(secs));
+        g.bench_function("vifb_13", |b| b.iter(|| vifb_metrics(black_box(&cv), &ci, &cf).unwrap()));
+        g.bench_function("study_with_3_fmi", |b| b.iter(|| study_metrics(black_box(&v), &i, &f)));
+        g.finish();
+    }
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);

@@ -97,7 +97,7 @@ mod tests {
         let img: Vec<f64> = (0..w * h).map(|i| ((i * 7919) % 251) as f64).collect();
         let second: Vec<f64> = img.iter().map(|v| v * v - 3.0).collect();
         let taps = [0.5, 1.0, 3.0, 1.0, 0.25];
-        let mut got = vec![Vec::new(), Vec::new()];
+        let mut got = [Vec::new(), Vec::new()];
         correlate_valid_in_strips(
             2,
             (w, h),

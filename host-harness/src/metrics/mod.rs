@@ -132,9 +132,16 @@ fn ssim_valid_windows(a: &[u8], b: &[u8], w: usize, h: usize) -> f64 {
             }
         },
         |_, n, m| {
-            for k in 0..n * (w - 10) {
-                let (ma, mb) = (m[0][k], m[1][k]);
-                total += index(ma, mb, m[2][k] - ma * ma, m[3][k] - mb * mb, m[4][k] - ma * mb);
+            let len = n * (w - 10);
+            let [ma, mb, saa, sbb, sab] = [0, 1, 2, 3, 4].map(|p| &m[p][..len]);
+            for k in 0..len {
+                total += index(
+                    ma[k],
+                    mb[k],
+                    saa[k] - ma[k] * ma[k],
+                    sbb[k] - mb[k] * mb[k],
+                    sab[k] - ma[k] * mb[k],
+                );
             }
         },
     );

@@ -602,3 +602,105 @@ fn chen_varshney(spectra: &Spectra2d, s: [&Vec<Complex<f64>>; 3], na: &[f64], nb
     }
     nume / deno
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::io::load_channels_u8;
+
+    fn plane_of(data: &[u8], w: usize) -> Plane<'_> {
+        Plane { width: w, height: data.len() / w, data }
+    }
+
+    #[test]
+    fn hand_cases_of_the_files_own_formulas() {
+        // `mse` of metricsRmse.m: sqrt(Σ d²)/(m·n) = sqrt(9 + 16)/4.
+        assert_eq!(vifb_error(&[0, 0, 0, 0], &[3, 4, 0, 0], 4.0), 5.0 / 4.0);
+        // `gradient`: one-sided on the border columns (1 and 3), central inside (4/2 = 2); no
+        // vertical change. Σ |dx|/√2 over 3 rows, divided by (3 − 1)(3 − 1).
+        let ramp = [0, 1, 4, 0, 1, 4, 0, 1, 4];
+        let want = 3.0 * (1.0 + 2.0 + 3.0) / 2f64.sqrt() / 4.0;
+        assert!((average_gradient(plane_of(&ramp, 3)) - want).abs() < 1e-12);
+        // Spatial frequency of two 1 × 2 channels side by side: the row [1, 3, 0, 2] has steps
+        // 2, −3, 2 (the middle one across the channels), no column steps: sqrt(17/4).
+        let (a, b) = ([1u8, 3], [0u8, 2]);
+        assert_eq!(spatial_frequency(&[plane_of(&a, 2), plane_of(&b, 2)]), (17f64 / 4.0).sqrt());
+        // KL of identical histograms is 0; entropy of a two-level half/half image is 1 bit.
+        let h = histogram(&[0, 0, 9, 9]);
+        assert_eq!(kl_bits(&h, &h, 4.0), 0.0);
+        assert_eq!(entropy_bits(&h, 4.0), 1.0);
+    }
+
+    #[test]
+    fn mutinf_is_in_nats_after_the_min_max_rescale() {
+        // Full range: the rescale is the identity, so MI(X, X) = H(X) in nats.
+        let x: Vec<u8> = (0..4096u32).map(|i| ((i * 2654435761) >> 24) as u8).collect();
+        assert!(x.contains(&0) && x.contains(&255));
+        let h = histogram(&x);
+        let nats = -h.iter().filter(|&&c| c > 0).map(|&c| c as f64 / 4096.0).map(|p| p * p.ln()).sum::<f64>();
+        assert!((mutinf(&x, &x) - nats).abs() < 1e-12);
+        // The rescale makes MI blind to an offset and a scale: MI(X, 2X + 10) on a half-range X.
+        let half: Vec<u8> = x.iter().map(|v| v / 2).collect();
+        let moved: Vec<u8> = half.iter().map(|v| v * 2 + 10).collect();
+        assert!((mutinf(&half, &moved) - mutinf(&half, &half)).abs() < 1e-12);
+        // A constant image goes to bin 0: no information.
+        assert_eq!(mutinf(&[7; 16], &x[..16]), 0.0);
+    }
+
+    #[test]
+    fn qabf_of_an_image_with_itself_takes_the_files_equal_strength_branch() {
+        // gA = gF everywhere, so the file sets G to the strength itself (≥ 255 where it is not 0)
+        // instead of 1: Q_g = Tg exactly, and A = 1: Q = Tg·Ta/(1 + e^{−22·0.2}).
+        let x: Vec<u8> = (0..30 * 20u32).map(|i| ((i * 2654435761) >> 24) as u8).collect();
+        let p = plane_of(&x, 30);
+        let want = 0.9994 * 0.9879 / (1.0 + (-22.0f64 * (1.0 - 0.8)).exp());
+        assert!((qabf(p, p, p) - want).abs() < 1e-12, "{} vs {want}", qabf(p, p, p));
+    }
+
+    #[test]
+    fn a_constant_non_zero_image_is_undefined_for_the_chen_metrics() {
+        // normalize1 divides 0 by 0: NaN, as VIFB's code gives.
+        assert!(normalize1(&[5; 4]).iter().all(|v| v.is_nan()));
+        assert_eq!(normalize1(&[0; 4]), vec![0.0; 4]);
+        let n: Vec<u8> = (0..16 * 16u32).map(|i| (i * 37 % 256) as u8).collect();
+        let (c, t) = (vec![9u8; 256], plane_of(&n, 16));
+        let (qcb, qcv) = chen_metrics(plane_of(&c, 16), t, t);
+        assert!(qcb.is_nan() && qcv.is_nan());
+    }
+
+    #[test]
+    fn colour_is_the_channel_mean_and_sf_lays_the_channels_side_by_side() {
+        let d = crate::testdata::vifb_dir();
+        let load = |n: &str| load_channels_u8(&d.join(n)).unwrap();
+        let (v, i) = (load("fight_VIS.png"), load("fight_IR.png"));
+        let outs = ["ADF", "TSIFSD", "IFEVIP"].map(|m| load(&format!("fight_{m}_ref.png")));
+        let (w, h) = (v.width, v.height);
+        let vis = Channels {
+            width: w,
+            height: h,
+            planes: vec![v.planes[0].clone(), i.planes[0].clone(), v.planes[0].clone()],
+        };
+        let fused =
+            Channels { width: w, height: h, planes: outs.iter().map(|o| o.planes[0].clone()).collect() };
+        let colour = vifb_metrics(&vis, &i, &fused).unwrap().values();
+        let grey: Vec<[f64; 13]> = (0..3)
+            .map(|k| {
+                let g = |c: &Channels, k: usize| Channels::from_gray(c.plane(k));
+                vifb_metrics(&g(&vis, k), &i, &g(&fused, k)).unwrap().values()
+            })
+            .collect();
+        for (m, key) in KEYS.iter().enumerate().filter(|&(_, &k)| k != "SF") {
+            let mean = (grey[0][m] + grey[1][m] + grey[2][m]) / 3.0;
+            assert!((colour[m] - mean).abs() <= 1e-12 * mean.abs(), "{key}: {} vs {mean}", colour[m]);
+        }
+        // SF: the grey SF of the 3W × H image made of the three channels side by side.
+        let mut wide = Vec::with_capacity(3 * w * h);
+        for y in 0..h {
+            for p in &fused.planes {
+                wide.extend_from_slice(&p[y * w..(y + 1) * w]);
+            }
+        }
+        let sf = spatial_frequency(&[plane_of(&wide, 3 * w)]);
+        assert_eq!(colour[10], sf);
+    }
+}

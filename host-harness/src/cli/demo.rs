@@ -132,9 +132,10 @@ pub fn run(args: &DemoArgs) -> Result<()> {
         md,
         "# fusion demo\n\n{frames} frames of the default scene (VIS 1024², TIR 512² upscaled to 1024² with \
          bicubic), noisy inputs, fused by the no_std core on the host (one thread). Time: median over \
-         frames of the per-frame median of {} runs. Metrics (the study's 1:2 definitions: AG of F; \
-         MI and SSIM summed over F against VIS and against the upscaled TIR; RMSE their mean), \
-         averaged over the frames; `fusion eval` adds FMI. Guards: bit set of `fusion_nostd::Guards`.\n\nContact sheet columns: VIS, TIR (upscaled), {}; rows: {}.\n",
+         frames of the per-frame median of {} runs. Metrics: the study's suite (`fusion eval \
+         --suite study`, docs/metrics.md: AG of F; MI in bits and SSIM summed over F against VIS and \
+         against the upscaled TIR; RMSE their mean), averaged over the frames; `fusion eval` adds FMI \
+         and, with `--suite vifb`, VIFB's 13. Guards: bit set of `fusion_nostd::Guards`.\n\nContact sheet columns: VIS, TIR (upscaled), {}; rows: {}.\n",
         args.repeats.max(1),
         methods.iter().map(|m| m.name).collect::<Vec<_>>().join(", "),
         illuminations.join(", ")

@@ -191,7 +191,12 @@ pub fn fmi_haghighat(a: &Gray<u8>, b: &Gray<u8>, f: &Gray<u8>, feature: Haghigha
             // The 3 × 3 window flattened column by column, as MATLAB's `aSub(:)`.
             let window = |m: &[f64]| -> [f64; 9] { std::array::from_fn(|k| m[(y + k % 3) * w + x + k / 3]) };
             let (wa, wb, wf) = (window(&fa), window(&fb), window(&ff));
-            total += (haghighat_window(&wa, &wf) + haghighat_window(&wb, &wf)) / 2.0;
+            let fused = (wa != wf || wb != wf).then(|| Marginal::of(&wf));
+            let nmi = |w: &[f64; 9]| match &fused {
+                Some(m) if *w != wf => pair_nmi(&Marginal::of(w), m),
+                _ => 1.0,
+            };
+            total += (nmi(&wa) + nmi(&wb)) / 2.0;
         }
         total
     };
@@ -235,108 +240,139 @@ fn haghighat_pdf(v: &[f64; 9]) -> [f64; 9] {
     s.map(|x| x / sum)
 }
 
-/// The window statistics `fmi.m` derives from two pdfs: CDFs, Pearson `c` of the pdf vectors,
-/// population SDs of the index distributions (1-based indices), entropies (bits).
-struct WindowStats {
-    pa: [f64; 9],
-    pf: [f64; 9],
-    ca: [f64; 9],
-    cf: [f64; 9],
-    c: f64,
-    sd_a: f64,
-    sd_f: f64,
-    h_a: f64,
-    h_f: f64,
+/// One window's marginal as `fmi.m` uses it: pdf, CDF, log2 of the pdf (0 where it is 0), the
+/// pdf vector's mean, the entropy (bits) and the population SD of the index distribution
+/// (1-based indices). The fused window's marginal is shared by its two pairs.
+struct Marginal {
+    p: [f64; 9],
+    cdf: [f64; 9],
+    log_p: [f64; 9],
+    mean: f64,
+    entropy: f64,
+    sd: f64,
 }
 
-fn window_stats(a: &[f64; 9], f: &[f64; 9]) -> WindowStats {
-    let (pa, pf) = (haghighat_pdf(a), haghighat_pdf(f));
-    let cdf = |p: &[f64; 9]| {
+impl Marginal {
+    fn of(window: &[f64; 9]) -> Self {
+        let p = haghighat_pdf(window);
         let mut acc = 0.0;
-        p.map(|v| {
+        let cdf = p.map(|v| {
             acc += v;
             acc
-        })
-    };
-    let mean = |p: &[f64; 9]| p.iter().sum::<f64>() / 9.0;
-    let (ma, mf) = (mean(&pa), mean(&pf));
-    let (mut sab, mut saa, mut sff) = (0.0, 0.0, 0.0);
-    for (x, y) in pa.iter().zip(&pf) {
-        sab += (x - ma) * (y - mf);
-        saa += (x - ma) * (x - ma);
-        sff += (y - mf) * (y - mf);
-    }
-    let c = if sab == 0.0 { 0.0 } else { sab / (saa * sff).sqrt() };
-    let sd = |p: &[f64; 9]| {
+        });
+        let log_p = p.map(|v| if v != 0.0 { v.log2() } else { 0.0 });
+        let entropy = -p.iter().zip(&log_p).map(|(p, l)| p * l).sum::<f64>();
         let (mut e, mut e2) = (0.0, 0.0);
         for (i, &v) in p.iter().enumerate() {
             let i = (i + 1) as f64;
             e += i * v;
             e2 += i * i * v;
         }
-        (e2 - e * e).sqrt()
-    };
-    let ent = |p: &[f64; 9]| -> f64 { p.iter().filter(|&&v| v != 0.0).map(|&v| -v * v.log2()).sum() };
-    WindowStats {
-        pa,
-        pf,
-        ca: cdf(&pa),
-        cf: cdf(&pf),
-        c,
-        sd_a: sd(&pa),
-        sd_f: sd(&pf),
-        h_a: ent(&pa),
-        h_f: ent(&pf),
+        Self { p, cdf, log_p, mean: p.iter().sum::<f64>() / 9.0, entropy, sd: (e2 - e * e).sqrt() }
     }
 }
 
-/// `fmi.m`'s normalised MI of one window pair (`a` a source window, `f` the fused one, both
-/// column-major). The joint pdf is `φ·M + (1 − φ)·p_f ⊗ p_a` with `M` the mixed second
-/// difference of the Fréchet upper bound `min(F_f, F_a)` (c ≥ 0) or lower bound
-/// `max(F_f + F_a − 1, 0)` (c < 0), and `φ = c / corr(bound)`; a cell's entropy term is
-/// `real(−p·log2 p)`, i.e. `−p·log2|p|` (φ can exceed 1 and make cells negative).
-///
-/// `M` is non-zero on at most 17 of the 81 cells (overlaps of CDF steps), so the joint entropy
-/// is summed in closed form as if `M` were 0 — `−k(log2|k| − H_a − H_f)`, `k = 1 − φ` — and
-/// corrected on those cells; the test module keeps the file's 81-cell loop and compares.
-fn haghighat_window(a: &[f64; 9], f: &[f64; 9]) -> f64 {
-    if a == f {
-        return 1.0;
+/// The Pearson correlation `c` of two pdf vectors as `fmi.m` computes it (0 when the cross sum
+/// is exactly 0).
+fn pearson(a: &Marginal, f: &Marginal) -> f64 {
+    let (mut sab, mut saa, mut sff) = (0.0, 0.0, 0.0);
+    for (x, y) in a.p.iter().zip(&f.p) {
+        sab += (x - a.mean) * (y - f.mean);
+        saa += (x - a.mean) * (x - a.mean);
+        sff += (y - f.mean) * (y - f.mean);
     }
-    let s = window_stats(a, f);
-    let upper = s.c >= 0.0;
-    let bound = |fi: f64, aj: f64| if upper { fi.min(aj) } else { (fi + aj - 1.0).max(0.0) };
-    let phi = if (upper && s.c == 0.0) || s.sd_a == 0.0 || s.sd_f == 0.0 {
+    if sab == 0.0 { 0.0 } else { sab / (saa * sff).sqrt() }
+}
+
+/// `Σ_i Σ_j bound(F_i, A_j) − (Σ F)(Σ A)`, the covariance numerator of the Fréchet bound, in
+/// O(n): both CDFs are non-decreasing, so the cells where `min(F_i, A_j) = A_j` (upper bound)
+/// or where `F_i + A_j > 1` (lower bound) form a prefix or a suffix of `j` that moves
+/// monotonically with `i`.
+fn bound_covariance(f: &[f64; 9], a: &[f64; 9], upper: bool) -> f64 {
+    let (sf, sa): (f64, f64) = (f.iter().sum(), a.iter().sum());
+    let mut total = 0.0;
+    if upper {
+        // Σ_j min(F_i, A_j) = (Σ of A_j < F_i) + F_i·(count of A_j ≥ F_i).
+        let (mut j, mut below) = (0, 0.0);
+        for &fi in f {
+            while j < 9 && a[j] < fi {
+                below += a[j];
+                j += 1;
+            }
+            total += below + fi * (9 - j) as f64;
+        }
+    } else {
+        // Σ_j max(F_i + A_j − 1, 0) over the suffix of A_j > 1 − F_i.
+        let mut suffix = [0f64; 10];
+        for j in (0..9).rev() {
+            suffix[j] = suffix[j + 1] + a[j];
+        }
+        let mut j = 9;
+        for &fi in f {
+            while j > 0 && fi + a[j - 1] - 1.0 > 0.0 {
+                j -= 1;
+            }
+            total += suffix[j] + (9 - j) as f64 * (fi - 1.0);
+        }
+    }
+    total - sf * sa
+}
+
+/// `fmi.m`'s normalised MI of one window pair (`a` a source window's marginal, `f` the fused
+/// one's). The joint pdf is `φ·M + (1 − φ)·p_f ⊗ p_a` with `M` the cell masses of the Fréchet
+/// upper bound `min(F_f, F_a)` (c ≥ 0) or lower bound `max(F_f + F_a − 1, 0)` (c < 0) and
+/// `φ = c / corr(bound)`; a cell's entropy term is `real(−p·log2 p)`, i.e. `−p·log2|p|` (φ can
+/// exceed 1 and make cells negative).
+///
+/// `M` is the overlap of the CDF steps (or, for the lower bound, of f's steps with a's mirrored
+/// ones), non-zero on at most 17 of the 81 cells: the joint entropy is summed in closed form as
+/// if `M` were 0 — `−k(log2|k| − H_a − H_f)`, `k = 1 − φ` — and corrected on those cells, found
+/// by merging the two step sequences. The test module keeps the file's 81-cell loop and compares.
+fn pair_nmi(a: &Marginal, f: &Marginal) -> f64 {
+    let c = pearson(a, f);
+    let upper = c >= 0.0;
+    let phi = if (upper && c == 0.0) || a.sd == 0.0 || f.sd == 0.0 {
         0.0
     } else {
-        let mut cov = 0.0;
-        for &fi in &s.cf {
-            for &aj in &s.ca {
-                cov += bound(fi, aj) - fi * aj;
-            }
-        }
-        s.c / (cov / (s.sd_f * s.sd_a))
+        c / (bound_covariance(&f.cdf, &a.cdf, upper) / (f.sd * a.sd))
     };
     let k = 1.0 - phi;
-    let plogp = |p: f64| if p == 0.0 { 0.0 } else { -p * p.abs().log2() };
-    // Closed form over all cells with M = 0: Σ −k·q·log2|k·q| = −k(log2|k| − H_f − H_a).
-    let mut joint = if k == 0.0 { 0.0 } else { -k * (k.abs().log2() - s.h_f - s.h_a) };
-    for i in 0..9 {
-        let (f0, f1) = (if i == 0 { 0.0 } else { s.cf[i - 1] }, s.cf[i]);
-        for j in 0..9 {
-            let (a0, a1) = (if j == 0 { 0.0 } else { s.ca[j - 1] }, s.ca[j]);
-            // The overlap of f's i-th CDF step with a's j-th (or with its mirror for the lower bound).
-            let (a0, a1) = if upper { (a0, a1) } else { (1.0 - a1, 1.0 - a0) };
+    let log_k = if k != 0.0 { k.abs().log2() } else { 0.0 };
+    let mut joint = if k == 0.0 { 0.0 } else { -k * (log_k - f.entropy - a.entropy) };
+    if phi != 0.0 {
+        // a's steps in increasing order: [A_{j−1}, A_j] (upper) or [1 − A_j, 1 − A_{j−1}] (lower).
+        let a_step = |n: usize| -> (usize, f64, f64) {
+            let j = if upper { n } else { 8 - n };
+            let (lo, hi) = (if j == 0 { 0.0 } else { a.cdf[j - 1] }, a.cdf[j]);
+            if upper { (j, lo, hi) } else { (j, 1.0 - hi, 1.0 - lo) }
+        };
+        let (mut i, mut n) = (0, 0);
+        while i < 9 && n < 9 {
+            let (f0, f1) = (if i == 0 { 0.0 } else { f.cdf[i - 1] }, f.cdf[i]);
+            let (j, a0, a1) = a_step(n);
             let m = f1.min(a1) - f0.max(a0);
-            if m <= 0.0 || phi == 0.0 {
-                continue;
+            if m > 0.0 {
+                let q = k * f.p[i] * a.p[j];
+                let plogp_q = if q == 0.0 { 0.0 } else { -q * (log_k + f.log_p[i] + a.log_p[j]) };
+                let p = phi * m + q;
+                let plogp_p = if p == 0.0 { 0.0 } else { -p * p.abs().log2() };
+                joint += plogp_p - plogp_q;
             }
-            let q = k * s.pf[i] * s.pa[j];
-            joint += plogp(phi * m + q) - plogp(q);
+            if f1 <= a1 {
+                i += 1;
+            }
+            if a1 <= f1 {
+                n += 1;
+            }
         }
     }
-    let mi = s.h_a + s.h_f - joint;
-    if mi == 0.0 { 0.0 } else { 2.0 * mi / (s.h_a + s.h_f) }
+    let mi = a.entropy + f.entropy - joint;
+    if mi == 0.0 { 0.0 } else { 2.0 * mi / (a.entropy + f.entropy) }
+}
+
+/// [`pair_nmi`] of two raw windows (`fmi.m`'s branch for identical windows first).
+fn haghighat_window(a: &[f64; 9], f: &[f64; 9]) -> f64 {
+    if a == f { 1.0 } else { pair_nmi(&Marginal::of(a), &Marginal::of(f)) }
 }
 
 #[cfg(test)]
@@ -457,13 +493,36 @@ mod tests {
         assert!(window_nmi(&[3.0; 9], &w1).abs() < 1e-12);
     }
 
+    struct DirectStats {
+        c: f64,
+        ca: [f64; 9],
+        cf: [f64; 9],
+        pa: [f64; 9],
+        pf: [f64; 9],
+        sd_a: f64,
+        sd_f: f64,
+        h_a: f64,
+        h_f: f64,
+    }
+
     /// `fmi.m`'s window loop as written: all 81 cells of the joint pdf from the four-term
     /// differences of the bound, `real(−p·log2 p)` on each non-zero cell.
     fn haghighat_window_direct(a: &[f64; 9], f: &[f64; 9]) -> f64 {
         if a == f {
             return 1.0;
         }
-        let s = window_stats(a, f);
+        let (ma, mf) = (Marginal::of(a), Marginal::of(f));
+        let s = DirectStats {
+            c: pearson(&ma, &mf),
+            ca: ma.cdf,
+            cf: mf.cdf,
+            pa: ma.p,
+            pf: mf.p,
+            sd_a: ma.sd,
+            sd_f: mf.sd,
+            h_a: ma.entropy,
+            h_f: mf.entropy,
+        };
         let upper = s.c >= 0.0;
         let bound = |fi: f64, aj: f64| {
             if upper {
@@ -514,7 +573,7 @@ mod tests {
                 1 => f = a.map(|v| (v / 8.0).floor()), // ties and a flat-ish window
                 _ => {}
             }
-            if window_stats(&a, &f).c < 0.0 {
+            if pearson(&Marginal::of(&a), &Marginal::of(&f)) < 0.0 {
                 negative += 1;
             }
             let (fast, direct) = (haghighat_window(&a, &f), haghighat_window_direct(&a, &f));

@@ -371,6 +371,7 @@ fn pair_nmi(a: &Marginal, f: &Marginal) -> f64 {
 }
 
 /// [`pair_nmi`] of two raw windows (`fmi.m`'s branch for identical windows first).
+#[cfg(test)]
 fn haghighat_window(a: &[f64; 9], f: &[f64; 9]) -> f64 {
     if a == f { 1.0 } else { pair_nmi(&Marginal::of(a), &Marginal::of(f)) }
 }

@@ -4,6 +4,7 @@
 //! failed run never leaves a partial file behind.
 
 use anyhow::{Context, Result, bail};
+use image::ImageEncoder;
 use std::path::Path;
 
 /// An owned grey image, row-major, tightly packed.
@@ -191,19 +192,7 @@ pub fn load_gray_u8(path: &Path, color: ColorPolicy) -> Result<Gray<u8>> {
     }
 }
 
-/// Writes `bytes` to `path` through a temporary file in the same folder and a rename.
-pub fn write_atomically(path: &Path, write: impl FnOnce(&Path) -> Result<()>) -> Result<()> {
-    let dir = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
-    let name = path.file_name().with_context(|| format!("{} is not a file path", path.display()))?;
-    let tmp = dir.join(format!(".{}.tmp-{}", name.to_string_lossy(), std::process::id()));
-    let result = write(&tmp).and_then(|()| {
-        std::fs::rename(&tmp, path).with_context(|| format!("cannot write {}", path.display()))
-    });
-    if result.is_err() {
-        let _ = std::fs::remove_file(&tmp);
-    }
-    result
-}
+pub use render_host::output::{Batch, write_atomic, write_bytes};
 
 /// Saves an 8-bit grey PNG (atomically).
 pub fn save_gray_u8(path: &Path, img: &Gray<u8>) -> Result<()> {
@@ -217,10 +206,24 @@ pub fn save_gray_u16(path: &Path, img: &Gray<u16>) -> Result<()> {
 }
 
 fn save_png(path: &Path, w: usize, h: usize, color: image::ExtendedColorType, bytes: &[u8]) -> Result<()> {
-    write_atomically(path, |tmp| {
-        image::save_buffer_with_format(tmp, bytes, w as u32, h as u32, color, image::ImageFormat::Png)
-            .with_context(|| format!("cannot write {}", path.display()))
-    })
+    write_atomic(path, |out| encode_png(out, w, h, color, bytes))
+}
+
+/// Encodes a PNG into `out` (for [`Batch::add`]).
+pub fn encode_png(
+    out: &mut impl std::io::Write,
+    w: usize,
+    h: usize,
+    color: image::ExtendedColorType,
+    bytes: &[u8],
+) -> Result<()> {
+    image::codecs::png::PngEncoder::new(out).write_image(bytes, w as u32, h as u32, color)?;
+    Ok(())
+}
+
+/// Encodes an 8-bit grey image as PNG into `out`.
+pub fn encode_gray_u8(out: &mut impl std::io::Write, img: &Gray<u8>) -> Result<()> {
+    encode_png(out, img.width, img.height, image::ExtendedColorType::L8, &img.data)
 }
 
 /// Reads a float32 or float64 `.npy` array of shape `(H, W)` (C or Fortran order) as `f64`,
@@ -256,21 +259,28 @@ pub fn read_npy_2d(path: &Path) -> Result<Gray<f64>> {
 
 /// Writes a 2-D float32 `.npy` array of shape `(H, W)` (atomically).
 pub fn write_npy_f32(path: &Path, width: usize, height: usize, data: &[f32]) -> Result<()> {
+    write_atomic(path, |out| encode_npy_f32(out, width, height, data))
+}
+
+/// Encodes a 2-D float32 `.npy` array of shape `(H, W)` into `out` (for [`Batch::add`]).
+pub fn encode_npy_f32(
+    out: &mut impl std::io::Write,
+    width: usize,
+    height: usize,
+    data: &[f32],
+) -> Result<()> {
     if data.len() != width * height {
         bail!("array of {} values does not have shape {height}x{width}", data.len());
     }
-    write_atomically(path, |tmp| {
-        let file = std::fs::File::create(tmp).with_context(|| format!("cannot create {}", path.display()))?;
-        use npyz::WriterBuilder;
-        let mut writer = npyz::WriteOptions::<f32>::new()
-            .default_dtype()
-            .shape(&[height as u64, width as u64])
-            .writer(std::io::BufWriter::new(file))
-            .begin_nd()?;
-        writer.extend(data.iter().copied())?;
-        writer.finish()?;
-        Ok(())
-    })
+    use npyz::WriterBuilder;
+    let mut writer = npyz::WriteOptions::<f32>::new()
+        .default_dtype()
+        .shape(&[height as u64, width as u64])
+        .writer(out)
+        .begin_nd()?;
+    writer.extend(data.iter().copied())?;
+    writer.finish()?;
+    Ok(())
 }
 
 #[cfg(test)]

@@ -3,6 +3,24 @@
 //! The host side of the fusion project: f64 reference implementations, image I/O, metrics,
 //! reports and the `fusion` command-line tool.
 
+/// `print!` to standard output that returns an error (closed pipe, full disk) instead of
+/// panicking: `out!(…)?`.
+macro_rules! out {
+    ($($t:tt)*) => { render_host::output::stdout_write(format_args!($($t)*)) };
+}
+
+/// `println!` that returns an error instead of panicking: `outln!(…)?`.
+macro_rules! outln {
+    () => { render_host::output::stdout_write(format_args!("\n")) };
+    ($($t:tt)*) => { render_host::output::stdout_write(format_args!("{}\n", format_args!($($t)*))) };
+}
+
+/// `eprintln!` that never panics: a failure of standard error is remembered and ends the run
+/// with status 1 (`render_host::output::stderr_failed`).
+macro_rules! note {
+    ($($t:tt)*) => { render_host::output::stderr_note(format_args!($($t)*)) };
+}
+
 pub mod budget;
 pub mod cli;
 pub mod io;

@@ -14,17 +14,27 @@ fn main() -> ExitCode {
             .or_else(|| info.payload().downcast_ref::<String>().cloned())
             .unwrap_or_default();
         let at = info.location().map(|l| format!(" at {}:{}", l.file(), l.line())).unwrap_or_default();
-        eprintln!("fusion: internal error: {}{at}", msg.replace('\n', " "));
+        render_host::output::stderr_note(format_args!(
+            "fusion: internal error: {}{at}",
+            msg.replace('\n', " ")
+        ));
         if std::env::var_os("FUSION_BACKTRACE").is_some_and(|v| v == "1") {
-            eprintln!("{}", std::backtrace::Backtrace::force_capture());
+            render_host::output::stderr_note(format_args!("{}", std::backtrace::Backtrace::force_capture()));
         }
     }));
+    // SIGINT/SIGTERM remove the outputs being written (render_host::output).
+    render_host::output::remove_in_flight_on_signal();
     let cli = host_harness::cli::Cli::parse();
     match host_harness::cli::run(cli) {
+        // A note that could not reach standard error fails the run too.
+        Ok(()) if render_host::output::stderr_failed() => ExitCode::FAILURE,
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             // One line, whatever the underlying messages hold.
-            eprintln!("fusion: error: {}", format!("{e:#}").replace('\n', " "));
+            render_host::output::stderr_note(format_args!(
+                "fusion: error: {}",
+                format!("{e:#}").replace('\n', " ")
+            ));
             ExitCode::FAILURE
         }
     }

@@ -82,13 +82,21 @@ pub fn chart_shaded(
     style: Style,
     shaded: &[(f64, f64)],
 ) -> Result<PathBuf> {
+    // Drawn in memory, then written through the one write path (crate::io::write_atomic).
+    const SIZE: (u32, u32) = (900, 560);
     if font_available() {
         let path = stem.with_extension("png");
-        draw(BitMapBackend::new(&path, (900, 560)).into_drawing_area(), labels, series, style, shaded)?;
+        let mut rgb = vec![0u8; (SIZE.0 * SIZE.1 * 3) as usize];
+        draw(BitMapBackend::with_buffer(&mut rgb, SIZE).into_drawing_area(), labels, series, style, shaded)?;
+        crate::io::write_atomic(&path, |w| {
+            crate::io::encode_png(w, SIZE.0 as usize, SIZE.1 as usize, image::ExtendedColorType::Rgb8, &rgb)
+        })?;
         Ok(path)
     } else {
         let path = stem.with_extension("svg");
-        draw(SVGBackend::new(&path, (900, 560)).into_drawing_area(), labels, series, style, shaded)?;
+        let mut svg = String::new();
+        draw(SVGBackend::with_string(&mut svg, SIZE).into_drawing_area(), labels, series, style, shaded)?;
+        crate::io::write_bytes(&path, svg.as_bytes())?;
         Ok(path)
     }
 }

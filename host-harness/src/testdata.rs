@@ -50,7 +50,7 @@ fn missing(path: &Path) -> ! {
         "test data missing: {} (the repository's tests/data/ folder; its README lists the files)",
         path.display()
     );
-    eprintln!("{message}");
+    note!("{message}");
     std::panic::resume_unwind(Box::new(message))
 }
 

@@ -166,14 +166,17 @@ pub fn run(args: &RenderArgs) -> Result<()> {
         let m = render_sequence(&seq, &args.out, !args.quiet)?;
         if !args.quiet {
             let [l, p, e] = m.phase_frames;
-            println!(
-                "wrote sequence {} ({} frames at {} Hz: {l} light, {p} penumbra, {e} eclipse) to {} in {:.2} s (manifest.json, contact_sheet.png)",
-                name.as_str(),
-                m.frames.len(),
-                seq.frame_rate_hz,
-                args.out.display(),
-                start.elapsed().as_secs_f64()
-            );
+            crate::output::stdout_write(format_args!(
+                "{}\n",
+                format_args!(
+                    "wrote sequence {} ({} frames at {} Hz: {l} light, {p} penumbra, {e} eclipse) to {} in {:.2} s (manifest.json, contact_sheet.png)",
+                    name.as_str(),
+                    m.frames.len(),
+                    seq.frame_rate_hz,
+                    args.out.display(),
+                    start.elapsed().as_secs_f64()
+                )
+            ))?;
         }
         return Ok(());
     }
@@ -186,13 +189,16 @@ pub fn run(args: &RenderArgs) -> Result<()> {
             .map(|f| [&f.clean, &f.noisy, &f.clean16, &f.noisy16].iter().filter(|x| x.is_some()).count())
             .sum();
         let sheet = manifest.contact_sheet.as_deref().map(|s| format!(", {s}")).unwrap_or_default();
-        println!(
-            "wrote {files} images in {} sets x {} frames to {} in {:.2} s (manifest.json{sheet})",
-            manifest.sets.len(),
-            manifest.frames.len(),
-            args.out.display(),
-            start.elapsed().as_secs_f64()
-        );
+        crate::output::stdout_write(format_args!(
+            "{}\n",
+            format_args!(
+                "wrote {files} images in {} sets x {} frames to {} in {:.2} s (manifest.json{sheet})",
+                manifest.sets.len(),
+                manifest.frames.len(),
+                args.out.display(),
+                start.elapsed().as_secs_f64()
+            )
+        ))?;
     }
     Ok(())
 }

@@ -385,7 +385,7 @@ fn compare_with_host(job: &Job, report: &FwReport, diffs: &mut Vec<String>, what
 }
 
 fn progress(msg: &str) {
-    eprintln!("budget: {msg}");
+    note!("budget: {msg}");
 }
 
 /// The exactness jobs (run on the 1024² image): the budget pair with every method in both

@@ -249,7 +249,7 @@ pub fn summary(rows: &[Row]) -> String {
 }
 
 fn progress(msg: &str) {
-    eprintln!("skip-study: {msg}");
+    note!("skip-study: {msg}");
 }
 
 /// Where the study's frame pairs come from: a study-layout dataset (`fusion render`: sets
@@ -410,8 +410,10 @@ pub fn run(opts: &StudyOptions) -> Result<Vec<Row>> {
                 }
                 let wall = report.as_ref().map_or(0.0, |r| r.wall.as_secs_f64());
                 progress(&format!("{set} {} frame {frame} ({wall:.0} s):{line}", version(noisy)));
-                std::fs::write(&csv_path, csv_text(&rows))?;
-                std::fs::write(&md_path, markdown(opts, frames, &rows))?;
+                let mut batch = crate::io::Batch::default();
+                batch.add_bytes(&csv_path, csv_text(&rows).as_bytes())?;
+                batch.add_bytes(&md_path, markdown(opts, frames, &rows).as_bytes())?;
+                batch.commit()?;
             }
         }
     }

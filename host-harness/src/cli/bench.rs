@@ -114,7 +114,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         Ok(d) => d,
         Err(_) => {
             let cfg = DatasetConfig { frames: 1, tir_sizes: vec![512], ..DatasetConfig::default() };
-            println!("rendering one frame into {} …", args.data.display());
+            outln!("rendering one frame into {} …", args.data.display())?;
             render_dataset(&cfg, &args.data, false)?;
             Dataset::open(&args.data)?
         }
@@ -151,10 +151,10 @@ pub fn run(args: &BenchArgs) -> Result<()> {
                 let p = Pipeline { rescale: policy, method: *method, ..Default::default() };
                 let r = fuse_timed(&vis, &tir, &p, args.repeats)?;
                 let SkipError { psnr, max_abs, .. } = skip_error(&r.fused, &reference.image);
-                println!(
+                outln!(
                     "{family:7} {label:14} {grid:5}²  {:9.2} ms  PSNR {psnr:6.2} dB  max {max_abs}",
                     r.seconds * 1e3
-                );
+                )?;
                 points.push(Point {
                     family,
                     label: label.clone(),
@@ -270,12 +270,14 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         let name = path.file_name().and_then(|n| n.to_str()).unwrap_or("");
         let _ = writeln!(md, "\n![{family}: time against error]({name})");
     }
-    std::fs::write(args.out.join("bench.md"), &md)?;
-    std::fs::write(args.out.join("bench.csv"), &csv)?;
+    let mut batch = crate::io::Batch::default();
+    batch.add_bytes(&args.out.join("bench.md"), md.as_bytes())?;
+    batch.add_bytes(&args.out.join("bench.csv"), csv.as_bytes())?;
+    batch.commit()?;
     let mut ref_times: Vec<f64> =
         points.iter().filter(|p| p.engine == "reference").map(|p| p.seconds).collect();
-    println!("\n{md}\nmedian f64 reference time {:.2} s", median(&mut ref_times));
-    println!("written: {}", args.out.join("bench.md").display());
+    outln!("\n{md}\nmedian f64 reference time {:.2} s", median(&mut ref_times))?;
+    outln!("written: {}", args.out.join("bench.md").display())?;
     Ok(())
 }
 

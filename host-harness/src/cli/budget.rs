@@ -123,7 +123,7 @@ fn run_skip_study(args: &BudgetArgs, dataset: &std::path::Path) -> Result<()> {
     };
     let rows = budget::skip_study::run(&opts)?;
     let frames = args.frames.min(rows.iter().map(|r| r.frame + 1).max().unwrap_or(0));
-    println!("{}", budget::skip_study::markdown(&opts, frames, &rows));
+    outln!("{}", budget::skip_study::markdown(&opts, frames, &rows))?;
     Ok(())
 }
 
@@ -171,19 +171,20 @@ pub fn run(args: &BudgetArgs) -> Result<()> {
     for (t, what, secs) in &outcome.wall {
         text.push_str(&format!("| {t} | {what} | {secs:.1} |\n"));
     }
-    println!("{text}");
+    outln!("{text}")?;
     let report_path = opts.out.join("report.md");
-    std::fs::write(&report_path, &text).with_context(|| format!("cannot write {}", report_path.display()))?;
-    eprintln!("budget: report written to {}", report_path.display());
+    let mut batch = crate::io::Batch::default();
+    batch.add_bytes(&report_path, text.as_bytes())?;
     if let Some(path) = &opts.write_budgets {
-        std::fs::write(path, budget::budget_table_text(&outcome.measured, &budgets))
-            .with_context(|| format!("cannot write {}", path.display()))?;
-        eprintln!("budget: wrote a budget table from these counts to {}", path.display());
+        batch.add_bytes(path, budget::budget_table_text(&outcome.measured, &budgets).as_bytes())?;
+    }
+    batch.commit()?;
+    note!("budget: report written to {}", report_path.display());
+    if let Some(path) = &opts.write_budgets {
+        note!("budget: wrote a budget table from these counts to {}", path.display());
     }
     for (key, got, b) in &chk.slack {
-        eprintln!(
-            "budget: note: {key} is {got:.2} instr/px, more than 10 % under its budget {b}: tighten it"
-        );
+        note!("budget: note: {key} is {got:.2} instr/px, more than 10 % under its budget {b}: tighten it");
     }
     if !chk.passed() && !args.no_check {
         let mut msg = String::new();

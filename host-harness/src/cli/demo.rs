@@ -54,7 +54,7 @@ pub fn run(args: &DemoArgs) -> Result<()> {
     let data_dir = args.out.join("dataset");
     let dataset = match Dataset::open(&data_dir) {
         Ok(d) if d.frames() >= args.frames => {
-            println!("reusing the dataset in {}", data_dir.display());
+            outln!("reusing the dataset in {}", data_dir.display())?;
             d
         }
         _ => {
@@ -63,10 +63,10 @@ pub fn run(args: &DemoArgs) -> Result<()> {
                 tir_sizes: vec![512],
                 ..DatasetConfig::default()
             };
-            println!("rendering {} frames (VIS 1024² light + eclipse, TIR 512²) …", cfg.frames);
+            outln!("rendering {} frames (VIS 1024² light + eclipse, TIR 512²) …", cfg.frames)?;
             let t = Instant::now();
             render_dataset(&cfg, &data_dir, true)?;
-            println!("  rendered in {:.1} s → {}", t.elapsed().as_secs_f64(), data_dir.display());
+            outln!("  rendered in {:.1} s → {}", t.elapsed().as_secs_f64(), data_dir.display())?;
             Dataset::open(&data_dir)?
         }
     };
@@ -82,11 +82,11 @@ pub fn run(args: &DemoArgs) -> Result<()> {
     let frames = args.frames.min(dataset.frames()).max(1);
     let mut rows: Vec<Vec<Row>> = vec![vec![Row::default(); methods.len()]; illuminations.len()];
     let mut sheet_rows = Vec::new();
-    println!(
+    outln!(
         "fusing {frames} frames × {} illuminations × {} methods with the core …",
         illuminations.len(),
         methods.len()
-    );
+    )?;
     for (ii, ill) in illuminations.iter().enumerate() {
         for f in 0..frames {
             let vis = dataset.image(&format!("vis_{ill}"), f, true)?;
@@ -159,12 +159,14 @@ pub fn run(args: &DemoArgs) -> Result<()> {
             );
         }
     }
-    std::fs::write(args.out.join("summary.md"), &md)?;
-    std::fs::write(args.out.join("summary.csv"), &csv)?;
-    println!("\n{md}");
-    println!("fused images: {}", args.out.join("fused").display());
-    println!("contact sheet: {}", sheet_path.display());
-    println!("summary: {}", args.out.join("summary.md").display());
-    println!("done in {:.1} s", started.elapsed().as_secs_f64());
+    let mut summary = crate::io::Batch::default();
+    summary.add_bytes(&args.out.join("summary.md"), md.as_bytes())?;
+    summary.add_bytes(&args.out.join("summary.csv"), csv.as_bytes())?;
+    summary.commit()?;
+    outln!("\n{md}")?;
+    outln!("fused images: {}", args.out.join("fused").display())?;
+    outln!("contact sheet: {}", sheet_path.display())?;
+    outln!("summary: {}", args.out.join("summary.md").display())?;
+    outln!("done in {:.1} s", started.elapsed().as_secs_f64())?;
     Ok(())
 }

@@ -129,12 +129,12 @@ pub fn run(args: &EvalArgs) -> Result<()> {
     let table = MetricTable::new(study.as_ref(), vifb.as_ref(), noise.as_ref(), args.suite == Suite::All);
     for (name, v) in &table.rows {
         if v.is_nan() {
-            eprintln!(
+            note!(
                 "note: {name} is undefined on these images (NaN in the reference code; see docs/metrics.md)"
             );
         }
     }
-    print!("{}", table.format(args.format));
+    out!("{}", table.format(args.format))?;
     Ok(())
 }
 

@@ -4,7 +4,7 @@
 //! MGFF, TEPGFL, DRIF; [`crate::study_methods`]) run on the host f64 engine only.
 
 use crate::CoreScratch;
-use crate::io::{ColorPolicy, Gray, load_gray_u8, save_gray_u8, write_npy_f32};
+use crate::io::{Batch, ColorPolicy, Gray, encode_gray_u8, encode_npy_f32, load_gray_u8, save_gray_u8};
 use crate::reference;
 use crate::study_methods::{HostMethod, cast_u8, drif, fuse_host_u8};
 use anyhow::{Context, Result, bail};
@@ -324,7 +324,7 @@ pub fn fuse_host_method(
     let (image, raw) = if method == HostMethod::Drif {
         let run = drif::fuse_drif(&to_f64(vis), &to_f64(tir), &drif::DrifParams::default())?;
         let (start, end) = (run.energy[0], run.energy.last().copied().unwrap_or(run.energy[0]));
-        eprintln!(
+        note!(
             "drif: {} FISTA iterations ({}), energy {start:.4e} -> {end:.4e}",
             run.iterations,
             if run.converged { "converged" } else { "iteration bound reached" }
@@ -371,10 +371,10 @@ pub fn run(args: &FuseArgs) -> Result<()> {
                 let mut scratch = crate::strips::HostStripScratch::default();
                 let (image, report, strips, _) =
                     crate::strips::fuse_strips_once(&vis, &tir, &pipeline, rows, &mut scratch)?;
-                print!("{}", strip_report_text(&strips, report.grid));
+                out!("{}", strip_report_text(&strips, report.grid))?;
                 save_gray_u8(&args.output, &image)?;
                 if report.guards != Guards::NONE {
-                    eprintln!("fusion: guards fired: {:#x}", report.guards.0);
+                    note!("fusion: guards fired: {:#x}", report.guards.0);
                 }
                 return Ok(());
             }
@@ -385,10 +385,10 @@ pub fn run(args: &FuseArgs) -> Result<()> {
                     );
                 }
                 let (image, report, _) = crate::skip::fuse_once(&vis, &tir, &pipeline)?;
-                print!("{}", skip_report_text(&report));
+                out!("{}", skip_report_text(&report))?;
                 save_gray_u8(&args.output, &image)?;
                 if report.guards != Guards::NONE {
-                    eprintln!("fusion: guards fired: {:#x}", report.guards.0);
+                    note!("fusion: guards fired: {:#x}", report.guards.0);
                 }
                 return Ok(());
             }
@@ -413,14 +413,17 @@ pub fn run(args: &FuseArgs) -> Result<()> {
             fuse_host_method(&vis, &tir, host, rescale.into())?
         }
     };
+    // Both outputs or neither: the image and the raw array are staged, then renamed together.
+    let mut batch = Batch::default();
     if let Some(raw_path) = &args.raw {
         let Some(raw) = &fused.raw else { bail!("no pre-cast value for this engine and method") };
         let data: Vec<f32> = raw.data.iter().map(|&v| v as f32).collect();
-        write_npy_f32(raw_path, raw.width, raw.height, &data)?;
+        batch.add(raw_path, |w| encode_npy_f32(w, raw.width, raw.height, &data))?;
     }
-    save_gray_u8(&args.output, &fused.image)?;
+    batch.add(&args.output, |w| encode_gray_u8(w, &fused.image))?;
+    batch.commit()?;
     if fused.guards != Guards::NONE {
-        eprintln!("fusion: guards fired: {:#x}", fused.guards.0);
+        note!("fusion: guards fired: {:#x}", fused.guards.0);
     }
     Ok(())
 }

@@ -1,7 +1,7 @@
 //! `fusion navbench`: every image stream of the rendezvous sequences through one feature-based
 //! navigation front end, against the rendered ground truth (`crate::nav::bench`).
 
-use crate::io::write_atomically;
+use crate::io::write_bytes;
 use crate::nav::bench::{FrameResult, PhaseSummary, Summary, run_sequence, selected, summary};
 use crate::plot::{Labels, Series, Style, chart_shaded};
 use anyhow::{Result, bail};
@@ -62,11 +62,11 @@ pub fn run(args: &NavbenchArgs) -> Result<()> {
                 tir_size: args.vis_size / 2,
                 ..SequenceConfig::new(name)
             };
-            eprintln!("rendering {} ({} frames) into {}", name.as_str(), cfg.frames, dir.display());
+            note!("rendering {} ({} frames) into {}", name.as_str(), cfg.frames, dir.display());
             render_sequence(&cfg, &dir, false)?;
         }
         let seq = run_sequence(&dir, args.frames, only, args.clean)?;
-        eprintln!("navbench: {} ({} frames, {streams} streams)", name.as_str(), seq.len() / streams.max(1));
+        note!("navbench: {} ({} frames, {streams} streams)", name.as_str(), seq.len() / streams.max(1));
         rows.extend(seq);
     }
     let s = summary(&rows);
@@ -74,18 +74,18 @@ pub fn run(args: &NavbenchArgs) -> Result<()> {
     write_text(&args.out.join("per_frame.csv"), &csv(&rows))?;
     let charts = charts(&args.out, &rows)?;
     write_text(&args.out.join("navbench.md"), &markdown(&s, &charts, start.elapsed().as_secs_f64()))?;
-    println!(
+    outln!(
         "navbench: {} frame results, {} streams -> {} ({:.0} s)",
         rows.len(),
         s.sources.len(),
         args.out.display(),
         start.elapsed().as_secs_f64()
-    );
+    )?;
     Ok(())
 }
 
 fn write_text(path: &Path, text: &str) -> Result<()> {
-    write_atomically(path, |tmp| Ok(std::fs::write(tmp, text)?))
+    write_bytes(path, text.as_bytes())
 }
 
 fn csv(rows: &[FrameResult]) -> String {

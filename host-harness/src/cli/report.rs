@@ -241,11 +241,11 @@ pub fn run(args: &ReportArgs) -> Result<()> {
         Ok(d) => d,
         Err(_) => {
             let cfg = DatasetConfig { frames: args.render_frames.max(1), ..DatasetConfig::default() };
-            println!(
+            outln!(
                 "no dataset in {}: rendering the study's layout ({} frames) …",
                 args.data.display(),
                 cfg.frames
-            );
+            )?;
             render_dataset(&cfg, &args.data, true)?;
             Dataset::open(&args.data)?
         }
@@ -423,7 +423,7 @@ pub fn run(args: &ReportArgs) -> Result<()> {
                 sheet_rows.push(row);
             }
         }
-        println!("frame {}/{frames} in {:.1} s", f + 1, t_frame.elapsed().as_secs_f64());
+        outln!("frame {}/{frames} in {:.1} s", f + 1, t_frame.elapsed().as_secs_f64())?;
     }
 
     let sheet_path = args.out.join("contact_sheet.png");
@@ -433,9 +433,9 @@ pub fn run(args: &ReportArgs) -> Result<()> {
     let md =
         markdown(&cells, &methods, frames, &dataset, &charts, started.elapsed().as_secs_f64(), (small, big));
     let report = args.out.join("report.md");
-    std::fs::write(&report, &md).with_context(|| format!("cannot write {}", report.display()))?;
-    println!("{md}");
-    println!("report: {}", report.display());
+    crate::io::write_bytes(&report, md.as_bytes())?;
+    outln!("{md}")?;
+    outln!("report: {}", report.display())?;
     Ok(())
 }
 
@@ -449,8 +449,10 @@ fn write_csvs(cells: &Cells, out: &Path) -> Result<()> {
         }
         let _ = writeln!(means, "{t},{r},{c},{},{},{}", cells.mean(t, r, c), cells.median(t, r, c), v.len());
     }
-    std::fs::write(out.join("per_frame.csv"), per_frame)?;
-    std::fs::write(out.join("tables.csv"), means)?;
+    let mut tables = crate::io::Batch::default();
+    tables.add_bytes(&out.join("per_frame.csv"), per_frame.as_bytes())?;
+    tables.add_bytes(&out.join("tables.csv"), means.as_bytes())?;
+    tables.commit()?;
     Ok(())
 }
 

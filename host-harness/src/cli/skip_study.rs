@@ -265,8 +265,10 @@ pub fn run(args: &SkipStudyArgs) -> Result<()> {
             )?;
         }
     }
-    std::fs::write(args.out.join("skip_study.md"), &md)?;
-    std::fs::write(args.out.join("skip_study.csv"), &csv)?;
+    let mut batch = crate::io::Batch::default();
+    batch.add_bytes(&args.out.join("skip_study.md"), md.as_bytes())?;
+    batch.add_bytes(&args.out.join("skip_study.csv"), csv.as_bytes())?;
+    batch.commit()?;
     // Chart: mean host time per method and skip level, one series per (set, version, level).
     let mut series = Vec::new();
     for ((set, ver, method, level), a) in &acc {
@@ -287,12 +289,12 @@ pub fn run(args: &SkipStudyArgs) -> Result<()> {
         &series,
         Style::Lines,
     )?;
-    print!("{md}");
-    println!(
+    out!("{md}")?;
+    outln!(
         "\nwrote {}, {}, {}",
         args.out.join("skip_study.md").display(),
         args.out.join("skip_study.csv").display(),
         path.display()
-    );
+    )?;
     Ok(())
 }

@@ -25,7 +25,7 @@
 use crate::cli::fuse::{fuse_core, fuse_reference, matlab_uint8, to_f64};
 use crate::io::Gray;
 use crate::reference;
-use anyhow::{Context, Result, bail};
+use anyhow::{Result, bail};
 use clap::Args;
 use fusion_nostd::pipeline::{Method, Pipeline, RescalePolicy, fusion_grid};
 use fusion_nostd::{AdfParams, Filter, Guards, IfevipParams, ScratchMut, TsifsdParams, Variant};
@@ -526,10 +526,10 @@ pub fn run(args: &StressArgs) -> Result<()> {
     let t = std::time::Instant::now();
     let rows = run_all(args.quick);
     let full = full_table(&rows);
-    println!("{}", summary_table(&rows, args.quick));
+    outln!("{}", summary_table(&rows, args.quick))?;
     let failures: Vec<&Row> = rows.iter().filter(|r| r.failure.is_some()).collect();
     let nan_rows = rows.iter().filter(|r| r.ref_nan > 0).count();
-    println!(
+    outln!(
         "{} runs ({} cases × {} geometries × {} methods), {} with NaN in the f64 reference, {} deterministic, \
          {} failures, {:.1} s",
         rows.len(),
@@ -540,7 +540,7 @@ pub fn run(args: &StressArgs) -> Result<()> {
         rows.iter().filter(|r| r.deterministic).count(),
         failures.len(),
         t.elapsed().as_secs_f64()
-    );
+    )?;
     if let Some(path) = &args.out {
         let mut doc = String::from("# fusion stress\n\nCases:\n\n");
         for c in cases() {
@@ -552,12 +552,10 @@ pub fn run(args: &StressArgs) -> Result<()> {
             summary_table(&rows, args.quick)
         );
         let _ = write!(doc, "\n## Every run\n\n{full}");
-        crate::io::write_atomically(path, |tmp| {
-            std::fs::write(tmp, doc).with_context(|| format!("cannot write {}", path.display()))
-        })?;
+        crate::io::write_bytes(path, doc.as_bytes())?;
     }
     for r in &failures {
-        eprintln!("FAIL {} {} {}: {}", r.case, r.geometry, r.method, r.failure.as_deref().unwrap_or(""));
+        note!("FAIL {} {} {}: {}", r.case, r.geometry, r.method, r.failure.as_deref().unwrap_or(""));
     }
     if !failures.is_empty() {
         bail!("{} of {} stress runs failed", failures.len(), rows.len());

@@ -93,6 +93,10 @@ pub fn load_png(path: &Path, color: ColorPolicy) -> Result<GrayPng> {
         D::ImageLumaA16(buf) => {
             GrayPng::U16(Gray { width: w, height: h, data: buf.pixels().map(|p| p.0[0]).collect() })
         }
+        other if other.color().bytes_per_pixel() > other.color().channel_count() => bail!(
+            "{} is a 16-bit colour PNG; an 8-bit colour or an 8/16-bit grey one is needed here",
+            path.display()
+        ),
         other => match color {
             ColorPolicy::Refuse => bail!(
                 "{} is a colour image ({:?}); give an 8- or 16-bit grey PNG",

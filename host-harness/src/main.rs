@@ -19,12 +19,13 @@ fn main() -> ExitCode {
             msg.replace('\n', " ")
         ));
         if std::env::var_os("FUSION_BACKTRACE").is_some_and(|v| v == "1") {
-            render_host::output::stderr_note(format_args!("{}", std::backtrace::Backtrace::force_capture()));
+            render_host::output::stderr_line(format_args!("{}", std::backtrace::Backtrace::force_capture()));
         }
     }));
     // SIGINT/SIGTERM remove the outputs being written (render_host::output).
     render_host::output::remove_in_flight_on_signal();
     let cli = host_harness::cli::Cli::parse();
+    render_host::output::set_quiet(cli.quiet);
     match host_harness::cli::run(cli) {
         // A note that could not reach standard error fails the run too.
         Ok(()) if render_host::output::stderr_failed() => ExitCode::FAILURE,

@@ -225,8 +225,7 @@ fn colour_palette_and_bit_depths_are_converted_or_refused_clearly() {
         ("palette8.png", png(w, h, 3, 8, &index_rows, Some(&plte)), expect_pal.clone()),
         ("palette4.png", png(w, h, 3, 4, &pal4_rows, Some(&plte)), expect_pal.clone()),
         ("rgb.png", png(w, h, 2, 8, &rgb_rows, None), expect_pal.clone()),
-        ("rgba.png", png(w, h, 6, 8, &rgba_rows, None), expect_pal.clone()),
-        ("rgba16.png", png(w, h, 6, 16, &rgba16_rows, None), expect_pal),
+        ("rgba.png", png(w, h, 6, 8, &rgba_rows, None), expect_pal),
         (
             "grey-alpha.png",
             png(w, h, 4, 8, &grey_alpha_rows, None),
@@ -238,6 +237,12 @@ fn colour_palette_and_bit_depths_are_converted_or_refused_clearly() {
             (0..h).flat_map(|y| (0..w).map(move |x| if (x + y) % 2 == 0 { 255 } else { 0 })).collect(),
         ),
     ];
+    // 16-bit colour is refused like 16-bit grey is for an 8-bit input (not cut to 8 bits silently).
+    let rgba16 = s.write("rgba16.png", &png(w, h, 6, 16, &rgba16_rows, None));
+    assert_clean_failure(
+        &fusion(&["fuse", "--method", "adf", "--rescale", "none", p(&rgba16), p(&rgba16), p(&s.out)]),
+        "16-bit colour",
+    );
     for (name, bytes, expect) in &cases {
         let input = s.write(name, bytes);
         // As both bands of a same-size pair: the fused image of two identical frames is the frame.
@@ -261,7 +266,7 @@ fn colour_palette_and_bit_depths_are_converted_or_refused_clearly() {
     let g16 = s.write("grey16.png", &png(w, h, 0, 16, &vec![vec![0x12u8; 2 * w as usize]; h as usize], None));
     assert_clean_failure(&fusion(&["fuse", p(&g16), p(&s.tir), p(&s.out)]), "16-bit PNG");
     assert_clean_failure(&fusion(&["fuse", p(&s.vis), p(&g16), p(&s.out)]), "thermal image");
-    s.assert_nothing_written(&[&g16]);
+    s.assert_nothing_written(&[&g16, &rgba16]);
 }
 
 /// Frames and output sizes over the core's capacity are refused before anything large is

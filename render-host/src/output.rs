@@ -228,6 +228,22 @@ pub fn write_json<T: serde::Serialize>(path: &Path, value: &T) -> Result<()> {
     })
 }
 
+/// Set by `--quiet`: notes are not printed (errors still are).
+static QUIET: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+/// Silences [`stderr_note`] for the rest of the run (`--quiet`).
+pub fn set_quiet(quiet: bool) {
+    QUIET.store(quiet, std::sync::atomic::Ordering::Relaxed);
+}
+
+/// Writes an error line to standard error, whatever `--quiet` says; a failure is remembered.
+pub fn stderr_line(args: std::fmt::Arguments<'_>) {
+    let mut err = std::io::stderr().lock();
+    if err.write_fmt(args).and_then(|()| err.write_all(b"\n")).and_then(|()| err.flush()).is_err() {
+        STDERR_FAILED.store(true, std::sync::atomic::Ordering::Relaxed);
+    }
+}
+
 /// Set when a note could not be written to standard error (the run then ends with status 1).
 static STDERR_FAILED: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
 
@@ -238,12 +254,11 @@ pub fn stdout_write(args: std::fmt::Arguments<'_>) -> Result<()> {
     out.write_fmt(args).and_then(|()| out.flush()).context("cannot write to standard output")
 }
 
-/// Writes a line to standard error; a failure is remembered ([`stderr_failed`]) instead of
-/// panicking, so the run can end with status 1.
+/// Writes a note (progress, a warning, guards) to standard error unless `--quiet`; a failure
+/// is remembered ([`stderr_failed`]) instead of panicking, so the run can end with status 1.
 pub fn stderr_note(args: std::fmt::Arguments<'_>) {
-    let mut err = std::io::stderr().lock();
-    if err.write_fmt(args).and_then(|()| err.write_all(b"\n")).and_then(|()| err.flush()).is_err() {
-        STDERR_FAILED.store(true, std::sync::atomic::Ordering::Relaxed);
+    if !QUIET.load(std::sync::atomic::Ordering::Relaxed) {
+        stderr_line(args);
     }
 }
 

@@ -44,6 +44,20 @@ impl Guards {
     /// (part of) the TIR pixel instead.
     pub const ADAPTIVE_GLARE: Guards = Guards(1 << 9);
 
+    /// Every guard with its short name (`fusion fuse` prints these), in bit order.
+    pub const NAMED: [(Guards, &'static str); 10] = [
+        (Guards::ADF_ZERO_COVARIANCE, "adf-zero-covariance"),
+        (Guards::ADF_DEGENERATE_EIGENVECTOR, "adf-degenerate-eigenvector"),
+        (Guards::ADF_WEIGHT_CLAMPED, "adf-weight-clamped"),
+        (Guards::TSIFSD_ZERO_SALIENCY, "tsifsd-zero-saliency"),
+        (Guards::IFEVIP_ZERO_ENTROPY, "ifevip-zero-entropy"),
+        (Guards::IFEVIP_FEW_PIXELS, "ifevip-few-pixels"),
+        (Guards::IFEVIP_ZERO_PEAK, "ifevip-zero-peak"),
+        (Guards::OUTPUT_SATURATED, "saturated"),
+        (Guards::ADAPTIVE_TIR_ONLY, "adaptive-tir-only"),
+        (Guards::ADAPTIVE_GLARE, "adaptive-glare"),
+    ];
+
     /// Whether every bit of `other` is set in `self`.
     pub const fn contains(self, other: Guards) -> bool {
         self.0 & other.0 == other.0
@@ -58,6 +72,36 @@ impl Guards {
     /// Whether no bit is set.
     pub const fn is_empty(self) -> bool {
         self.0 == 0
+    }
+}
+
+/// The names of the guards that fired, comma-separated (`none` when empty); a bit without a
+/// name prints as hexadecimal.
+impl core::fmt::Display for Guards {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        if self.is_empty() {
+            return f.write_str("none");
+        }
+        let mut rest = self.0;
+        let mut first = true;
+        let mut sep = |f: &mut core::fmt::Formatter<'_>| -> core::fmt::Result {
+            if !core::mem::take(&mut first) {
+                f.write_str(", ")?;
+            }
+            Ok(())
+        };
+        for (g, name) in Guards::NAMED {
+            if self.contains(g) {
+                sep(f)?;
+                f.write_str(name)?;
+                rest &= !g.0;
+            }
+        }
+        if rest != 0 {
+            sep(f)?;
+            write!(f, "{rest:#x}")?;
+        }
+        Ok(())
     }
 }
 
@@ -125,5 +169,34 @@ mod tests {
         assert_eq!(round_away_sat_u8(262 << 8, 8), 255);
         assert_eq!(round_away_sat_u8((3 << 8) + 127, 8), 3);
         assert_eq!(round_away_sat_u8(17, 0), 17);
+    }
+
+    use core::fmt::Write;
+
+    fn shown(g: Guards) -> heapless::String<128> {
+        let mut s = heapless::String::new();
+        let _ = write!(s, "{g}");
+        s
+    }
+
+    #[test]
+    fn guards_print_as_names_in_bit_order() {
+        assert_eq!(shown(Guards::NONE).as_str(), "none");
+        assert_eq!(
+            shown(Guards::OUTPUT_SATURATED | Guards::TSIFSD_ZERO_SALIENCY).as_str(),
+            "tsifsd-zero-saliency, saturated"
+        );
+        // A bit without a name is not hidden.
+        assert_eq!(
+            shown(Guards::ADF_WEIGHT_CLAMPED | Guards(1 << 20)).as_str(),
+            "adf-weight-clamped, 0x100000"
+        );
+        // Every named guard is one distinct bit.
+        let all = Guards::NAMED.iter().fold(0u32, |acc, (g, _)| {
+            assert_eq!(g.0.count_ones(), 1);
+            assert_eq!(acc & g.0, 0);
+            acc | g.0
+        });
+        assert_eq!(all, (1 << Guards::NAMED.len()) - 1);
     }
 }

@@ -112,9 +112,9 @@ pub struct FuseArgs {
     /// TIR, output on the VIS grid) and takes no --rescale.
     #[arg(long, value_enum, default_value_t = FuseMethod::Tsifsd)]
     pub method: FuseMethod,
-    /// Method variant (adf, tsifsd, ifevip only).
-    #[arg(long, value_enum, default_value_t = VariantArg::Flight)]
-    pub variant: VariantArg,
+    /// Method variant (adf, tsifsd, ifevip only) [default: flight].
+    #[arg(long, value_enum)]
+    pub variant: Option<VariantArg>,
     /// Implementation to run [default: core; reference for gff, mgff, tepgfl, drif].
     #[arg(long, value_enum)]
     pub engine: Option<EngineArg>,
@@ -357,7 +357,7 @@ pub fn run(args: &FuseArgs) -> Result<()> {
         Ok(method) => {
             let pipeline = Pipeline {
                 rescale: rescale.into(),
-                method: method_for(method, args.variant),
+                method: method_for(method, args.variant.unwrap_or(VariantArg::Flight)),
                 skip: args.skip.into(),
                 ..Default::default()
             };
@@ -374,7 +374,7 @@ pub fn run(args: &FuseArgs) -> Result<()> {
                 out!("{}", strip_report_text(&strips, report.grid))?;
                 save_gray_u8(&args.output, &image)?;
                 if report.guards != Guards::NONE {
-                    note!("fusion: guards fired: {:#x}", report.guards.0);
+                    note!("fusion: guards: {} (fusion_nostd::Guards)", report.guards);
                 }
                 return Ok(());
             }
@@ -388,7 +388,7 @@ pub fn run(args: &FuseArgs) -> Result<()> {
                 out!("{}", skip_report_text(&report))?;
                 save_gray_u8(&args.output, &image)?;
                 if report.guards != Guards::NONE {
-                    note!("fusion: guards fired: {:#x}", report.guards.0);
+                    note!("fusion: guards: {} (fusion_nostd::Guards)", report.guards);
                 }
                 return Ok(());
             }
@@ -400,6 +400,9 @@ pub fn run(args: &FuseArgs) -> Result<()> {
         Err(host) => {
             if args.strips.is_some() || args.skip != SkipArg::None {
                 bail!("{} is a host-only method (f64): --strips and --skip are core options", host.name());
+            }
+            if args.variant.is_some() {
+                bail!("{} has one variant (the study's, f64): drop --variant", host.name());
             }
             if args.engine == Some(EngineArg::Core) {
                 bail!(
@@ -413,17 +416,32 @@ pub fn run(args: &FuseArgs) -> Result<()> {
             fuse_host_method(&vis, &tir, host, rescale.into())?
         }
     };
+    if vis.width * tir.height != vis.height * tir.width {
+        note!(
+            "fusion: note: VIS {}x{} and TIR {}x{} differ in aspect ratio; the rescale stretches one onto the other's grid",
+            vis.width,
+            vis.height,
+            tir.width,
+            tir.height
+        );
+    }
     // Both outputs or neither: the image and the raw array are staged, then renamed together.
     let mut batch = Batch::default();
     if let Some(raw_path) = &args.raw {
         let Some(raw) = &fused.raw else { bail!("no pre-cast value for this engine and method") };
         let data: Vec<f32> = raw.data.iter().map(|&v| v as f32).collect();
+        let nan = data.iter().filter(|v| v.is_nan()).count();
+        if nan > 0 {
+            note!(
+                "fusion: note: {nan} raw values are NaN (the published method's 0/0, e.g. classic TSIFSD on flat regions); the 8-bit output has 0 there"
+            );
+        }
         batch.add(raw_path, |w| encode_npy_f32(w, raw.width, raw.height, &data))?;
     }
     batch.add(&args.output, |w| encode_gray_u8(w, &fused.image))?;
     batch.commit()?;
     if fused.guards != Guards::NONE {
-        note!("fusion: guards fired: {:#x}", fused.guards.0);
+        note!("fusion: guards: {} (fusion_nostd::Guards)", fused.guards);
     }
     Ok(())
 }

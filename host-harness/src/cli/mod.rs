@@ -17,6 +17,9 @@ pub mod stress;
 #[derive(Debug, Parser)]
 #[command(name = "fusion", version, about)]
 pub struct Cli {
+    /// No notes on standard error (progress, warnings, guards); errors are still printed.
+    #[arg(long, global = true)]
+    pub quiet: bool,
     /// What to do.
     #[command(subcommand)]
     pub command: Command,

@@ -67,7 +67,40 @@ fn decode(path: &Path) -> Result<image::DynamicImage> {
     if reader.format() != Some(image::ImageFormat::Png) {
         bail!("{} is not a PNG file", path.display());
     }
-    reader.decode().with_context(|| format!("{} is not a valid PNG", path.display()))
+    // The header first: a small file can declare a huge frame (a 1-bit PNG of 10⁹ pixels), so
+    // the size is judged before anything is allocated for it.
+    let mut decoder =
+        reader.into_decoder().with_context(|| format!("{} is not a valid PNG", path.display()))?;
+    let (w, h) = image::ImageDecoder::dimensions(&decoder);
+    let bytes_per_pixel = u64::from(image::ImageDecoder::color_type(&decoder).bytes_per_pixel());
+    let bytes = crate::memory::estimate(
+        u64::from(w) * u64::from(h),
+        bytes_per_pixel * crate::memory::per_pixel::DECODE,
+    );
+    crate::memory::check(&path.display().to_string(), &format!("decoding its {w}x{h} pixels"), bytes)?;
+    let mut limits = image::Limits::no_limits();
+    limits.max_alloc = Some(crate::memory::limit());
+    image::ImageDecoder::set_limits(&mut decoder, limits)
+        .with_context(|| format!("{}: over the decoder's limits", path.display()))?;
+    image::DynamicImage::from_decoder(decoder)
+        .with_context(|| format!("{} is not a valid PNG", path.display()))
+}
+
+/// The width, height and channel count (alpha not counted) a PNG's header declares, without
+/// decoding it.
+pub fn png_header(path: &Path) -> Result<(usize, usize, usize)> {
+    let reader = image::ImageReader::open(path)
+        .with_context(|| format!("cannot open {}", path.display()))?
+        .with_guessed_format()
+        .with_context(|| format!("cannot read {}", path.display()))?;
+    if reader.format() != Some(image::ImageFormat::Png) {
+        bail!("{} is not a PNG file", path.display());
+    }
+    let decoder = reader.into_decoder().with_context(|| format!("{} is not a valid PNG", path.display()))?;
+    let (w, h) = image::ImageDecoder::dimensions(&decoder);
+    let color = image::ImageDecoder::color_type(&decoder);
+    let channels = usize::from(color.channel_count()) - usize::from(color.has_alpha());
+    Ok((w as usize, h as usize, channels))
 }
 
 /// `rgb2gray` on 8-bit samples: round(0.2989 R + 0.5870 G + 0.1140 B).

@@ -24,6 +24,7 @@ macro_rules! note {
 pub mod budget;
 pub mod cli;
 pub mod io;
+pub mod memory;
 pub mod metrics;
 pub mod nav;
 pub mod plot;

@@ -161,8 +161,9 @@ fn unreadable_pngs_fail_cleanly_in_every_slot() {
             },
             "not a valid PNG",
         ),
-        // Declares 100000 × 100000 (10 GB): refused by the decoder's memory limit, not allocated.
-        ("huge.png", png(100_000, 100_000, 0, 8, &[vec![0u8; 16]], None), "not a valid PNG"),
+        // Declares 100000 × 100000 (10 GB): refused from its header by the memory limit, not
+        // allocated (issue 24; the test below covers every verb).
+        ("huge.png", png(100_000, 100_000, 0, 8, &[vec![0u8; 16]], None), "memory limit"),
     ];
     for (name, bytes, needle) in &cases {
         let bad = s.write(name, bytes);
@@ -321,4 +322,68 @@ fn unwritable_outputs_leave_nothing_behind() {
     let keep = [s.vis.as_path(), s.tir.as_path(), folder.as_path()];
     let extra = extra_files(s.dir.path(), &keep);
     assert!(extra.is_empty(), "files left behind: {extra:?}");
+}
+
+/// Memory is judged before it is taken (issue 24, item 2): from the headers, in one line naming
+/// the input, against `--max-memory` (default 8 GiB) — never an allocation-failure abort.
+#[test]
+fn memory_is_estimated_from_the_headers_before_anything_large_is_allocated() {
+    let s = setup();
+    // A 1-bit PNG of a few hundred bytes declaring 70 000 × 70 000 pixels (4.9·10⁹): refused
+    // from its header by every verb that reads it, before the image data is touched (its data
+    // is one row: decoding would fail later with another message).
+    let huge = s.write("huge.png", &png(70_000, 70_000, 0, 1, &[vec![0u8; 8750]], None));
+    for args in [
+        vec!["eval", p(&huge), p(&huge), p(&huge)],
+        vec!["fuse", p(&huge), p(&s.tir), p(&s.out)],
+        vec!["fuse", "--method", "gff", p(&s.vis), p(&huge), p(&s.out)],
+        vec!["rescale", "--width", "8", "--height", "8", p(&huge), p(&s.out)],
+    ] {
+        let o = fusion(&args);
+        assert_clean_failure(&o, "memory limit");
+        assert!(String::from_utf8_lossy(&o.stderr).contains("huge.png"), "{args:?}: the input is named");
+    }
+    // --max-memory moves the limit: a 256² pair fits the core but not 1 MiB for the f64 reference.
+    let (v, t) = (s.dir.path().join("v256.png"), s.dir.path().join("t256.png"));
+    save_gray_u8(&v, &frame(256, 256)).unwrap();
+    save_gray_u8(&t, &frame(128, 128)).unwrap();
+    let o = fusion(&["--max-memory", "1M", "fuse", "--engine", "reference", p(&v), p(&t), p(&s.out)]);
+    assert_clean_failure(&o, "memory limit");
+    let o = fusion(&["--max-memory", "64M", "fuse", "--engine", "reference", p(&v), p(&t), p(&s.out)]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    std::fs::remove_file(&s.out).unwrap();
+    let o = fusion(&["--max-memory", "1M", "eval", "--suite", "vifb", p(&v), p(&v), p(&v)]);
+    assert_clean_failure(&o, "memory limit");
+    // Output sizes and renders are judged from the arguments.
+    let o = fusion(&[
+        "--max-memory",
+        "100M",
+        "rescale",
+        "--width",
+        "16384",
+        "--height",
+        "16384",
+        p(&v),
+        p(&s.out),
+    ]);
+    assert_clean_failure(&o, "memory limit");
+    let rendered = s.dir.path().join("render");
+    let o = fusion(&[
+        "--max-memory",
+        "100M",
+        "render",
+        "--out",
+        p(&rendered),
+        "--vis-size",
+        "4096",
+        "--frames",
+        "1",
+    ]);
+    assert_clean_failure(&o, "memory limit");
+    assert!(!rendered.exists(), "nothing rendered");
+    // A malformed size is a usage error (clap's exit status 2, with the usage line).
+    let o = fusion(&["--max-memory", "lots", "eval", p(&v), p(&v), p(&v)]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("not a size"));
+    s.assert_nothing_written(&[&huge, &v, &t]);
 }

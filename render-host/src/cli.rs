@@ -78,9 +78,6 @@ pub struct RenderArgs {
     /// A quick demo: 4 frames unless --frames is given.
     #[arg(long)]
     pub demo: bool,
-    /// No progress bar and no summary line.
-    #[arg(long)]
-    pub quiet: bool,
 }
 
 impl RenderArgs {
@@ -163,8 +160,9 @@ pub fn run(args: &RenderArgs) -> Result<()> {
             );
         }
         let seq = sequence_config(name, args, &cfg);
-        let m = render_sequence(&seq, &args.out, !args.quiet)?;
-        if !args.quiet {
+        let quiet = crate::output::quiet();
+        let m = render_sequence(&seq, &args.out, !quiet)?;
+        if !quiet {
             let [l, p, e] = m.phase_frames;
             crate::output::stdout_write(format_args!(
                 "{}\n",
@@ -180,8 +178,9 @@ pub fn run(args: &RenderArgs) -> Result<()> {
         }
         return Ok(());
     }
-    let manifest = render_dataset(&cfg, &args.out, !args.quiet)?;
-    if !args.quiet {
+    let quiet = crate::output::quiet();
+    let manifest = render_dataset(&cfg, &args.out, !quiet)?;
+    if !quiet {
         let files: usize = manifest
             .frames
             .iter()

@@ -236,6 +236,11 @@ pub fn set_quiet(quiet: bool) {
     QUIET.store(quiet, std::sync::atomic::Ordering::Relaxed);
 }
 
+/// Whether `--quiet` was given (the renderer then shows no progress bar and no summary).
+pub fn quiet() -> bool {
+    QUIET.load(std::sync::atomic::Ordering::Relaxed)
+}
+
 /// Writes an error line to standard error, whatever `--quiet` says; a failure is remembered.
 pub fn stderr_line(args: std::fmt::Arguments<'_>) {
     let mut err = std::io::stderr().lock();

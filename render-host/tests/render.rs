@@ -513,7 +513,8 @@ fn cli_arguments_render_a_dataset() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("ds");
     let parse = |extra: &[&str]| {
-        let mut argv = vec!["render", "--out", out.to_str().unwrap(), "--quiet"];
+        render_host::output::set_quiet(true);
+        let mut argv = vec!["render", "--out", out.to_str().unwrap()];
         argv.extend_from_slice(extra);
         Cli::try_parse_from(argv).map(|c| c.args)
     };

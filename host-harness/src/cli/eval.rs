@@ -106,8 +106,17 @@ pub fn study_metrics(vis: &Gray<u8>, tir: &Gray<u8>, fused: &Gray<u8>) -> StudyM
 
 /// Runs `fusion eval`.
 pub fn run(args: &EvalArgs) -> Result<()> {
+    let (w, h, channels) = crate::io::png_header(&args.fused)?;
+    let per_px = match args.suite {
+        Suite::Study => crate::memory::per_pixel::EVAL_STUDY,
+        Suite::Vifb => crate::memory::per_pixel::EVAL_VIFB,
+        Suite::All => crate::memory::per_pixel::EVAL_STUDY + crate::memory::per_pixel::EVAL_VIFB,
+    };
+    // Per channel (a colour image is scored three times), estimated from the header.
+    let bytes =
+        crate::memory::estimate((w as u64).saturating_mul(h as u64).saturating_mul(channels as u64), per_px);
+    crate::memory::check(&args.fused.display().to_string(), "scoring this image", bytes)?;
     let fused = load_channels_u8(&args.fused)?;
-    let (w, h) = (fused.width, fused.height);
     let vis = channels_on_grid(&load_channels_u8(&args.vis)?, w, h, Filter::Area)?;
     let tir = channels_on_grid(&load_channels_u8(&args.tir)?, w, h, Filter::Cubic)?;
     let study = matches!(args.suite, Suite::Study | Suite::All)

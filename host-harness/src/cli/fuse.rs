@@ -350,9 +350,31 @@ pub fn fuse_host_method(
 
 /// Runs `fusion fuse`.
 pub fn run(args: &FuseArgs) -> Result<()> {
+    let rescale = args.rescale.unwrap_or(RescaleArg::TirUp);
+    // The memory estimate from the headers, before either frame is decoded. The fusion grid is
+    // the larger frame's (tir-up, none) or the smaller one's (vis-down).
+    let (vw, vh, _) = crate::io::png_header(&args.vis).context("visible image")?;
+    let (tw, th, _) = crate::io::png_header(&args.tir).context("thermal image")?;
+    let (vis_px, tir_px) = ((vw as u64).saturating_mul(vh as u64), (tw as u64).saturating_mul(th as u64));
+    let grid = match rescale {
+        RescaleArg::VisDown => vis_px.min(tir_px),
+        _ => vis_px.max(tir_px),
+    };
+    let per_px = match (args.method.split(), args.engine.unwrap_or(EngineArg::Core)) {
+        (Err(_), _) => crate::memory::per_pixel::FUSE_HOST_METHOD,
+        (Ok(_), EngineArg::Reference) => crate::memory::per_pixel::FUSE_REFERENCE,
+        (Ok(_), EngineArg::Core) => crate::memory::per_pixel::FUSE_CORE,
+    };
+    let (input, band) =
+        if vis_px >= tir_px { (&args.vis, "visible image") } else { (&args.tir, "thermal image") };
+    crate::memory::check(
+        &input.display().to_string(),
+        "fusing this pair",
+        crate::memory::estimate(grid, per_px),
+    )
+    .context(band)?;
     let vis = load_gray_u8(&args.vis, ColorPolicy::Bt601).context("visible image")?;
     let tir = load_gray_u8(&args.tir, ColorPolicy::Bt601).context("thermal image")?;
-    let rescale = args.rescale.unwrap_or(RescaleArg::TirUp);
     let fused = match args.method.split() {
         Ok(method) => {
             let pipeline = Pipeline {

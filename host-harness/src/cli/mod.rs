@@ -17,9 +17,12 @@ pub mod stress;
 #[derive(Debug, Parser)]
 #[command(name = "fusion", version, about)]
 pub struct Cli {
-    /// No notes on standard error (progress, warnings, guards); errors are still printed.
+    /// No notes on standard error (progress bars, warnings, guards); errors are still printed.
     #[arg(long, global = true)]
     pub quiet: bool,
+    /// Refuse runs whose estimated peak memory exceeds this (bytes, or K/M/G/T) [default: 8G].
+    #[arg(long, global = true, value_name = "SIZE", value_parser = crate::memory::parse_size)]
+    pub max_memory: Option<u64>,
     /// What to do.
     #[command(subcommand)]
     pub command: Command,
@@ -61,6 +64,9 @@ pub enum Command {
 
 /// Runs one parsed command line.
 pub fn run(cli: Cli) -> anyhow::Result<()> {
+    if let Some(limit) = cli.max_memory {
+        crate::memory::set_limit(limit);
+    }
     match cli.command {
         Command::Demo(args) => demo::run(&args),
         Command::Bench(args) => bench::run(&args),
@@ -71,7 +77,12 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Stress(args) => stress::run(&args),
         Command::Fuse(args) => fuse::run(&args),
         Command::SkipStudy(args) => skip_study::run(&args),
-        Command::Render(args) => render_host::cli::run(&args),
+        Command::Render(args) => {
+            let px = (args.vis_size as u64).saturating_mul(args.vis_size as u64);
+            let bytes = crate::memory::estimate(px, crate::memory::per_pixel::RENDER);
+            crate::memory::check(&format!("--vis-size {}", args.vis_size), "rendering", bytes)?;
+            render_host::cli::run(&args)
+        }
         Command::Navbench(args) => navbench::run(&args),
     }
 }

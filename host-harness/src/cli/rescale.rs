@@ -67,6 +67,11 @@ pub fn run(args: &RescaleArgs) -> Result<()> {
         );
     }
     let filter = Filter::from(args.filter);
+    // The output (and its encoded copy) at up to 2 bytes a sample; the input is judged by its
+    // header when it is decoded.
+    let out_px = (args.width as u64).saturating_mul(args.height as u64);
+    let bytes = crate::memory::estimate(out_px, 2 * crate::memory::per_pixel::DECODE);
+    crate::memory::check(&args.input.display().to_string(), "rescaling to this size", bytes)?;
     match load_png(&args.input, ColorPolicy::Refuse)? {
         GrayPng::U8(src) => save_gray_u8(&args.output, &rescaled(&src, args.width, args.height, filter)?),
         GrayPng::U16(src) => save_gray_u16(&args.output, &rescaled(&src, args.width, args.height, filter)?),

@@ -476,9 +476,13 @@ fn emulate(
         fs::remove_dir_all(dir).with_context(|| format!("cannot clear {}", dir.display()))?;
     }
     fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
-    fs::write(dir.join("job.bin"), job.encode()?)?;
-    fs::write(dir.join("vis.gray"), &job.vis.data)?;
-    fs::write(dir.join("tir.gray"), &job.tir.data)?;
+    // The job's three files for the emulator, through the one write path. (The emulator's own
+    // console and log files below are its streams, captured where it runs.)
+    let mut files = crate::io::Batch::default();
+    files.add_bytes(&dir.join("job.bin"), &job.encode()?)?;
+    files.add_bytes(&dir.join("vis.gray"), &job.vis.data)?;
+    files.add_bytes(&dir.join("tir.gray"), &job.tir.data)?;
+    files.commit()?;
     let (qemu, machine) = target.qemu();
     let mut cmd = Command::new(qemu);
     cmd.current_dir(dir)

@@ -157,8 +157,9 @@ fn a_full_standard_output_is_an_error_not_a_panic() {
 #[cfg(unix)]
 #[test]
 fn an_interrupt_leaves_no_temporary_behind() {
-    // A render writes a PNG every few milliseconds; interrupted in the middle, the handler
-    // removes what was in flight and the process ends with status 130.
+    // A render writes a PNG every few milliseconds into a folder it creates; interrupted in the
+    // middle, the handler removes what was in flight (the whole new folder) and the process
+    // ends with status 130.
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("data");
     for delay_ms in [300u64, 700, 1100] {
@@ -176,6 +177,8 @@ fn an_interrupt_leaves_no_temporary_behind() {
             continue; // finished before the signal: nothing to check
         }
         assert_eq!(status.code(), Some(130), "{signal} after {delay_ms} ms");
+        // A folder the run was creating appears whole or not at all.
+        assert!(!out.exists(), "{signal} after {delay_ms} ms left a half-filled {}", out.display());
         let mut stack = vec![dir.path().to_path_buf()];
         while let Some(d) = stack.pop() {
             for e in std::fs::read_dir(&d).unwrap() {

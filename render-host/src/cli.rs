@@ -161,7 +161,7 @@ pub fn run(args: &RenderArgs) -> Result<()> {
         }
         let seq = sequence_config(name, args, &cfg);
         let quiet = crate::output::quiet();
-        let m = render_sequence(&seq, &args.out, !quiet)?;
+        let m = crate::output::in_new_folder(&args.out, |dir| render_sequence(&seq, dir, !quiet))?;
         if !quiet {
             let [l, p, e] = m.phase_frames;
             crate::output::stdout_write(format_args!(
@@ -179,7 +179,7 @@ pub fn run(args: &RenderArgs) -> Result<()> {
         return Ok(());
     }
     let quiet = crate::output::quiet();
-    let manifest = render_dataset(&cfg, &args.out, !quiet)?;
+    let manifest = crate::output::in_new_folder(&args.out, |dir| render_dataset(&cfg, dir, !quiet))?;
     if !quiet {
         let files: usize = manifest
             .frames

@@ -14,6 +14,10 @@
 //!   FIFO or socket is refused with one line before anything is written.
 //! * **All or nothing** for a [`Batch`]: every file is staged first; the renames then replace
 //!   the destinations, and if one fails the ones already replaced are put back.
+//! * **New folders whole**: a verb that fills a folder that does not exist yet builds it under a
+//!   temporary name beside it and renames it into place at the end ([`in_new_folder`]), so an
+//!   interrupted or failed run leaves no half-filled folder. An existing folder is filled file
+//!   by file (each file atomic).
 //! * **Interrupts**: with [`remove_in_flight_on_signal`] installed, SIGINT and SIGTERM remove
 //!   every temporary in flight before the process exits (status 130).
 
@@ -39,7 +43,11 @@ fn in_flight() -> std::sync::MutexGuard<'static, Vec<PathBuf>> {
 pub fn remove_in_flight_on_signal() {
     let _ = ctrlc::set_handler(|| {
         for path in in_flight().drain(..) {
-            let _ = std::fs::remove_file(path);
+            if path.is_dir() {
+                let _ = std::fs::remove_dir_all(path);
+            } else {
+                let _ = std::fs::remove_file(path);
+            }
         }
         stderr_note(format_args!("interrupted: outputs in progress removed"));
         std::process::exit(130);
@@ -190,6 +198,33 @@ impl Batch {
         // were renamed back); dropping `self` removes any temporary not renamed.
         result
     }
+}
+
+/// Runs `fill` on the folder `out`. When `out` does not exist, `fill` gets a temporary folder
+/// beside it (an unpredictable name, removed on failure or interrupt) that is renamed to `out`
+/// once `fill` succeeded — the folder appears whole or not at all. When `out` exists, `fill`
+/// writes into it directly.
+pub fn in_new_folder<T>(out: &Path, fill: impl FnOnce(&Path) -> Result<T>) -> Result<T> {
+    if std::fs::symlink_metadata(out).is_ok() {
+        return fill(out);
+    }
+    let parent = out.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
+    std::fs::create_dir_all(parent).with_context(|| format!("cannot create {}", parent.display()))?;
+    let temp = tempfile::Builder::new()
+        .prefix(".fusion-")
+        .suffix(".tmp")
+        .tempdir_in(parent)
+        .map_err(|e| anyhow::anyhow!("cannot create {}: {}", out.display(), without_path(e)))?;
+    in_flight().push(temp.path().to_path_buf());
+    let result = fill(temp.path()).and_then(|value| {
+        std::fs::rename(temp.path(), out).with_context(|| format!("cannot create {}", out.display()))?;
+        Ok(value)
+    });
+    let p = temp.path().to_path_buf();
+    in_flight().retain(|q| q != &p);
+    // On success the temporary name is gone (renamed); on failure dropping `temp` removes it.
+    drop(temp);
+    result
 }
 
 /// Whether two destinations name the same file (compared after resolving their folders).

@@ -1,7 +1,9 @@
-//! Image and array I/O for the host tools: 8/16-bit grey PNG, float32 `.npy`.
+//! Image and array I/O for the host tools: 8/16-bit grey and 8-bit colour PNG, float32 `.npy`.
 //!
-//! Outputs are written to a temporary file in the target folder and renamed into place, so a
-//! failed run never leaves a partial file behind.
+//! Every output goes through the one write path, `render_host::output` (re-exported here:
+//! [`write_atomic`], [`write_bytes`], [`Batch`]): an exclusive temporary in the destination
+//! folder, synced, renamed into place; related files all or none. Inputs are judged by their
+//! PNG header against the memory limit (`crate::memory`) before they are decoded.
 
 use anyhow::{Context, Result, bail};
 use image::ImageEncoder;

@@ -61,7 +61,8 @@ pub enum ColorPolicy {
     Bt601,
 }
 
-fn decode(path: &Path) -> Result<image::DynamicImage> {
+/// A PNG's decoder with its header read (nothing of the image data yet).
+fn png_decoder(path: &Path) -> Result<impl image::ImageDecoder> {
     let reader = image::ImageReader::open(path)
         .with_context(|| format!("cannot open {}", path.display()))?
         .with_guessed_format()
@@ -69,10 +70,13 @@ fn decode(path: &Path) -> Result<image::DynamicImage> {
     if reader.format() != Some(image::ImageFormat::Png) {
         bail!("{} is not a PNG file", path.display());
     }
+    reader.into_decoder().with_context(|| format!("{} is not a valid PNG", path.display()))
+}
+
+fn decode(path: &Path) -> Result<image::DynamicImage> {
     // The header first: a small file can declare a huge frame (a 1-bit PNG of 10⁹ pixels), so
     // the size is judged before anything is allocated for it.
-    let mut decoder =
-        reader.into_decoder().with_context(|| format!("{} is not a valid PNG", path.display()))?;
+    let mut decoder = png_decoder(path)?;
     let (w, h) = image::ImageDecoder::dimensions(&decoder);
     let bytes_per_pixel = u64::from(image::ImageDecoder::color_type(&decoder).bytes_per_pixel());
     let bytes = crate::memory::estimate(
@@ -91,14 +95,7 @@ fn decode(path: &Path) -> Result<image::DynamicImage> {
 /// The width, height and channel count (alpha not counted) a PNG's header declares, without
 /// decoding it.
 pub fn png_header(path: &Path) -> Result<(usize, usize, usize)> {
-    let reader = image::ImageReader::open(path)
-        .with_context(|| format!("cannot open {}", path.display()))?
-        .with_guessed_format()
-        .with_context(|| format!("cannot read {}", path.display()))?;
-    if reader.format() != Some(image::ImageFormat::Png) {
-        bail!("{} is not a PNG file", path.display());
-    }
-    let decoder = reader.into_decoder().with_context(|| format!("{} is not a valid PNG", path.display()))?;
+    let decoder = png_decoder(path)?;
     let (w, h) = image::ImageDecoder::dimensions(&decoder);
     let color = image::ImageDecoder::color_type(&decoder);
     let channels = usize::from(color.channel_count()) - usize::from(color.has_alpha());

@@ -135,7 +135,8 @@ pub fn run(args: &DemoArgs) -> Result<()> {
          frames of the per-frame median of {} runs. Metrics: the study's suite (`fusion eval \
          --suite study`, docs/metrics.md: AG of F; MI in bits and SSIM summed over F against VIS and \
          against the upscaled TIR; RMSE their mean), averaged over the frames; `fusion eval` adds FMI \
-         and, with `--suite vifb`, VIFB's 13. Guards: bit set of `fusion_nostd::Guards`.\n\nContact sheet columns: VIS, TIR (upscaled), {}; rows: {}.\n",
+         and, with `--suite vifb`, VIFB's 13. Guards: the guards any frame fired, by name \
+         (`fusion_nostd::Guards::NAMED`; the CSV has the bit set).\n\nContact sheet columns: VIS, TIR (upscaled), {}; rows: {}.\n",
         args.repeats.max(1),
         methods.iter().map(|m| m.name).collect::<Vec<_>>().join(", "),
         illuminations.join(", ")
@@ -149,8 +150,8 @@ pub fn run(args: &DemoArgs) -> Result<()> {
             let ms = crate::study::median(&mut row.ms);
             let _ = writeln!(
                 md,
-                "| {ill} | {} | {ms:.1} | {:.3} | {:.3} | {:.3} | {:.3} | {:#x} |",
-                m.name, row.ag, row.mi, row.ssim, row.rmse, row.guards.0
+                "| {ill} | {} | {ms:.1} | {:.3} | {:.3} | {:.3} | {:.3} | {} |",
+                m.name, row.ag, row.mi, row.ssim, row.rmse, row.guards
             );
             let _ = writeln!(
                 csv,

@@ -168,6 +168,17 @@ impl Channels {
     pub fn plane(&self, k: usize) -> Gray<u8> {
         Gray { width: self.width, height: self.height, data: self.planes[k].clone() }
     }
+
+    /// The image in grey: its one plane, or BT.601 ([`rgb_to_gray_bt601`]) of its three.
+    pub fn to_gray(&self) -> Gray<u8> {
+        if self.planes.len() == 1 {
+            return self.plane(0);
+        }
+        let p = &self.planes;
+        let data =
+            (0..self.width * self.height).map(|i| rgb_to_gray_bt601(p[0][i], p[1][i], p[2][i])).collect();
+        Gray { width: self.width, height: self.height, data }
+    }
 }
 
 /// Loads an 8-bit PNG keeping its colour: grey (with or without alpha) as one plane, colour as

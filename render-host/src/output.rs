@@ -54,6 +54,11 @@ pub fn remove_in_flight_on_signal() {
     });
 }
 
+/// The folder a path's file lives in (`.` for a bare name).
+fn folder_of(path: &Path) -> &Path {
+    path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."))
+}
+
 /// Refuses a destination that exists and is not a regular file (following a symbolic link:
 /// a link to a device is refused; a dangling link is replaced by the rename like any name).
 fn check_destination(path: &Path) -> Result<()> {
@@ -90,7 +95,7 @@ impl Drop for Staged {
 /// Writes a temporary next to `dest` through `write`, flushed and synced.
 fn stage(dest: &Path, write: impl FnOnce(&mut BufWriter<File>) -> Result<()>) -> Result<Staged> {
     check_destination(dest)?;
-    let dir = dest.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
+    let dir = folder_of(dest);
     let temp = tempfile::Builder::new()
         .prefix(".fusion-")
         .suffix(".tmp")
@@ -155,7 +160,7 @@ impl Batch {
             let step = (|| -> Result<Option<tempfile::TempPath>> {
                 check_destination(&s.dest)?;
                 let backup = if std::fs::symlink_metadata(&s.dest).is_ok() {
-                    let dir = s.dest.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
+                    let dir = folder_of(&s.dest);
                     let b = tempfile::Builder::new()
                         .prefix(".fusion-")
                         .suffix(".old")
@@ -208,7 +213,7 @@ pub fn in_new_folder<T>(out: &Path, fill: impl FnOnce(&Path) -> Result<T>) -> Re
     if std::fs::symlink_metadata(out).is_ok() {
         return fill(out);
     }
-    let parent = out.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
+    let parent = folder_of(out);
     std::fs::create_dir_all(parent).with_context(|| format!("cannot create {}", parent.display()))?;
     let temp = tempfile::Builder::new()
         .prefix(".fusion-")
@@ -230,7 +235,7 @@ pub fn in_new_folder<T>(out: &Path, fill: impl FnOnce(&Path) -> Result<T>) -> Re
 /// Whether two destinations name the same file (compared after resolving their folders).
 fn same_file_name(a: &Path, b: &Path) -> bool {
     let resolve = |p: &Path| {
-        let dir = p.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
+        let dir = folder_of(p);
         (
             std::fs::canonicalize(dir).unwrap_or_else(|_| dir.to_path_buf()),
             p.file_name().map(|n| n.to_os_string()),

@@ -2,7 +2,7 @@
 //! VIFB's 13 metrics exactly as VIFB's code computes them, or both — and noise metrics against a
 //! reference. Definitions of every variant: `docs/metrics.md`.
 
-use crate::io::{Channels, ColorPolicy, Gray, load_channels_u8, load_gray_u8, rgb_to_gray_bt601};
+use crate::io::{Channels, ColorPolicy, Gray, load_channels_u8, load_gray_u8};
 use crate::metrics::vifb::{self, VifbMetrics};
 use crate::metrics::{
     FusionMetrics, HaghighatFeature, NoiseMetrics, fmi_haghighat, format_psnr, fusion_metrics, noise_metrics,
@@ -74,16 +74,6 @@ fn channels_on_grid(img: &Channels, w: usize, h: usize, filter: Filter) -> Resul
     Ok(Channels { width: w, height: h, planes })
 }
 
-/// A grey image of `img`: its plane, or BT.601 of its three.
-fn to_gray(img: &Channels) -> Gray<u8> {
-    if img.planes.len() == 1 {
-        return img.plane(0);
-    }
-    let p = &img.planes;
-    let data = (0..img.width * img.height).map(|i| rgb_to_gray_bt601(p[0][i], p[1][i], p[2][i])).collect();
-    Gray { width: img.width, height: img.height, data }
-}
-
 /// The study suite: [`FusionMetrics`] and Haghighat's two FMIs.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct StudyMetrics {
@@ -120,7 +110,7 @@ pub fn run(args: &EvalArgs) -> Result<()> {
     let vis = channels_on_grid(&load_channels_u8(&args.vis)?, w, h, Filter::Area)?;
     let tir = channels_on_grid(&load_channels_u8(&args.tir)?, w, h, Filter::Cubic)?;
     let study = matches!(args.suite, Suite::Study | Suite::All)
-        .then(|| study_metrics(&to_gray(&vis), &to_gray(&tir), &to_gray(&fused)));
+        .then(|| study_metrics(&vis.to_gray(), &tir.to_gray(), &fused.to_gray()));
     let vifb = match args.suite {
         Suite::Vifb | Suite::All => Some(vifb::vifb_metrics(&vis, &tir, &fused)?),
         Suite::Study => None,
@@ -131,7 +121,7 @@ pub fn run(args: &EvalArgs) -> Result<()> {
             if (r.width, r.height) != (w, h) {
                 bail!("reference is {}x{}, the fused image {w}x{h}", r.width, r.height);
             }
-            Some(noise_metrics(&to_gray(&fused), &r))
+            Some(noise_metrics(&fused.to_gray(), &r))
         }
         None => None,
     };

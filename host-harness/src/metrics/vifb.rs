@@ -23,7 +23,7 @@
 //! rounding noise in the imaginary part).
 
 use super::fft::{self, Spectra2d};
-use crate::io::{Channels, rgb_to_gray_bt601};
+use crate::io::Channels;
 use anyhow::{Result, bail};
 use rustfft::num_complex::Complex;
 
@@ -124,16 +124,9 @@ pub fn vifb_metrics(vis: &Channels, ir: &Channels, fused: &Channels) -> Result<V
             bail!("the {name} image has {} channels; 1 or 3 are scored", c.planes.len());
         }
     }
-    let grey = |c: &Channels| -> Vec<u8> {
-        if c.planes.len() == 1 {
-            c.planes[0].clone()
-        } else {
-            (0..w * h).map(|i| rgb_to_gray_bt601(c.planes[0][i], c.planes[1][i], c.planes[2][i])).collect()
-        }
-    };
     if fused.planes.len() == 1 {
         // Grey result: the metric files' own `rgb2gray` branches convert a colour source.
-        let (v, i) = (grey(vis), grey(ir));
+        let (v, i) = (vis.to_gray().data, ir.to_gray().data);
         let m = channel_metrics(plane(&v, w, h), plane(&i, w, h), plane(&fused.planes[0], w, h));
         let mut all = m.values;
         all[10] = spatial_frequency(&[plane(&fused.planes[0], w, h)]);

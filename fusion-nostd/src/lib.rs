@@ -15,6 +15,8 @@
 //!   ([`strips::fuse_strips`]), bit-identical to the whole-frame run.
 //! * [`scene`] — scene analysis (background, noise, target box, illumination) that lets the
 //!   pipeline skip what the scene does not need ([`pipeline::SkipPolicy`]).
+//! * [`agc`] — thermal automatic gain control: 14/16-bit counts to 8 bits (plateau histogram
+//!   equalisation or a percentile stretch), by frame, strip or row, with temporal smoothing.
 //! * [`Error`] — the one small `Copy` error type; bad input is an `Err`, never a panic.
 //!
 //! # Quick start
@@ -159,6 +161,7 @@ struct ReadmeDoctests;
 
 #[macro_use]
 mod cpu;
+pub mod agc;
 pub mod error;
 pub mod filters;
 pub mod frame;
@@ -169,6 +172,7 @@ pub mod scene;
 pub mod scratch;
 pub mod strips;
 
+pub use agc::{Agc, AgcMode, AgcParams, AgcReport, agc_frame};
 pub use error::Error;
 pub use frame::{Frame, Frame512, Frame1024, FrameMut, FrameRef, MAX_DIMENSION};
 pub use fuse::adaptive::AdaptiveParams;

@@ -3,6 +3,7 @@
 
 pub mod adaptive;
 pub mod adf;
+pub mod agc;
 pub mod ifevip;
 pub mod rescale;
 pub mod tsifsd;

@@ -1,9 +1,10 @@
-//! Image and array I/O for the host tools: 8/16-bit grey and 8-bit colour PNG, float32 `.npy`.
+//! Image and array I/O for the host tools: PNG, JPEG and TIFF in (8/16-bit grey, 8-bit colour),
+//! PNG and TIFF out (chosen by the output's extension, [`OutFormat`]), float32 `.npy`.
 //!
 //! Every output goes through the one write path, `render_host::output` (re-exported here:
 //! [`write_atomic`], [`write_bytes`], [`Batch`]): an exclusive temporary in the destination
 //! folder, synced, renamed into place; related files all or none. Inputs are judged by their
-//! PNG header against the memory limit (`crate::memory`) before they are decoded.
+//! header against the memory limit (`crate::memory`) before they are decoded.
 
 use anyhow::{Context, Result, bail};
 use image::ImageEncoder;
@@ -44,7 +45,7 @@ impl<T: Copy + Default> Gray<T> {
 
 /// A PNG as it was stored: 8-bit or 16-bit grey.
 #[derive(Debug, Clone, PartialEq)]
-pub enum GrayPng {
+pub enum GrayInput {
     /// 8-bit grey.
     U8(Gray<u8>),
     /// 16-bit grey.
@@ -61,22 +62,36 @@ pub enum ColorPolicy {
     Bt601,
 }
 
-/// A PNG's decoder with its header read (nothing of the image data yet).
-fn png_decoder(path: &Path) -> Result<impl image::ImageDecoder> {
+/// The input formats: the name used in messages.
+fn format_name(f: image::ImageFormat) -> Option<&'static str> {
+    match f {
+        image::ImageFormat::Png => Some("PNG"),
+        image::ImageFormat::Jpeg => Some("JPEG"),
+        image::ImageFormat::Tiff => Some("TIFF"),
+        _ => None,
+    }
+}
+
+/// An input's decoder with its header read (nothing of the image data yet), and its format's
+/// name. The format is judged by the file's first bytes (a PNG named `.jpg` is read as PNG);
+/// a file that is none of PNG, JPEG and TIFF is refused by its extension's name.
+fn decoder(path: &Path) -> Result<(impl image::ImageDecoder, &'static str)> {
     let reader = image::ImageReader::open(path)
         .with_context(|| format!("cannot open {}", path.display()))?
         .with_guessed_format()
         .with_context(|| format!("cannot read {}", path.display()))?;
-    if reader.format() != Some(image::ImageFormat::Png) {
-        bail!("{} is not a PNG file", path.display());
-    }
-    reader.into_decoder().with_context(|| format!("{} is not a valid PNG", path.display()))
+    let by_name = image::ImageFormat::from_path(path).ok().and_then(format_name);
+    let Some(name) = reader.format().and_then(format_name).or(by_name) else {
+        bail!("{} is not a PNG, JPEG or TIFF file", path.display());
+    };
+    let decoder = reader.into_decoder().with_context(|| format!("{} is not a valid {name}", path.display()))?;
+    Ok((decoder, name))
 }
 
 fn decode(path: &Path) -> Result<image::DynamicImage> {
     // The header first: a small file can declare a huge frame (a 1-bit PNG of 10⁹ pixels), so
     // the size is judged before anything is allocated for it.
-    let mut decoder = png_decoder(path)?;
+    let (mut decoder, name) = decoder(path)?;
     let (w, h) = image::ImageDecoder::dimensions(&decoder);
     let bytes_per_pixel = u64::from(image::ImageDecoder::color_type(&decoder).bytes_per_pixel());
     let bytes = crate::memory::estimate(
@@ -88,14 +103,13 @@ fn decode(path: &Path) -> Result<image::DynamicImage> {
     limits.max_alloc = Some(crate::memory::limit());
     image::ImageDecoder::set_limits(&mut decoder, limits)
         .with_context(|| format!("{}: over the decoder's limits", path.display()))?;
-    image::DynamicImage::from_decoder(decoder)
-        .with_context(|| format!("{} is not a valid PNG", path.display()))
+    image::DynamicImage::from_decoder(decoder).with_context(|| format!("{} is not a valid {name}", path.display()))
 }
 
-/// The width, height and channel count (alpha not counted) a PNG's header declares, without
-/// decoding it.
-pub fn png_header(path: &Path) -> Result<(usize, usize, usize)> {
-    let decoder = png_decoder(path)?;
+/// The width, height and channel count (alpha not counted) an input's header declares,
+/// without decoding it.
+pub fn image_header(path: &Path) -> Result<(usize, usize, usize)> {
+    let (decoder, _) = decoder(path)?;
     let (w, h) = image::ImageDecoder::dimensions(&decoder);
     let color = image::ImageDecoder::color_type(&decoder);
     let channels = usize::from(color.channel_count()) - usize::from(color.has_alpha());
@@ -108,41 +122,72 @@ pub fn rgb_to_gray_bt601(r: u8, g: u8, b: u8) -> u8 {
     v.round().clamp(0.0, 255.0) as u8
 }
 
-/// Loads a PNG as 8- or 16-bit grey.
-pub fn load_png(path: &Path, color: ColorPolicy) -> Result<GrayPng> {
+/// An input image as stored: 8-bit grey, 16-bit grey, or 8-bit colour (alpha dropped).
+#[derive(Debug, Clone, PartialEq)]
+pub enum Picture {
+    /// 8-bit grey.
+    Gray8(Gray<u8>),
+    /// 16-bit grey (a thermal camera's counts).
+    Gray16(Gray<u16>),
+    /// 8-bit colour, three planes R, G, B.
+    Rgb8(Channels),
+}
+
+impl Picture {
+    /// Width and height.
+    pub fn size(&self) -> (usize, usize) {
+        match self {
+            Picture::Gray8(g) => (g.width, g.height),
+            Picture::Gray16(g) => (g.width, g.height),
+            Picture::Rgb8(c) => (c.width, c.height),
+        }
+    }
+}
+
+/// Loads a PNG, JPEG or TIFF as it is stored ([`Picture`]). 16-bit colour and floating-point
+/// images are refused.
+pub fn load_picture(path: &Path) -> Result<Picture> {
     let img = decode(path)?;
     let (w, h) = (img.width() as usize, img.height() as usize);
     if w == 0 || h == 0 {
         bail!("{} has zero size", path.display());
     }
     use image::DynamicImage as D;
+    let gray = |data| Gray { width: w, height: h, data };
     Ok(match img {
-        D::ImageLuma8(buf) => GrayPng::U8(Gray { width: w, height: h, data: buf.into_raw() }),
-        D::ImageLuma16(buf) => GrayPng::U16(Gray { width: w, height: h, data: buf.into_raw() }),
-        D::ImageLumaA8(buf) => {
-            GrayPng::U8(Gray { width: w, height: h, data: buf.pixels().map(|p| p.0[0]).collect() })
-        }
+        D::ImageLuma8(buf) => Picture::Gray8(gray(buf.into_raw())),
+        D::ImageLuma16(buf) => Picture::Gray16(Gray { width: w, height: h, data: buf.into_raw() }),
+        D::ImageLumaA8(buf) => Picture::Gray8(gray(buf.pixels().map(|p| p.0[0]).collect())),
         D::ImageLumaA16(buf) => {
-            GrayPng::U16(Gray { width: w, height: h, data: buf.pixels().map(|p| p.0[0]).collect() })
+            Picture::Gray16(Gray { width: w, height: h, data: buf.pixels().map(|p| p.0[0]).collect() })
         }
-        other if other.color().bytes_per_pixel() > other.color().channel_count() => bail!(
-            "{} is a 16-bit colour PNG; an 8-bit colour or an 8/16-bit grey one is needed here",
+        D::ImageRgb8(_) | D::ImageRgba8(_) => {
+            let rgb = img.to_rgb8();
+            let planes = (0..3).map(|k| rgb.pixels().map(|p| p.0[k]).collect()).collect();
+            Picture::Rgb8(Channels { width: w, height: h, planes })
+        }
+        other if matches!(other, D::ImageRgb16(_) | D::ImageRgba16(_)) => bail!(
+            "{} is a 16-bit colour image; an 8-bit colour or an 8/16-bit grey one is needed here",
             path.display()
         ),
-        other => match color {
-            ColorPolicy::Refuse => bail!(
-                "{} is a colour image ({:?}); give an 8- or 16-bit grey PNG",
-                path.display(),
-                other.color()
-            ),
-            ColorPolicy::Bt601 => {
-                let rgb = other.to_rgb8();
-                GrayPng::U8(Gray {
-                    width: w,
-                    height: h,
-                    data: rgb.pixels().map(|p| rgb_to_gray_bt601(p.0[0], p.0[1], p.0[2])).collect(),
-                })
+        other => bail!(
+            "{} is a {:?} image; an 8-bit colour or an 8/16-bit grey one is needed here",
+            path.display(),
+            other.color()
+        ),
+    })
+}
+
+/// Loads an image as 8- or 16-bit grey (colour converted with BT.601 if `color` allows it).
+pub fn load_image(path: &Path, color: ColorPolicy) -> Result<GrayInput> {
+    Ok(match load_picture(path)? {
+        Picture::Gray8(g) => GrayInput::U8(g),
+        Picture::Gray16(g) => GrayInput::U16(g),
+        Picture::Rgb8(c) => match color {
+            ColorPolicy::Refuse => {
+                bail!("{} is a colour image; give an 8- or 16-bit grey one", path.display())
             }
+            ColorPolicy::Bt601 => GrayInput::U8(c.to_gray()),
         },
     })
 }
@@ -181,29 +226,15 @@ impl Channels {
     }
 }
 
-/// Loads an 8-bit PNG keeping its colour: grey (with or without alpha) as one plane, colour as
-/// three (alpha dropped). 16-bit PNGs are refused.
+/// Loads an 8-bit image keeping its colour: grey (with or without alpha) as one plane, colour
+/// as three (alpha dropped). 16-bit images are refused.
 pub fn load_channels_u8(path: &Path) -> Result<Channels> {
-    let img = decode(path)?;
-    let (w, h) = (img.width() as usize, img.height() as usize);
-    if w == 0 || h == 0 {
-        bail!("{} has zero size", path.display());
-    }
-    use image::DynamicImage as D;
-    match img {
-        D::ImageLuma8(_) | D::ImageLumaA8(_) => {
-            Ok(Channels { width: w, height: h, planes: vec![img.to_luma8().into_raw()] })
+    match load_picture(path)? {
+        Picture::Gray8(g) => Ok(Channels::from_gray(g)),
+        Picture::Rgb8(c) => Ok(c),
+        Picture::Gray16(_) => {
+            bail!("{} is a 16-bit image; an 8-bit grey or colour one is needed here", path.display())
         }
-        D::ImageRgb8(_) | D::ImageRgba8(_) => {
-            let rgb = img.to_rgb8();
-            let planes = (0..3).map(|k| rgb.pixels().map(|p| p.0[k]).collect()).collect();
-            Ok(Channels { width: w, height: h, planes })
-        }
-        other => bail!(
-            "{} is a {:?} image; an 8-bit grey or RGB PNG is needed here",
-            path.display(),
-            other.color()
-        ),
     }
 }
 
@@ -231,11 +262,70 @@ pub fn vifb_pairs(dir: &Path) -> Result<Vec<NamedPair>> {
         .collect()
 }
 
-/// Loads an 8-bit grey PNG (colour converted with BT.601 if `color` allows it; 16-bit refused).
+/// Loads an 8-bit grey image (colour converted with BT.601 if `color` allows it; 16-bit refused).
 pub fn load_gray_u8(path: &Path, color: ColorPolicy) -> Result<Gray<u8>> {
-    match load_png(path, color)? {
-        GrayPng::U8(g) => Ok(g),
-        GrayPng::U16(_) => bail!("{} is a 16-bit PNG; an 8-bit one is needed here", path.display()),
+    match load_image(path, color)? {
+        GrayInput::U8(g) => Ok(g),
+        GrayInput::U16(_) => bail!("{} is a 16-bit image; an 8-bit one is needed here", path.display()),
+    }
+}
+
+/// An output format, chosen by the output's extension.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum OutFormat {
+    /// `.png`
+    Png,
+    /// `.tif`, `.tiff`
+    Tiff,
+}
+
+impl OutFormat {
+    /// The format `path`'s extension names (case-insensitive); anything else is refused, so no
+    /// file carries bytes its name does not say.
+    pub fn of(path: &Path) -> Result<OutFormat> {
+        let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
+        match ext.as_deref() {
+            Some("png") => Ok(OutFormat::Png),
+            Some("tif" | "tiff") => Ok(OutFormat::Tiff),
+            _ => bail!(
+                "{}: an output must end in .png, .tif or .tiff (the format follows the extension)",
+                path.display()
+            ),
+        }
+    }
+}
+
+/// Encodes an image in `format` into `out` (for [`Batch::add`]).
+pub fn encode_image(
+    out: &mut (impl std::io::Write + std::io::Seek),
+    format: OutFormat,
+    w: usize,
+    h: usize,
+    color: image::ExtendedColorType,
+    bytes: &[u8],
+) -> Result<()> {
+    match format {
+        OutFormat::Png => encode_png(out, w, h, color, bytes),
+        OutFormat::Tiff => {
+            image::codecs::tiff::TiffEncoder::new(out).write_image(bytes, w as u32, h as u32, color)?;
+            Ok(())
+        }
+    }
+}
+
+/// Encodes 8-bit grey (one plane) or colour (three planes, interleaved as RGB) in `format`.
+pub fn encode_channels(
+    out: &mut (impl std::io::Write + std::io::Seek),
+    format: OutFormat,
+    img: &Channels,
+) -> Result<()> {
+    match img.planes.as_slice() {
+        [g] => encode_image(out, format, img.width, img.height, image::ExtendedColorType::L8, g),
+        [r, g, b] => {
+            let rgb: Vec<u8> = r.iter().zip(g).zip(b).flat_map(|((&r, &g), &b)| [r, g, b]).collect();
+            encode_image(out, format, img.width, img.height, image::ExtendedColorType::Rgb8, &rgb)
+        }
+        _ => bail!("an image of {} planes cannot be written", img.planes.len()),
     }
 }
 
@@ -340,10 +430,10 @@ mod tests {
         let img = Gray { width: 3, height: 2, data: vec![0u8, 1, 2, 253, 254, 255] };
         let p = dir.path().join("a.png");
         save_gray_u8(&p, &img)?;
-        assert_eq!(load_png(&p, ColorPolicy::Refuse)?, GrayPng::U8(img));
+        assert_eq!(load_image(&p, ColorPolicy::Refuse)?, GrayInput::U8(img));
         let img16 = Gray { width: 2, height: 2, data: vec![0u16, 1000, 40000, 65535] };
         save_gray_u16(&p, &img16)?;
-        assert_eq!(load_png(&p, ColorPolicy::Refuse)?, GrayPng::U16(img16));
+        assert_eq!(load_image(&p, ColorPolicy::Refuse)?, GrayInput::U16(img16));
         let n = dir.path().join("a.npy");
         write_npy_f32(&n, 3, 2, &[0.5, -1.0, 2.0, 3.0, 4.0, 262.25])?;
         let back = read_npy_2d(&n)?;
@@ -359,13 +449,13 @@ mod tests {
         let dir = tempfile::tempdir()?;
         let p = dir.path().join("rgb.png");
         image::save_buffer(&p, &[255, 0, 0, 0, 255, 0], 2, 1, image::ExtendedColorType::Rgb8)?;
-        assert!(load_png(&p, ColorPolicy::Refuse).is_err());
+        assert!(load_image(&p, ColorPolicy::Refuse).is_err());
         let g = load_gray_u8(&p, ColorPolicy::Bt601)?;
         assert_eq!(g.data, vec![76, 150]); // 0.2989·255 = 76.2, 0.5870·255 = 149.7
         let bad = dir.path().join("bad.png");
         std::fs::write(&bad, b"not an image")?;
-        assert!(load_png(&bad, ColorPolicy::Refuse).is_err());
-        assert!(load_png(&dir.path().join("missing.png"), ColorPolicy::Refuse).is_err());
+        assert!(load_image(&bad, ColorPolicy::Refuse).is_err());
+        assert!(load_image(&dir.path().join("missing.png"), ColorPolicy::Refuse).is_err());
         Ok(())
     }
 

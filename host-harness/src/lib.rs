@@ -23,6 +23,8 @@ macro_rules! note {
 
 pub mod budget;
 pub mod cli;
+pub mod color;
+pub mod folders;
 pub mod io;
 pub mod memory;
 pub mod metrics;

@@ -1,6 +1,6 @@
 //! `fusion rescale` end to end: output equals the core, bad input gives one line and exit 1.
 
-use host_harness::io::{ColorPolicy, Gray, GrayPng, load_png, save_gray_u8, save_gray_u16};
+use host_harness::io::{ColorPolicy, Gray, GrayInput, load_image, save_gray_u8, save_gray_u16};
 use std::path::Path;
 use std::process::{Command, Output};
 
@@ -25,7 +25,7 @@ fn rescales_8_and_16_bit_pngs() {
     save_gray_u8(&inp, &src).unwrap();
     let out = fusion(&["rescale", "--filter", "area", "--width", "10", "--height", "6", p(&inp), p(&outp)]);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    let GrayPng::U8(got) = load_png(&outp, ColorPolicy::Refuse).unwrap() else {
+    let GrayInput::U8(got) = load_image(&outp, ColorPolicy::Refuse).unwrap() else {
         panic!("8-bit output expected")
     };
     assert_eq!((got.width, got.height), (10, 6));
@@ -35,7 +35,7 @@ fn rescales_8_and_16_bit_pngs() {
     save_gray_u16(&inp, &src16).unwrap();
     let out = fusion(&["rescale", "--filter", "cubic", "--width", "2", "--height", "2", p(&inp), p(&outp)]);
     assert!(out.status.success());
-    let GrayPng::U16(got) = load_png(&outp, ColorPolicy::Refuse).unwrap() else {
+    let GrayInput::U16(got) = load_image(&outp, ColorPolicy::Refuse).unwrap() else {
         panic!("16-bit output expected")
     };
     let mut want = Gray::<u16>::new(2, 2);

@@ -10,7 +10,7 @@ use crate::metrics::{
 use anyhow::{Result, bail};
 use clap::{Args, ValueEnum};
 use fusion_nostd::{Filter, rescale};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 /// Output formats.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -48,11 +48,13 @@ pub struct EvalArgs {
     /// Output format.
     #[arg(long, value_enum, default_value_t = Format::Text)]
     pub format: Format,
-    /// Visible source (rescaled with area to the fused grid if its size differs).
+    /// Visible source (rescaled with area to the fused grid if its size differs), or a folder
+    /// of them (then TIR and FUSED are folders too, paired by name without extension: a row
+    /// per image and the means).
     pub vis: PathBuf,
-    /// Thermal source (rescaled with bicubic to the fused grid if its size differs).
+    /// Thermal source (rescaled with bicubic to the fused grid if its size differs), or a folder.
     pub tir: PathBuf,
-    /// Fused image.
+    /// Fused image (PNG, JPEG or TIFF), or a folder.
     pub fused: PathBuf,
 }
 
@@ -94,10 +96,10 @@ pub fn study_metrics(vis: &Gray<u8>, tir: &Gray<u8>, fused: &Gray<u8>) -> StudyM
     }
 }
 
-/// Runs `fusion eval`.
-pub fn run(args: &EvalArgs) -> Result<()> {
-    let (w, h, channels) = crate::io::png_header(&args.fused)?;
-    let per_px = match args.suite {
+/// Scores one triple of files (no noise metrics).
+fn score(suite: Suite, vis: &Path, tir: &Path, fused: &Path) -> Result<MetricTable> {
+    let (w, h, channels) = crate::io::image_header(fused)?;
+    let per_px = match suite {
         Suite::Study => crate::memory::per_pixel::EVAL_STUDY,
         Suite::Vifb => crate::memory::per_pixel::EVAL_VIFB,
         Suite::All => crate::memory::per_pixel::EVAL_STUDY + crate::memory::per_pixel::EVAL_VIFB,
@@ -105,27 +107,37 @@ pub fn run(args: &EvalArgs) -> Result<()> {
     // Per channel (a colour image is scored three times), estimated from the header.
     let bytes =
         crate::memory::estimate((w as u64).saturating_mul(h as u64).saturating_mul(channels as u64), per_px);
-    crate::memory::check(&args.fused.display().to_string(), "scoring this image", bytes)?;
-    let fused = load_channels_u8(&args.fused)?;
-    let vis = channels_on_grid(&load_channels_u8(&args.vis)?, w, h, Filter::Area)?;
-    let tir = channels_on_grid(&load_channels_u8(&args.tir)?, w, h, Filter::Cubic)?;
-    let study = matches!(args.suite, Suite::Study | Suite::All)
+    crate::memory::check(&fused.display().to_string(), "scoring this image", bytes)?;
+    let fused = load_channels_u8(fused)?;
+    let vis = channels_on_grid(&load_channels_u8(vis)?, w, h, Filter::Area)?;
+    let tir = channels_on_grid(&load_channels_u8(tir)?, w, h, Filter::Cubic)?;
+    let study = matches!(suite, Suite::Study | Suite::All)
         .then(|| study_metrics(&vis.to_gray(), &tir.to_gray(), &fused.to_gray()));
-    let vifb = match args.suite {
+    let vifb = match suite {
         Suite::Vifb | Suite::All => Some(vifb::vifb_metrics(&vis, &tir, &fused)?),
         Suite::Study => None,
     };
-    let noise = match &args.r#ref {
-        Some(p) => {
-            let r = load_gray_u8(p, ColorPolicy::Bt601)?;
-            if (r.width, r.height) != (w, h) {
-                bail!("reference is {}x{}, the fused image {w}x{h}", r.width, r.height);
-            }
-            Some(noise_metrics(&fused.to_gray(), &r))
+    Ok(MetricTable::new(study.as_ref(), vifb.as_ref(), None, suite == Suite::All))
+}
+
+/// Runs `fusion eval`: one triple, or three folders of them.
+pub fn run(args: &EvalArgs) -> Result<()> {
+    let dirs = [&args.vis, &args.tir, &args.fused].map(|p| p.is_dir());
+    if dirs.iter().any(|&d| d) {
+        if !dirs.iter().all(|&d| d) {
+            bail!("give three files or three folders (VIS, TIR, FUSED)");
         }
-        None => None,
-    };
-    let table = MetricTable::new(study.as_ref(), vifb.as_ref(), noise.as_ref(), args.suite == Suite::All);
+        return run_folders(args);
+    }
+    let mut table = score(args.suite, &args.vis, &args.tir, &args.fused)?;
+    if let Some(p) = &args.r#ref {
+        let fused = load_channels_u8(&args.fused)?.to_gray();
+        let r = load_gray_u8(p, ColorPolicy::Bt601)?;
+        if (r.width, r.height) != (fused.width, fused.height) {
+            bail!("reference is {}x{}, the fused image {}x{}", r.width, r.height, fused.width, fused.height);
+        }
+        table.add_noise(&noise_metrics(&fused, &r), args.suite == Suite::All);
+    }
     for (name, v) in &table.rows {
         if v.is_nan() {
             note!(
@@ -137,11 +149,116 @@ pub fn run(args: &EvalArgs) -> Result<()> {
     Ok(())
 }
 
+/// Three folders: a row per triple (paired by name without extension) and the means.
+fn run_folders(args: &EvalArgs) -> Result<()> {
+    if args.r#ref.is_some() {
+        bail!("--ref names one reference image: it works with one triple, not with folders");
+    }
+    let (triples, unpaired) = crate::folders::pair_by_stem(&[
+        (args.vis.as_path(), "visible"),
+        (args.tir.as_path(), "thermal"),
+        (args.fused.as_path(), "fused"),
+    ])?;
+    let results = crate::folders::run_all(&triples, 0, "eval", |_, f| {
+        score(args.suite, &f[0], &f[1], &f[2]).map(Scored)
+    })?;
+    let mut scored = Vec::new();
+    let mut failed = unpaired;
+    for ((stem, _), r) in triples.iter().zip(results) {
+        match r {
+            Ok(Scored(t)) => scored.push((stem.clone(), t)),
+            Err(e) => failed.push((stem.clone(), format!("{e:#}"))),
+        }
+    }
+    failed.sort();
+    if let Some((_, first)) = scored.first() {
+        let n = scored.len() as f64;
+        let means: Vec<(String, f64)> = first
+            .rows
+            .iter()
+            .enumerate()
+            .map(|(k, (name, _))| (name.clone(), scored.iter().map(|(_, t)| t.rows[k].1).sum::<f64>() / n))
+            .collect();
+        let mean = MetricTable { rows: means, groups: first.groups.clone() };
+        out!("{}", folder_table(&scored, &mean, args.format))?;
+    }
+    for (stem, why) in &failed {
+        note!("eval: failed {stem}: {why}");
+    }
+    if !failed.is_empty() {
+        bail!("{} of {} triples failed (listed above)", failed.len(), failed.len() + scored.len());
+    }
+    Ok(())
+}
+
+/// A triple's table, shown as nothing in the progress lines.
+struct Scored(MetricTable);
+
+impl std::fmt::Display for Scored {
+    fn fmt(&self, _: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        Ok(())
+    }
+}
+
+/// The tables of a folder run: a row per triple and a `mean` row (text, CSV), or
+/// `{"images": {NAME: …}, "mean": …}` (JSON).
+fn folder_table(scored: &[(String, MetricTable)], mean: &MetricTable, format: Format) -> String {
+    match format {
+        Format::Json => {
+            let images: Vec<String> = scored
+                .iter()
+                .map(|(stem, t)| format!("{}:{}", serde_json::Value::from(stem.as_str()), t.format(format).trim_end()))
+                .collect();
+            format!("{{\"images\":{{{}}},\"mean\":{}}}\n", images.join(","), mean.format(format).trim_end())
+        }
+        Format::Csv | Format::Text => {
+            let names: Vec<&str> = mean.rows.iter().map(|(n, _)| n.as_str()).collect();
+            let mut all: Vec<(&str, &MetricTable)> = scored.iter().map(|(s, t)| (s.as_str(), t)).collect();
+            all.push(("mean", mean));
+            if format == Format::Csv {
+                let mut text = format!("image,{}\n", names.join(","));
+                for (stem, t) in all {
+                    let csv = t.format(Format::Csv);
+                    let values = csv.lines().nth(1).unwrap_or_default();
+                    text += &format!("{stem},{values}\n");
+                }
+                text
+            } else {
+                let width = all.iter().map(|(s, _)| s.len()).max().unwrap_or(5).max(5);
+                let mut text = format!("{:<width$}", "image");
+                for n in &names {
+                    text += &format!(" {n:>12}");
+                }
+                text.push('\n');
+                for (stem, t) in all {
+                    text += &format!("{stem:<width$}");
+                    for (_, v) in &t.rows {
+                        text += &format!(" {v:>12.4}");
+                    }
+                    text.push('\n');
+                }
+                text
+            }
+        }
+    }
+}
+
 /// Named metric values in print order, with the suite each belongs to.
 pub struct MetricTable {
     /// `(name, value)`; names carry a `suite.` prefix when several suites share a key.
     pub rows: Vec<(String, f64)>,
     groups: Vec<(&'static str, std::ops::Range<usize>)>,
+}
+
+impl MetricTable {
+    /// Appends the noise metrics as their own group.
+    pub fn add_noise(&mut self, n: &NoiseMetrics, prefixed: bool) {
+        let start = self.rows.len();
+        for (k, v) in [("MSE_S", n.mse_s), ("PSNR_S", n.psnr_s), ("SSIM_S", n.ssim_s)] {
+            self.rows.push((if prefixed { format!("noise.{k}") } else { k.to_string() }, v));
+        }
+        self.groups.push(("noise", start..self.rows.len()));
+    }
 }
 
 impl MetricTable {

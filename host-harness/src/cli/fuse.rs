@@ -4,7 +4,7 @@
 //! MGFF, TEPGFL, DRIF; [`crate::study_methods`]) run on the host f64 engine only.
 
 use crate::CoreScratch;
-use crate::io::{Batch, ColorPolicy, Gray, encode_gray_u8, encode_npy_f32, load_gray_u8, save_gray_u8};
+use crate::io::{Batch, Channels, Gray, OutFormat, Picture, encode_channels, encode_npy_f32};
 use crate::reference;
 use crate::study_methods::{HostMethod, cast_u8, drif, fuse_host_u8};
 use anyhow::{Context, Result, bail};
@@ -12,7 +12,7 @@ use clap::{Args, ValueEnum};
 use fusion_nostd::fuse::{Guards, Variant};
 use fusion_nostd::pipeline::{Method, Pipeline, RescalePolicy, fusion_grid};
 use fusion_nostd::{AdaptiveParams, AdfParams, IfevipParams, TsifsdParams};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 /// The core's fusion methods (also the method names of `fusion budget`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -135,11 +135,32 @@ pub struct FuseArgs {
     /// report is printed.
     #[arg(long, value_name = "ROWS|max")]
     pub strips: Option<StripRows>,
-    /// Visible image (grey PNG; colour is converted with BT.601 weights).
+    /// Thermal AGC for a 14/16-bit thermal image (its counts to 8 bits, in the core:
+    /// `fusion_nostd::agc`) [default: plateau]. An 8-bit thermal image is used as it is.
+    #[arg(long, value_enum)]
+    pub agc: Option<AgcArg>,
+    /// The plateau of --agc plateau, in pixels per histogram bin (bins of 4 counts)
+    /// [default: the thermal frame's pixels / 64].
+    #[arg(long, value_name = "PIXELS")]
+    pub plateau: Option<u32>,
+    /// A colour visible image: keep its colour (fuse the luminance, restore the chroma; RGB
+    /// out) or fuse its grey [default: keep].
+    #[arg(long, value_enum)]
+    pub color: Option<ColorArg>,
+    /// Folders: pairs fused at once [default: every core].
+    #[arg(long, value_name = "N")]
+    pub jobs: Option<usize>,
+    /// Folders: the outputs' format.
+    #[arg(long, value_enum, default_value_t = FormatArg::Png)]
+    pub format: FormatArg,
+    /// Visible image (PNG, JPEG or TIFF; 8-bit grey or colour), or a folder of them.
     pub vis: PathBuf,
-    /// Thermal-infrared image (grey PNG; colour is converted with BT.601 weights).
+    /// Thermal-infrared image (PNG, JPEG or TIFF; 8-bit, or 14/16-bit counts through --agc;
+    /// colour is converted with BT.601 weights), or a folder of them (paired with the visible
+    /// folder's files by name without extension).
     pub tir: PathBuf,
-    /// Fused output (8-bit grey PNG).
+    /// Fused output (.png or .tif/.tiff; RGB when the visible image is colour and --color
+    /// keep), or a folder for the pairs of two folders.
     pub output: PathBuf,
 }
 
@@ -348,33 +369,105 @@ pub fn fuse_host_method(
     Ok(Fused { image, raw: Some(raw), guards: Guards::NONE })
 }
 
-/// Runs `fusion fuse`.
-pub fn run(args: &FuseArgs) -> Result<()> {
+/// `--agc` values.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum AgcArg {
+    /// Plateau histogram equalisation (the usual thermal-camera AGC).
+    Plateau,
+    /// Linear stretch between the 0.5 % and 99.5 % percentiles.
+    Linear,
+}
+
+/// `--color` values.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum ColorArg {
+    /// Fuse the luminance (YCbCr, BT.601 full range) and restore the visible frame's chroma:
+    /// RGB out.
+    Keep,
+    /// Convert the visible frame to grey (MATLAB `rgb2gray` weights): grey out.
+    Gray,
+}
+
+/// `--format` values (folders; a single output's format follows its extension).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum FormatArg {
+    /// `.png`
+    Png,
+    /// `.tif`
+    Tiff,
+}
+
+/// The core AGC parameters the options ask for, for a frame of `pixels`.
+pub fn agc_params(args: &FuseArgs, pixels: usize) -> fusion_nostd::AgcParams {
+    let mut p = match args.agc.unwrap_or(AgcArg::Plateau) {
+        AgcArg::Plateau => fusion_nostd::AgcParams::plateau(pixels),
+        AgcArg::Linear => fusion_nostd::AgcParams::linear(),
+    };
+    if let (Some(limit), fusion_nostd::AgcMode::Plateau { .. }) = (args.plateau, p.mode) {
+        p.mode = fusion_nostd::AgcMode::Plateau { limit };
+    }
+    p
+}
+
+/// Both inputs read and made ready for the grey fusion.
+struct Prepared {
+    /// The visible frame's grey, or its luminance when the chroma is kept.
+    vis: Gray<u8>,
+    /// The visible frame's Cb and Cr when its colour is kept.
+    chroma: Option<[Gray<u8>; 2]>,
+    /// The thermal frame in 8 bits (through the AGC when it was 14/16-bit).
+    tir: Gray<u8>,
+}
+
+fn prepare(args: &FuseArgs, vis_path: &Path, tir_path: &Path) -> Result<Prepared> {
+    let vis_picture = crate::io::load_picture(vis_path).context("visible image")?;
+    let tir_picture = crate::io::load_picture(tir_path).context("thermal image")?;
+    let (vis, chroma) = match vis_picture {
+        Picture::Gray8(g) => (g, None),
+        Picture::Gray16(_) => bail!(
+            "visible image: {} is 16-bit; give an 8-bit one (the AGC is for the thermal band)",
+            vis_path.display()
+        ),
+        Picture::Rgb8(c) => match args.color.unwrap_or(ColorArg::Keep) {
+            ColorArg::Keep => {
+                let [y, cb, cr] = crate::color::rgb_to_ycbcr(&c);
+                (y, Some([cb, cr]))
+            }
+            ColorArg::Gray => (c.to_gray(), None),
+        },
+    };
+    let tir = match tir_picture {
+        Picture::Gray8(g) => {
+            if args.agc.is_some() || args.plateau.is_some() {
+                note!(
+                    "fusion: note: {} is 8-bit: --agc and --plateau apply to 14/16-bit counts and are not used",
+                    tir_path.display()
+                );
+            }
+            g
+        }
+        Picture::Rgb8(c) => c.to_gray(),
+        Picture::Gray16(counts) => {
+            let params = agc_params(args, counts.width * counts.height);
+            let mut out = Gray::<u8>::new(counts.width, counts.height);
+            let mut agc = Box::new(fusion_nostd::Agc::new());
+            fusion_nostd::agc_frame(&mut agc, counts.view()?, out.view_mut()?, &params)
+                .with_context(|| format!("thermal image {}: AGC", tir_path.display()))?;
+            out
+        }
+    };
+    Ok(Prepared { vis, chroma, tir })
+}
+
+/// What one grey fusion gives: the image, the pre-cast value, the guards and the text report
+/// (strips, skip) to print.
+struct GrayResult {
+    fused: Fused,
+    report: String,
+}
+
+fn fuse_gray(args: &FuseArgs, vis: &Gray<u8>, tir: &Gray<u8>) -> Result<GrayResult> {
     let rescale = args.rescale.unwrap_or(RescaleArg::TirUp);
-    // The memory estimate from the headers, before either frame is decoded. The fusion grid is
-    // the larger frame's (tir-up, none) or the smaller one's (vis-down).
-    let (vw, vh, _) = crate::io::png_header(&args.vis).context("visible image")?;
-    let (tw, th, _) = crate::io::png_header(&args.tir).context("thermal image")?;
-    let (vis_px, tir_px) = ((vw as u64).saturating_mul(vh as u64), (tw as u64).saturating_mul(th as u64));
-    let grid = match rescale {
-        RescaleArg::VisDown => vis_px.min(tir_px),
-        _ => vis_px.max(tir_px),
-    };
-    let per_px = match (args.method.split(), args.engine.unwrap_or(EngineArg::Core)) {
-        (Err(_), _) => crate::memory::per_pixel::FUSE_HOST_METHOD,
-        (Ok(_), EngineArg::Reference) => crate::memory::per_pixel::FUSE_REFERENCE,
-        (Ok(_), EngineArg::Core) => crate::memory::per_pixel::FUSE_CORE,
-    };
-    let (input, band) =
-        if vis_px >= tir_px { (&args.vis, "visible image") } else { (&args.tir, "thermal image") };
-    crate::memory::check(
-        &input.display().to_string(),
-        "fusing this pair",
-        crate::memory::estimate(grid, per_px),
-    )
-    .context(band)?;
-    let vis = load_gray_u8(&args.vis, ColorPolicy::Bt601).context("visible image")?;
-    let tir = load_gray_u8(&args.tir, ColorPolicy::Bt601).context("thermal image")?;
     let fused = match args.method.split() {
         Ok(method) => {
             let pipeline = Pipeline {
@@ -385,38 +478,41 @@ pub fn run(args: &FuseArgs) -> Result<()> {
             };
             let engine = args.engine.unwrap_or(EngineArg::Core);
             if let Some(StripRows(rows)) = args.strips {
-                if engine != EngineArg::Core || args.raw.is_some() || args.skip != SkipArg::None {
-                    bail!(
-                        "--strips works with the core engine's 8-bit output only (no --engine reference, no --raw, no --skip)"
-                    );
-                }
                 let mut scratch = crate::strips::HostStripScratch::default();
                 let (image, report, strips, _) =
-                    crate::strips::fuse_strips_once(&vis, &tir, &pipeline, rows, &mut scratch)?;
-                out!("{}", strip_report_text(&strips, report.grid))?;
-                save_gray_u8(&args.output, &image)?;
-                if report.guards != Guards::NONE {
-                    note!("fusion: guards: {} (fusion_nostd::Guards)", report.guards);
-                }
-                return Ok(());
+                    crate::strips::fuse_strips_once(vis, tir, &pipeline, rows, &mut scratch)?;
+                let fused = Fused { image, raw: None, guards: report.guards };
+                return Ok(GrayResult { fused, report: strip_report_text(&strips, report.grid) });
             }
             if args.skip != SkipArg::None {
-                if engine != EngineArg::Core || args.raw.is_some() {
-                    bail!(
-                        "--skip works with the core engine's 8-bit output only (no --engine reference, no --raw)"
-                    );
-                }
-                let (image, report, _) = crate::skip::fuse_once(&vis, &tir, &pipeline)?;
-                out!("{}", skip_report_text(&report))?;
-                save_gray_u8(&args.output, &image)?;
-                if report.guards != Guards::NONE {
-                    note!("fusion: guards: {} (fusion_nostd::Guards)", report.guards);
-                }
-                return Ok(());
+                let (image, report, _) = crate::skip::fuse_once(vis, tir, &pipeline)?;
+                let fused = Fused { image, raw: None, guards: report.guards };
+                return Ok(GrayResult { fused, report: skip_report_text(&report) });
             }
             match engine {
-                EngineArg::Core => fuse_core(&vis, &tir, &pipeline, args.raw.is_some())?,
-                EngineArg::Reference => fuse_reference(&vis, &tir, &pipeline)?,
+                EngineArg::Core => fuse_core(vis, tir, &pipeline, args.raw.is_some())?,
+                EngineArg::Reference => fuse_reference(vis, tir, &pipeline)?,
+            }
+        }
+        Err(host) => fuse_host_method(vis, tir, host, rescale.into())?,
+    };
+    Ok(GrayResult { fused, report: String::new() })
+}
+
+/// Refuses option combinations that cannot run, before anything is read.
+fn check_options(args: &FuseArgs) -> Result<()> {
+    match args.method.split() {
+        Ok(_) => {
+            let engine = args.engine.unwrap_or(EngineArg::Core);
+            if args.strips.is_some()
+                && (engine != EngineArg::Core || args.raw.is_some() || args.skip != SkipArg::None)
+            {
+                bail!(
+                    "--strips works with the core engine's 8-bit output only (no --engine reference, no --raw, no --skip)"
+                );
+            }
+            if args.skip != SkipArg::None && (engine != EngineArg::Core || args.raw.is_some()) {
+                bail!("--skip works with the core engine's 8-bit output only (no --engine reference, no --raw)");
             }
         }
         Err(host) => {
@@ -435,9 +531,53 @@ pub fn run(args: &FuseArgs) -> Result<()> {
             if host.different_resolution() && args.rescale.is_some() {
                 bail!("drif fuses the two frames at their own resolutions: drop --rescale");
             }
-            fuse_host_method(&vis, &tir, host, rescale.into())?
         }
+    }
+    if let (Some(AgcArg::Linear), Some(_)) = (args.agc, args.plateau) {
+        bail!("--plateau sets the plateau of --agc plateau; drop it with --agc linear");
+    }
+    if args.plateau == Some(0) {
+        bail!("--plateau must be at least 1 pixel per bin");
+    }
+    Ok(())
+}
+
+/// The memory estimate from the headers, before either frame is decoded. The fusion grid is
+/// the larger frame's (tir-up, none) or the smaller one's (vis-down).
+fn check_memory(args: &FuseArgs, vis_path: &Path, tir_path: &Path) -> Result<()> {
+    let rescale = args.rescale.unwrap_or(RescaleArg::TirUp);
+    let (vw, vh, vc) = crate::io::image_header(vis_path).context("visible image")?;
+    let (tw, th, _) = crate::io::image_header(tir_path).context("thermal image")?;
+    let (vis_px, tir_px) = ((vw as u64).saturating_mul(vh as u64), (tw as u64).saturating_mul(th as u64));
+    let grid = match rescale {
+        RescaleArg::VisDown => vis_px.min(tir_px),
+        _ => vis_px.max(tir_px),
     };
+    let per_px = match (args.method.split(), args.engine.unwrap_or(EngineArg::Core)) {
+        (Err(_), _) => crate::memory::per_pixel::FUSE_HOST_METHOD,
+        (Ok(_), EngineArg::Reference) => crate::memory::per_pixel::FUSE_REFERENCE,
+        (Ok(_), EngineArg::Core) => crate::memory::per_pixel::FUSE_CORE,
+    };
+    // A colour frame kept in colour carries its two chroma planes and the RGB output too.
+    let per_px = per_px + if vc == 3 { 6 } else { 0 };
+    let (input, band) =
+        if vis_px >= tir_px { (vis_path, "visible image") } else { (tir_path, "thermal image") };
+    crate::memory::check(
+        &input.display().to_string(),
+        "fusing this pair",
+        crate::memory::estimate(grid, per_px),
+    )
+    .context(band)
+}
+
+/// Fuses one pair of files into `output` (and `args.raw`); returns the text report to print
+/// and the guards that fired.
+fn fuse_files(args: &FuseArgs, vis_path: &Path, tir_path: &Path, output: &Path) -> Result<(String, Guards)> {
+    let format = OutFormat::of(output)?;
+    check_memory(args, vis_path, tir_path)?;
+    let input = prepare(args, vis_path, tir_path)?;
+    let GrayResult { fused, report } = fuse_gray(args, &input.vis, &input.tir)?;
+    let (vis, tir) = (&input.vis, &input.tir);
     if vis.width * tir.height != vis.height * tir.width {
         note!(
             "fusion: note: VIS {}x{} and TIR {}x{} differ in aspect ratio; the rescale stretches one onto the other's grid",
@@ -447,6 +587,16 @@ pub fn run(args: &FuseArgs) -> Result<()> {
             tir.height
         );
     }
+    let image = match &input.chroma {
+        None => Channels::from_gray(fused.image.clone()),
+        Some([cb, cr]) => {
+            // The chroma follows the luminance onto the fusion grid (area, as the VIS band).
+            let (w, h) = (fused.image.width, fused.image.height);
+            let cb = crate::cli::eval::on_grid(cb, w, h, fusion_nostd::Filter::Area)?;
+            let cr = crate::cli::eval::on_grid(cr, w, h, fusion_nostd::Filter::Area)?;
+            crate::color::ycbcr_to_rgb(&fused.image, &cb, &cr)
+        }
+    };
     // Both outputs or neither: the image and the raw array are staged, then renamed together.
     let mut batch = Batch::default();
     if let Some(raw_path) = &args.raw {
@@ -460,10 +610,31 @@ pub fn run(args: &FuseArgs) -> Result<()> {
         }
         batch.add(raw_path, |w| encode_npy_f32(w, raw.width, raw.height, &data))?;
     }
-    batch.add(&args.output, |w| encode_gray_u8(w, &fused.image))?;
+    batch.add(output, |w| encode_channels(w, format, &image))?;
     batch.commit()?;
-    if fused.guards != Guards::NONE {
-        note!("fusion: guards: {} (fusion_nostd::Guards)", fused.guards);
+    Ok((report, fused.guards))
+}
+
+/// Runs `fusion fuse`: one pair, or two folders of pairs.
+pub fn run(args: &FuseArgs) -> Result<()> {
+    check_options(args)?;
+    match (args.vis.is_dir(), args.tir.is_dir()) {
+        (false, false) => {
+            let (report, guards) = fuse_files(args, &args.vis, &args.tir, &args.output)?;
+            out!("{report}")?;
+            if guards != Guards::NONE {
+                note!("fusion: guards: {guards} (fusion_nostd::Guards)");
+            }
+            Ok(())
+        }
+        (true, true) => crate::cli::fuse_folders::run(args),
+        (true, false) => bail!("{} is a folder and {} is not: give two files or two folders", args.vis.display(), args.tir.display()),
+        (false, true) => bail!("{} is a folder and {} is not: give two files or two folders", args.tir.display(), args.vis.display()),
     }
-    Ok(())
+}
+
+/// Fuses one pair of a folder run (no report printed); says which guards fired, if any.
+pub fn fuse_pair_quietly(args: &FuseArgs, vis: &Path, tir: &Path, output: &Path) -> Result<String> {
+    let (_, guards) = fuse_files(args, vis, tir, output)?;
+    Ok(if guards == Guards::NONE { String::new() } else { format!("guards: {guards}") })
 }

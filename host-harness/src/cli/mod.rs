@@ -7,6 +7,7 @@ pub mod budget;
 pub mod demo;
 pub mod eval;
 pub mod fuse;
+pub mod fuse_folders;
 pub mod navbench;
 pub mod report;
 pub mod rescale;

@@ -1,6 +1,6 @@
 //! `fusion rescale`: the core's rescalers on a PNG file.
 
-use crate::io::{ColorPolicy, Gray, GrayPng, load_png, save_gray_u8, save_gray_u16};
+use crate::io::{ColorPolicy, Gray, GrayInput, load_image, save_gray_u8, save_gray_u16};
 use anyhow::{Result, bail};
 use clap::{Args, ValueEnum};
 use fusion_nostd::{Filter, rescale};
@@ -72,8 +72,8 @@ pub fn run(args: &RescaleArgs) -> Result<()> {
     let out_px = (args.width as u64).saturating_mul(args.height as u64);
     let bytes = crate::memory::estimate(out_px, 2 * crate::memory::per_pixel::DECODE);
     crate::memory::check(&args.input.display().to_string(), "rescaling to this size", bytes)?;
-    match load_png(&args.input, ColorPolicy::Refuse)? {
-        GrayPng::U8(src) => save_gray_u8(&args.output, &rescaled(&src, args.width, args.height, filter)?),
-        GrayPng::U16(src) => save_gray_u16(&args.output, &rescaled(&src, args.width, args.height, filter)?),
+    match load_image(&args.input, ColorPolicy::Refuse)? {
+        GrayInput::U8(src) => save_gray_u8(&args.output, &rescaled(&src, args.width, args.height, filter)?),
+        GrayInput::U16(src) => save_gray_u16(&args.output, &rescaled(&src, args.width, args.height, filter)?),
     }
 }

@@ -1,0 +1,49 @@
+//! `fusion fuse [options] VIS_DIR TIR_DIR OUT_DIR`: every pair of two folders, paired by name
+//! without extension, fused in parallel into `OUT_DIR/NAME.png` (or `.tif`, `--format`).
+//!
+//! A pair that fails (unreadable, wrong size, no partner) is reported and the others go on; the
+//! run ends with a summary on standard output and exit status 1 when any pair failed. Each
+//! output is written atomically; the folder is created when missing.
+
+use super::fuse::{FormatArg, FuseArgs, fuse_pair_quietly};
+use crate::folders::{pair_by_stem, run_all};
+use anyhow::{Context, Result, bail};
+
+/// Runs the folder form of `fusion fuse`.
+pub fn run(args: &FuseArgs) -> Result<()> {
+    if args.raw.is_some() {
+        bail!("--raw names one file: it works with one pair, not with folders");
+    }
+    if args.output.exists() && !args.output.is_dir() {
+        bail!("{} is not a folder: the pairs of two folders go into a folder", args.output.display());
+    }
+    let (pairs, unpaired) = pair_by_stem(&[(&args.vis, "visible"), (&args.tir, "thermal")])?;
+    std::fs::create_dir_all(&args.output).with_context(|| format!("cannot create {}", args.output.display()))?;
+    let ext = match args.format {
+        FormatArg::Png => "png",
+        FormatArg::Tiff => "tif",
+    };
+    let jobs = args.jobs.unwrap_or(0);
+    let results = run_all(&pairs, jobs, "fuse", |stem, files| {
+        let out = args.output.join(format!("{stem}.{ext}"));
+        fuse_pair_quietly(args, &files[0], &files[1], &out)
+    })?;
+    let mut failed: Vec<(String, String)> = unpaired;
+    let mut fused = 0;
+    for ((stem, _), r) in pairs.iter().zip(results) {
+        match r {
+            Ok(_) => fused += 1,
+            Err(e) => failed.push((stem.clone(), format!("{e:#}"))),
+        }
+    }
+    failed.sort();
+    let total = fused + failed.len();
+    outln!("fused {fused} of {total} pairs into {}", args.output.display())?;
+    for (stem, why) in &failed {
+        outln!("failed {stem}: {why}")?;
+    }
+    if !failed.is_empty() {
+        bail!("{} of {total} pairs failed (listed above)", failed.len());
+    }
+    Ok(())
+}

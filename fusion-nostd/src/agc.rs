@@ -62,7 +62,7 @@ pub enum AgcMode {
         limit: u32,
     },
     /// Linear stretch between two percentiles, in 1/10 000 of the pixels
-    /// (`low < high ≤ 10 000`; e.g. 50 and 9 950 for 0.5 % and 99.5 %).
+    /// (`low < high ≤ 10 000`; e.g. 100 and 9 990 for 1 % and 99.9 %).
     Linear {
         /// Lower percentile.
         low: u16,
@@ -86,10 +86,13 @@ pub struct AgcParams {
 }
 
 impl AgcParams {
-    /// The default plateau for a frame of `pixels`: `max(1, pixels / 64)`, so a bin counts at
-    /// most about 4 output levels' worth of pixels, whatever the frame size.
+    /// The default plateau for a frame of `pixels`: `max(1, pixels / 2¹⁸)` (1 for a 512² frame,
+    /// 4 for 1024²). Low, because on a target against cold space the background's sensor noise
+    /// fills many bins and a high plateau spreads it over the output range: on the rendered
+    /// `approach` sequence the target's contrast-to-noise ratio falls as the plateau rises
+    /// (BENCHMARKS.md, "Thermal AGC").
     pub const fn plateau_for(pixels: usize) -> u32 {
-        let p = pixels / 64;
+        let p = pixels >> 18;
         if p == 0 {
             1
         } else if p > u32::MAX as usize {
@@ -109,10 +112,11 @@ impl AgcParams {
         }
     }
 
-    /// A linear stretch between the 0.5 % and 99.5 % percentiles over the full 8-bit range, no
-    /// smoothing.
+    /// A linear stretch between the 1 % and 99.9 % percentiles over the full 8-bit range, no
+    /// smoothing (the percentiles that gave the highest target contrast-to-noise ratio on the
+    /// rendered sequences; BENCHMARKS.md, "Thermal AGC").
     pub const fn linear() -> Self {
-        AgcParams { mode: AgcMode::Linear { low: 50, high: 9_950 }, out_low: 0, out_high: 255, smoothing: 0 }
+        AgcParams { mode: AgcMode::Linear { low: 100, high: 9_990 }, out_low: 0, out_high: 255, smoothing: 0 }
     }
 
     /// Checks every field's range.

@@ -64,7 +64,11 @@ mod tests {
         let rgb = Channels {
             width: 6,
             height: 1,
-            planes: vec![vec![255, 0, 0, 255, 0, 128], vec![0, 255, 0, 255, 0, 128], vec![0, 0, 255, 255, 0, 128]],
+            planes: vec![
+                vec![255, 0, 0, 255, 0, 128],
+                vec![0, 255, 0, 255, 0, 128],
+                vec![0, 0, 255, 255, 0, 128],
+            ],
         };
         let [y, cb, cr] = rgb_to_ycbcr(&rgb);
         assert_eq!(y.data, vec![76, 150, 29, 255, 0, 128]); // 76.245, 149.685, 29.07

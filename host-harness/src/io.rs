@@ -84,7 +84,8 @@ fn decoder(path: &Path) -> Result<(impl image::ImageDecoder, &'static str)> {
     let Some(name) = reader.format().and_then(format_name).or(by_name) else {
         bail!("{} is not a PNG, JPEG or TIFF file", path.display());
     };
-    let decoder = reader.into_decoder().with_context(|| format!("{} is not a valid {name}", path.display()))?;
+    let decoder =
+        reader.into_decoder().with_context(|| format!("{} is not a valid {name}", path.display()))?;
     Ok((decoder, name))
 }
 
@@ -103,7 +104,8 @@ fn decode(path: &Path) -> Result<image::DynamicImage> {
     limits.max_alloc = Some(crate::memory::limit());
     image::ImageDecoder::set_limits(&mut decoder, limits)
         .with_context(|| format!("{}: over the decoder's limits", path.display()))?;
-    image::DynamicImage::from_decoder(decoder).with_context(|| format!("{} is not a valid {name}", path.display()))
+    image::DynamicImage::from_decoder(decoder)
+        .with_context(|| format!("{} is not a valid {name}", path.display()))
 }
 
 /// The width, height and channel count (alpha not counted) an input's header declares,

@@ -50,7 +50,7 @@ pub struct RenderArgs {
     /// TIR temperature mapped to full scale, K.
     #[arg(long, default_value_t = 400.0)]
     pub t_max: f64,
-    /// Also write 16-bit TIR PNGs (`clean16/`, `noisy16/`).
+    /// Also write 16-bit TIR PNGs (`clean16/`, `noisy16/`; with --sequence: `tir16/`, noisy).
     #[arg(long)]
     pub tir16: bool,
     /// Also write TIR sets after this many minutes in eclipse (lumped transient).
@@ -145,6 +145,7 @@ pub fn sequence_config(name: SequenceName, args: &RenderArgs, cfg: &DatasetConfi
         vis: cfg.vis,
         tir: cfg.tir,
         noise: cfg.noise,
+        write_tir16: args.tir16,
         ..SequenceConfig::new(name)
     }
 }

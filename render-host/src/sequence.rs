@@ -32,7 +32,7 @@ use crate::camera::{Camera, Pose};
 use crate::dataset::{contact_sheet, noise_stream, rows_of};
 use crate::image::Image;
 use crate::noise::{Band, NoiseParams, apply_sensor_noise, rng_for};
-use crate::output::{save_gray8, write_json, write_png8};
+use crate::output::{save_gray8, write_json, write_png8, write_png16};
 use crate::scene::Scene;
 use crate::thermal::{NodeBalance, ThermalParams, advance, face_temperatures, steady_state};
 use crate::tir::{TirParams, render_tir};
@@ -130,6 +130,10 @@ pub struct SequenceConfig {
     pub noise: NoiseParams,
     /// Write the noiseless frames too.
     pub write_clean: bool,
+    /// Write the noisy TIR as 16-bit counts too (`tir16/`), for the thermal AGC. Manifests
+    /// without the field read `false`.
+    #[serde(default)]
+    pub write_tir16: bool,
 }
 
 impl SequenceConfig {
@@ -148,6 +152,7 @@ impl SequenceConfig {
             tir: TirParams::default(),
             noise: NoiseParams::default(),
             write_clean: true,
+            write_tir16: false,
         }
     }
 
@@ -271,6 +276,9 @@ pub struct SequenceFiles {
     /// TIR without noise (when written).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub tir_clean: Option<String>,
+    /// TIR with sensor noise as 16-bit counts (when written; `write_tir16`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tir16: Option<String>,
     /// VIS target mask: 255 where the pixel sees the target, 0 elsewhere.
     pub vis_mask: String,
     /// TIR target mask.
@@ -396,6 +404,9 @@ pub fn render_sequence(cfg: &SequenceConfig, out_dir: &Path, progress: bool) -> 
     if cfg.write_clean {
         dirs.extend(["vis_clean", "tir_clean"]);
     }
+    if cfg.write_tir16 {
+        dirs.push("tir16");
+    }
     for d in &dirs {
         let p = out_dir.join(d);
         std::fs::create_dir_all(&p).with_context(|| format!("cannot create {}", p.display()))?;
@@ -451,6 +462,11 @@ pub fn render_sequence(cfg: &SequenceConfig, out_dir: &Path, progress: bool) -> 
             };
             write_png8(&out_dir.join(&files.vis), &vis_noisy.to_gray8())?;
             write_png8(&out_dir.join(&files.tir), &tir_noisy.to_gray8())?;
+            if cfg.write_tir16 {
+                let t = format!("tir16/{file}");
+                write_png16(&out_dir.join(&t), &tir_noisy.to_gray16())?;
+                files.tir16 = Some(t);
+            }
             if cfg.write_clean {
                 let (v, t) = (format!("vis_clean/{file}"), format!("tir_clean/{file}"));
                 write_png8(&out_dir.join(&v), &vis.to_gray8())?;

@@ -207,7 +207,9 @@ fn folder_table(scored: &[(String, MetricTable)], mean: &MetricTable, format: Fo
         Format::Json => {
             let images: Vec<String> = scored
                 .iter()
-                .map(|(stem, t)| format!("{}:{}", serde_json::Value::from(stem.as_str()), t.format(format).trim_end()))
+                .map(|(stem, t)| {
+                    format!("{}:{}", serde_json::Value::from(stem.as_str()), t.format(format).trim_end())
+                })
                 .collect();
             format!("{{\"images\":{{{}}},\"mean\":{}}}\n", images.join(","), mean.format(format).trim_end())
         }

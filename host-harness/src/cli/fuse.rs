@@ -136,13 +136,18 @@ pub struct FuseArgs {
     #[arg(long, value_name = "ROWS|max")]
     pub strips: Option<StripRows>,
     /// Thermal AGC for a 14/16-bit thermal image (its counts to 8 bits, in the core:
-    /// `fusion_nostd::agc`) [default: plateau]. An 8-bit thermal image is used as it is.
+    /// `fusion_nostd::agc`) [default: linear]. An 8-bit thermal image is used as it is.
     #[arg(long, value_enum)]
     pub agc: Option<AgcArg>,
     /// The plateau of --agc plateau, in pixels per histogram bin (bins of 4 counts)
-    /// [default: the thermal frame's pixels / 64].
+    /// [default: the thermal frame's pixels / 2^18, at least 1].
     #[arg(long, value_name = "PIXELS")]
     pub plateau: Option<u32>,
+    /// Folders as sequences: smooth the AGC mapping over the thermal frames in name order, each
+    /// frame's mapping moving 1/2^K of the way to its own (0..=8; 0: none) so the level does not
+    /// flicker. Needs two folders and 14/16-bit thermal frames.
+    #[arg(long, value_name = "K")]
+    pub agc_smoothing: Option<u8>,
     /// A colour visible image: keep its colour (fuse the luminance, restore the chroma; RGB
     /// out) or fuse its grey [default: keep].
     #[arg(long, value_enum)]
@@ -372,9 +377,10 @@ pub fn fuse_host_method(
 /// `--agc` values.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
 pub enum AgcArg {
-    /// Plateau histogram equalisation (the usual thermal-camera AGC).
+    /// Plateau histogram equalisation (the usual thermal-camera AGC; plateau --plateau).
     Plateau,
-    /// Linear stretch between the 0.5 % and 99.5 % percentiles.
+    /// Linear stretch between the 1 % and 99.9 % percentiles (the default: the best target
+    /// contrast against cold space, BENCHMARKS.md "Thermal AGC").
     Linear,
 }
 
@@ -399,14 +405,29 @@ pub enum FormatArg {
 
 /// The core AGC parameters the options ask for, for a frame of `pixels`.
 pub fn agc_params(args: &FuseArgs, pixels: usize) -> fusion_nostd::AgcParams {
-    let mut p = match args.agc.unwrap_or(AgcArg::Plateau) {
+    let mut p = match args.agc.unwrap_or(AgcArg::Linear) {
         AgcArg::Plateau => fusion_nostd::AgcParams::plateau(pixels),
         AgcArg::Linear => fusion_nostd::AgcParams::linear(),
     };
+    p.smoothing = args.agc_smoothing.unwrap_or(0);
     if let (Some(limit), fusion_nostd::AgcMode::Plateau { .. }) = (args.plateau, p.mode) {
         p.mode = fusion_nostd::AgcMode::Plateau { limit };
     }
     p
+}
+
+/// One thermal frame's counts through the core AGC, with `agc`'s state (smoothing).
+pub fn agc_map(
+    args: &FuseArgs,
+    agc: &mut fusion_nostd::Agc,
+    counts: &Gray<u16>,
+    path: &Path,
+) -> Result<Gray<u8>> {
+    let params = agc_params(args, counts.width * counts.height);
+    let mut out = Gray::<u8>::new(counts.width, counts.height);
+    fusion_nostd::agc_frame(agc, counts.view()?, out.view_mut()?, &params)
+        .with_context(|| format!("thermal image {}: AGC", path.display()))?;
+    Ok(out)
 }
 
 /// Both inputs read and made ready for the grey fusion.
@@ -419,9 +440,19 @@ struct Prepared {
     tir: Gray<u8>,
 }
 
-fn prepare(args: &FuseArgs, vis_path: &Path, tir_path: &Path) -> Result<Prepared> {
+/// Reads both inputs; `tir_mapped` is the thermal frame already through the AGC (a folder run
+/// with `--agc-smoothing`).
+fn prepare(
+    args: &FuseArgs,
+    vis_path: &Path,
+    tir_path: &Path,
+    tir_mapped: Option<Gray<u8>>,
+) -> Result<Prepared> {
     let vis_picture = crate::io::load_picture(vis_path).context("visible image")?;
-    let tir_picture = crate::io::load_picture(tir_path).context("thermal image")?;
+    let tir_picture = match tir_mapped {
+        Some(g) => Picture::Gray8(g),
+        None => crate::io::load_picture(tir_path).context("thermal image")?,
+    };
     let (vis, chroma) = match vis_picture {
         Picture::Gray8(g) => (g, None),
         Picture::Gray16(_) => bail!(
@@ -438,7 +469,7 @@ fn prepare(args: &FuseArgs, vis_path: &Path, tir_path: &Path) -> Result<Prepared
     };
     let tir = match tir_picture {
         Picture::Gray8(g) => {
-            if args.agc.is_some() || args.plateau.is_some() {
+            if (args.agc.is_some() || args.plateau.is_some()) && args.agc_smoothing.is_none() {
                 note!(
                     "fusion: note: {} is 8-bit: --agc and --plateau apply to 14/16-bit counts and are not used",
                     tir_path.display()
@@ -447,14 +478,7 @@ fn prepare(args: &FuseArgs, vis_path: &Path, tir_path: &Path) -> Result<Prepared
             g
         }
         Picture::Rgb8(c) => c.to_gray(),
-        Picture::Gray16(counts) => {
-            let params = agc_params(args, counts.width * counts.height);
-            let mut out = Gray::<u8>::new(counts.width, counts.height);
-            let mut agc = Box::new(fusion_nostd::Agc::new());
-            fusion_nostd::agc_frame(&mut agc, counts.view()?, out.view_mut()?, &params)
-                .with_context(|| format!("thermal image {}: AGC", tir_path.display()))?;
-            out
-        }
+        Picture::Gray16(counts) => agc_map(args, &mut fusion_nostd::Agc::new(), &counts, tir_path)?,
     };
     Ok(Prepared { vis, chroma, tir })
 }
@@ -512,7 +536,9 @@ fn check_options(args: &FuseArgs) -> Result<()> {
                 );
             }
             if args.skip != SkipArg::None && (engine != EngineArg::Core || args.raw.is_some()) {
-                bail!("--skip works with the core engine's 8-bit output only (no --engine reference, no --raw)");
+                bail!(
+                    "--skip works with the core engine's 8-bit output only (no --engine reference, no --raw)"
+                );
             }
         }
         Err(host) => {
@@ -535,6 +561,9 @@ fn check_options(args: &FuseArgs) -> Result<()> {
     }
     if let (Some(AgcArg::Linear), Some(_)) = (args.agc, args.plateau) {
         bail!("--plateau sets the plateau of --agc plateau; drop it with --agc linear");
+    }
+    if args.agc_smoothing.is_some_and(|k| k > fusion_nostd::agc::AGC_MAX_SMOOTHING) {
+        bail!("--agc-smoothing is at most {}", fusion_nostd::agc::AGC_MAX_SMOOTHING);
     }
     if args.plateau == Some(0) {
         bail!("--plateau must be at least 1 pixel per bin");
@@ -572,10 +601,16 @@ fn check_memory(args: &FuseArgs, vis_path: &Path, tir_path: &Path) -> Result<()>
 
 /// Fuses one pair of files into `output` (and `args.raw`); returns the text report to print
 /// and the guards that fired.
-fn fuse_files(args: &FuseArgs, vis_path: &Path, tir_path: &Path, output: &Path) -> Result<(String, Guards)> {
+fn fuse_files(
+    args: &FuseArgs,
+    vis_path: &Path,
+    tir_path: &Path,
+    tir_mapped: Option<Gray<u8>>,
+    output: &Path,
+) -> Result<(String, Guards)> {
     let format = OutFormat::of(output)?;
     check_memory(args, vis_path, tir_path)?;
-    let input = prepare(args, vis_path, tir_path)?;
+    let input = prepare(args, vis_path, tir_path, tir_mapped)?;
     let GrayResult { fused, report } = fuse_gray(args, &input.vis, &input.tir)?;
     let (vis, tir) = (&input.vis, &input.tir);
     if vis.width * tir.height != vis.height * tir.width {
@@ -620,7 +655,10 @@ pub fn run(args: &FuseArgs) -> Result<()> {
     check_options(args)?;
     match (args.vis.is_dir(), args.tir.is_dir()) {
         (false, false) => {
-            let (report, guards) = fuse_files(args, &args.vis, &args.tir, &args.output)?;
+            if args.agc_smoothing.is_some() {
+                bail!("--agc-smoothing smooths over a sequence: give two folders of frames");
+            }
+            let (report, guards) = fuse_files(args, &args.vis, &args.tir, None, &args.output)?;
             out!("{report}")?;
             if guards != Guards::NONE {
                 note!("fusion: guards: {guards} (fusion_nostd::Guards)");
@@ -628,13 +666,28 @@ pub fn run(args: &FuseArgs) -> Result<()> {
             Ok(())
         }
         (true, true) => crate::cli::fuse_folders::run(args),
-        (true, false) => bail!("{} is a folder and {} is not: give two files or two folders", args.vis.display(), args.tir.display()),
-        (false, true) => bail!("{} is a folder and {} is not: give two files or two folders", args.tir.display(), args.vis.display()),
+        (true, false) => bail!(
+            "{} is a folder and {} is not: give two files or two folders",
+            args.vis.display(),
+            args.tir.display()
+        ),
+        (false, true) => bail!(
+            "{} is a folder and {} is not: give two files or two folders",
+            args.tir.display(),
+            args.vis.display()
+        ),
     }
 }
 
-/// Fuses one pair of a folder run (no report printed); says which guards fired, if any.
-pub fn fuse_pair_quietly(args: &FuseArgs, vis: &Path, tir: &Path, output: &Path) -> Result<String> {
-    let (_, guards) = fuse_files(args, vis, tir, output)?;
+/// Fuses one pair of a folder run (no report printed; `tir_mapped`: the thermal frame already
+/// through the AGC); says which guards fired, if any.
+pub fn fuse_pair_quietly(
+    args: &FuseArgs,
+    vis: &Path,
+    tir: &Path,
+    tir_mapped: Option<Gray<u8>>,
+    output: &Path,
+) -> Result<String> {
+    let (_, guards) = fuse_files(args, vis, tir, tir_mapped, output)?;
     Ok(if guards == Guards::NONE { String::new() } else { format!("guards: {guards}") })
 }

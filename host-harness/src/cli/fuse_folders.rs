@@ -5,9 +5,28 @@
 //! run ends with a summary on standard output and exit status 1 when any pair failed. Each
 //! output is written atomically; the folder is created when missing.
 
-use super::fuse::{FormatArg, FuseArgs, fuse_pair_quietly};
+use super::fuse::{FormatArg, FuseArgs, agc_map, fuse_pair_quietly};
 use crate::folders::{pair_by_stem, run_all};
+use crate::io::{Gray, Picture};
 use anyhow::{Context, Result, bail};
+
+/// The thermal frames through the AGC in name order, one state carried from frame to frame
+/// (`--agc-smoothing`): the one sequential step of a folder run. A frame that cannot be read or
+/// is not 16-bit gets `None` (its pair then reads it, and fails or fuses it as it is).
+fn smoothed_thermal(
+    args: &FuseArgs,
+    pairs: &[(String, Vec<std::path::PathBuf>)],
+) -> Result<Vec<Option<Gray<u8>>>> {
+    let mut agc = Box::new(fusion_nostd::Agc::new());
+    let mut out = Vec::with_capacity(pairs.len());
+    for (_, files) in pairs {
+        out.push(match crate::io::load_picture(&files[1]) {
+            Ok(Picture::Gray16(counts)) => agc_map(args, &mut agc, &counts, &files[1]).ok(),
+            _ => None,
+        });
+    }
+    Ok(out)
+}
 
 /// Runs the folder form of `fusion fuse`.
 pub fn run(args: &FuseArgs) -> Result<()> {
@@ -18,15 +37,22 @@ pub fn run(args: &FuseArgs) -> Result<()> {
         bail!("{} is not a folder: the pairs of two folders go into a folder", args.output.display());
     }
     let (pairs, unpaired) = pair_by_stem(&[(&args.vis, "visible"), (&args.tir, "thermal")])?;
-    std::fs::create_dir_all(&args.output).with_context(|| format!("cannot create {}", args.output.display()))?;
+    std::fs::create_dir_all(&args.output)
+        .with_context(|| format!("cannot create {}", args.output.display()))?;
     let ext = match args.format {
         FormatArg::Png => "png",
         FormatArg::Tiff => "tif",
     };
     let jobs = args.jobs.unwrap_or(0);
-    let results = run_all(&pairs, jobs, "fuse", |stem, files| {
+    let mapped = match args.agc_smoothing {
+        Some(k) if k > 0 => smoothed_thermal(args, &pairs)?,
+        _ => vec![None; pairs.len()],
+    };
+    let items: Vec<(String, (&[std::path::PathBuf], Option<Gray<u8>>))> =
+        pairs.iter().zip(mapped).map(|((stem, files), m)| (stem.clone(), (files.as_slice(), m))).collect();
+    let results = run_all(&items, jobs, "fuse", |stem, (files, mapped)| {
         let out = args.output.join(format!("{stem}.{ext}"));
-        fuse_pair_quietly(args, &files[0], &files[1], &out)
+        fuse_pair_quietly(args, &files[0], &files[1], mapped.clone(), &out)
     })?;
     let mut failed: Vec<(String, String)> = unpaired;
     let mut fused = 0;

@@ -262,6 +262,26 @@ fn exercise_entry_points() {
             let _ = black_box(rescale(s, o, filter));
         }
     }
+    // The thermal AGC: the frame entry and the row entries, both modes, parameters unseen.
+    #[cfg(not(feature = "rescale-only"))]
+    {
+        use fusion_nostd::{Agc, AgcMode, AgcParams, agc_frame};
+        #[unsafe(link_section = ".bigram")]
+        static mut AGC: Agc = Agc::new();
+        // SAFETY: single-threaded; the only reference to this state.
+        let agc = unsafe { &mut *core::ptr::addr_of_mut!(AGC) };
+        for mode in [AgcMode::Plateau { limit: black_box(3) }, AgcMode::Linear { low: black_box(100), high: 9_990 }] {
+            let p = black_box(AgcParams { mode, out_low: black_box(0), out_high: 255, smoothing: black_box(3) });
+            if let (Ok(s), Ok(o)) = (FrameRef::with_stride(c, sw, sh, stride), FrameMut::new(&mut *b, sw, sh)) {
+                let _ = black_box(agc_frame(agc, s, o, &p));
+            }
+            let n = black_box(37usize);
+            let _ = black_box(agc.accumulate(c.get(..n).unwrap_or(&[])));
+            let _ = black_box(agc.update(&p));
+            let _ = black_box(agc.apply(c.get(..n).unwrap_or(&[]), b.get_mut(..n).unwrap_or(&mut [])));
+        }
+        agc.reset();
+    }
     // The pipeline entry (and the pre-cast entry) with every method and rescale policy.
     #[cfg(not(feature = "rescale-only"))]
     {

@@ -58,7 +58,18 @@ pub fn pair_by_stem(dirs: &[(&Path, &str)]) -> Result<Pairing> {
     }
     if pairs.is_empty() {
         let names: Vec<String> = dirs.iter().map(|(d, _)| d.display().to_string()).collect();
-        bail!("no images with the same name (png, jpg, jpeg, tif, tiff) in {}", names.join(" and "));
+        match unpaired.first() {
+            Some((stem, why)) => bail!(
+                "no complete set of images in {}: {stem}: {why}{}",
+                names.join(" and "),
+                if unpaired.len() > 1 {
+                    format!(" (and {} more)", unpaired.len() - 1)
+                } else {
+                    String::new()
+                }
+            ),
+            None => bail!("no images (png, jpg, jpeg, tif, tiff) in {}", names.join(" and ")),
+        }
     }
     Ok((pairs, unpaired))
 }

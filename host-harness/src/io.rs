@@ -285,6 +285,9 @@ impl OutFormat {
     /// The format `path`'s extension names (case-insensitive); anything else is refused, so no
     /// file carries bytes its name does not say.
     pub fn of(path: &Path) -> Result<OutFormat> {
+        if path.is_dir() {
+            bail!("cannot write {}: it is a folder", path.display());
+        }
         let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
         match ext.as_deref() {
             Some("png") => Ok(OutFormat::Png),

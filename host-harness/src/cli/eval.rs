@@ -183,7 +183,7 @@ fn run_folders(args: &EvalArgs) -> Result<()> {
         out!("{}", folder_table(&scored, &mean, args.format))?;
     }
     for (stem, why) in &failed {
-        note!("eval: failed {stem}: {why}");
+        render_host::output::stderr_line(format_args!("eval: failed {stem}: {why}"));
     }
     if !failed.is_empty() {
         bail!("{} of {} triples failed (listed above)", failed.len(), failed.len() + scored.len());

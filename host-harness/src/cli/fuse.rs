@@ -667,12 +667,12 @@ pub fn run(args: &FuseArgs) -> Result<()> {
         }
         (true, true) => crate::cli::fuse_folders::run(args),
         (true, false) => bail!(
-            "{} is a folder and {} is not: give two files or two folders",
+            "visible image: {} is a folder and the thermal image {} is not: give two files or two folders",
             args.vis.display(),
             args.tir.display()
         ),
         (false, true) => bail!(
-            "{} is a folder and {} is not: give two files or two folders",
+            "thermal image: {} is a folder and the visible image {} is not: give two files or two folders",
             args.tir.display(),
             args.vis.display()
         ),

@@ -266,7 +266,7 @@ fn exercise_entry_points() {
     #[cfg(not(feature = "rescale-only"))]
     {
         use fusion_nostd::{Agc, AgcMode, AgcParams, agc_frame};
-        #[unsafe(link_section = ".bigram")]
+        // 112 KiB in `.bss` (RAM): the frames and work planes fill `.bigram`.
         static mut AGC: Agc = Agc::new();
         // SAFETY: single-threaded; the only reference to this state.
         let agc = unsafe { &mut *core::ptr::addr_of_mut!(AGC) };

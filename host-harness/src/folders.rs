@@ -78,15 +78,12 @@ pub fn pair_by_stem(dirs: &[(&Path, &str)]) -> Result<Pairing> {
 /// results in the items' order. A progress bar counts them on a terminal; otherwise one line
 /// per item goes to standard error (`verb [k/n] stem: ok (what R shows)` / `failed: reason`),
 /// unless `--quiet`.
-pub fn run_all<T: Send, R: Send + std::fmt::Display>(
+pub fn run_all<T: Send + Sync, R: Send + std::fmt::Display>(
     items: &[(String, T)],
     jobs: usize,
     verb: &str,
     work: impl Fn(&str, &T) -> Result<R> + Sync,
-) -> Result<Vec<Result<R>>>
-where
-    T: Sync,
-{
+) -> Result<Vec<Result<R>>> {
     use rayon::prelude::*;
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(jobs)

@@ -168,7 +168,7 @@ pub fn load_picture(path: &Path) -> Result<Picture> {
             let planes = (0..3).map(|k| rgb.pixels().map(|p| p.0[k]).collect()).collect();
             Picture::Rgb8(Channels { width: w, height: h, planes })
         }
-        other if matches!(other, D::ImageRgb16(_) | D::ImageRgba16(_)) => bail!(
+        D::ImageRgb16(_) | D::ImageRgba16(_) => bail!(
             "{} is a 16-bit colour image; an 8-bit colour or an 8/16-bit grey one is needed here",
             path.display()
         ),

@@ -10,6 +10,9 @@ use crate::folders::{pair_by_stem, run_all};
 use crate::io::{Gray, Picture};
 use anyhow::{Context, Result, bail};
 
+/// A pair's two files and its thermal frame already through the AGC (`--agc-smoothing`).
+type PairFiles<'a> = (&'a [std::path::PathBuf], Option<Gray<u8>>);
+
 /// The thermal frames through the AGC in name order, one state carried from frame to frame
 /// (`--agc-smoothing`): the one sequential step of a folder run. A frame that cannot be read or
 /// is not 16-bit gets `None` (its pair then reads it, and fails or fuses it as it is).
@@ -48,7 +51,7 @@ pub fn run(args: &FuseArgs) -> Result<()> {
         Some(k) if k > 0 => smoothed_thermal(args, &pairs)?,
         _ => vec![None; pairs.len()],
     };
-    let items: Vec<(String, (&[std::path::PathBuf], Option<Gray<u8>>))> =
+    let items: Vec<(String, PairFiles)> =
         pairs.iter().zip(mapped).map(|((stem, files), m)| (stem.clone(), (files.as_slice(), m))).collect();
     let results = run_all(&items, jobs, "fuse", |stem, (files, mapped)| {
         let out = args.output.join(format!("{stem}.{ext}"));

@@ -270,9 +270,13 @@ fn exercise_entry_points() {
         static mut AGC: Agc = Agc::new();
         // SAFETY: single-threaded; the only reference to this state.
         let agc = unsafe { &mut *core::ptr::addr_of_mut!(AGC) };
-        for mode in [AgcMode::Plateau { limit: black_box(3) }, AgcMode::Linear { low: black_box(100), high: 9_990 }] {
-            let p = black_box(AgcParams { mode, out_low: black_box(0), out_high: 255, smoothing: black_box(3) });
-            if let (Ok(s), Ok(o)) = (FrameRef::with_stride(c, sw, sh, stride), FrameMut::new(&mut *b, sw, sh)) {
+        for mode in
+            [AgcMode::Plateau { limit: black_box(3) }, AgcMode::Linear { low: black_box(100), high: 9_990 }]
+        {
+            let p =
+                black_box(AgcParams { mode, out_low: black_box(0), out_high: 255, smoothing: black_box(3) });
+            if let (Ok(s), Ok(o)) = (FrameRef::with_stride(c, sw, sh, stride), FrameMut::new(&mut *b, sw, sh))
+            {
                 let _ = black_box(agc_frame(agc, s, o, &p));
             }
             let n = black_box(37usize);

@@ -6,13 +6,18 @@
 //!  4      VIS width, VIS height
 //! 12      TIR width, TIR height
 //! 20      number of runs n (1..=MAX_RUNS)
-//! 24      n × 4 bytes: method (0 ADF, 1 TSIFSD, 2 IFEVIP), variant (0 classic, 1 flight),
+//! 24      n × 4 bytes: method (0 ADF, 1 TSIFSD, 2 IFEVIP, 3 adaptive; 4 the thermal AGC),
+//!         variant (0 classic, 1 flight; AGC: 0 plateau, 1 linear),
 //!         rescale policy (0 TIR up, 1 VIS down, 2 none), flags (bit 0: measure the stages;
 //!         bit 1: raise a fault instead, to test that a fault ends the emulation with status 1;
 //!         bits 2–3: scene skip level, 0 none, 1 ROI, 2 all; bit 4: fuse in strips
 //!         (`fusion_nostd::strips::fuse_strips`, the 512 KiB strip scratch, tallest strips;
 //!         not with bits 0 or 2–3); bits 5–7 must be 0)
 //! ```
+//! An AGC run (method 4) maps `tir16.gray` (the TIR size, `u16` little-endian counts) to 8 bits
+//! with `fusion_nostd::agc_frame` (`AgcParams::plateau(pixels)` or `AgcParams::linear()`, a
+//! fresh state) in one `agc` region and writes that frame; its policy byte must be 2 and its
+//! flags 0 or the fault bit.
 //! Method parameters are the core's defaults for the variant, the scene analysis thresholds
 //! `SceneParams::default()` (the host builds the same [`Pipeline`] for its comparison run).
 
@@ -84,8 +89,11 @@ impl Job {
                 2 => RescalePolicy::None,
                 _ => return Err("job.bin: bad rescale policy"),
             };
-            if method > 3 {
+            if method > 4 {
                 return Err("job.bin: bad method");
+            }
+            if method == 4 && (policy != RescalePolicy::None || flags & !2 != 0) {
+                return Err("job.bin: an AGC run takes policy 2 and no flag but the fault bit");
             }
             let skip = match (flags >> 2) & 3 {
                 0 => SkipPolicy::None,
@@ -143,6 +151,11 @@ impl Run {
             _ => Method::Tsifsd(TsifsdParams { variant: v, ..TsifsdParams::default() }),
         };
         Pipeline { rescale: self.policy, method, skip: self.skip, ..Default::default() }
+    }
+
+    /// An AGC run: `Some(true)` for the linear stretch, `Some(false)` for plateau equalisation.
+    pub fn agc(&self) -> Option<bool> {
+        (self.method == 4).then_some(self.variant == Variant::Flight)
     }
 
     /// Skip level as printed.

@@ -63,6 +63,10 @@ static mut VIS: [u8; sizes::VIS] = [0; sizes::VIS];
 static mut TIR: [u8; sizes::TIR] = [0; sizes::TIR];
 #[unsafe(link_section = ".bigram")]
 static mut OUT: [u8; sizes::OUT] = [0; sizes::OUT];
+/// 16-bit TIR counts of an AGC run (`tir16.gray`), in RAM (`.bss`): `.bigram` is full.
+static mut TIR16: [u16; sizes::TIR] = [0; sizes::TIR];
+/// The AGC state of an AGC run (112 KiB, `.bss`).
+static mut AGC: fusion_nostd::Agc = fusion_nostd::Agc::new();
 #[unsafe(link_section = ".bigram")]
 static mut SCRATCH: sizes::Scratch = sizes::Scratch::new();
 /// The strip pipeline's whole working set (512 KiB), in the processor's RAM (`.bss`), not in

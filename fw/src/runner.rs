@@ -2,7 +2,7 @@
 //! in measured regions), writes the fused frames; or, without a job, a small self-test.
 
 use crate::semihosting;
-use crate::{Meter, OUT, SCRATCH, STRIP_SCRATCH, TIR, VIS, fnv1a, job, say, sizes};
+use crate::{AGC, Meter, OUT, SCRATCH, STRIP_SCRATCH, TIR, TIR16, VIS, fnv1a, job, say, sizes};
 use core::fmt::Write;
 use fusion_nostd::fuse::adf::{Band, diffuse_pair};
 use fusion_nostd::fuse::ifevip::background;
@@ -11,7 +11,7 @@ use fusion_nostd::pipeline::{
 };
 use fusion_nostd::scene::Decline;
 use fusion_nostd::strips::fuse_strips;
-use fusion_nostd::{Filter, FrameMut, FrameRef, Guards, ScratchMut, rescale};
+use fusion_nostd::{AgcParams, Filter, FrameMut, FrameRef, Guards, ScratchMut, agc_frame, rescale};
 
 /// What can stop a job.
 pub enum FwError {
@@ -125,10 +125,45 @@ pub fn run_job(m: &mut Meter) -> Result<(), FwError> {
     }
     let vis = FrameRef::new(&vis_slice[..], vw, vh)?;
     let tir = FrameRef::new(&tir_slice[..], tw, th)?;
+    // The 16-bit counts, read only when a run needs them.
+    // SAFETY: single-threaded; the only references to these statics.
+    let (tir16_buf, agc) =
+        unsafe { (&mut *core::ptr::addr_of_mut!(TIR16), &mut *core::ptr::addr_of_mut!(AGC)) };
+    let counts = tir16_buf.get_mut(..tir_px).ok_or(FwError::Job("TIR too large"))?;
+    if job.runs().any(|r| r.agc().is_some()) {
+        // SAFETY: a `u16` slice viewed as its bytes (alignment 1 ≤ 2, length doubled); both
+        // targets are little-endian, the file's byte order.
+        let bytes =
+            unsafe { core::slice::from_raw_parts_mut(counts.as_mut_ptr().cast::<u8>(), counts.len() * 2) };
+        if semihosting::read_file("tir16.gray", bytes).map_err(|e| FwError::Io(e, "tir16.gray"))?
+            != 2 * tir_px
+        {
+            return Err(FwError::Job("tir16.gray has the wrong length"));
+        }
+    }
+    let counts = FrameRef::new(&counts[..], tw, th)?;
     say!(m.con, "@fw job {}x{} {}x{} runs {}", vw, vh, tw, th, job.runs().len());
     m.region("overhead", || core::hint::black_box(()));
 
     for (i, run) in job.runs().enumerate() {
+        if let Some(linear) = run.agc() {
+            let out = out_buf.get_mut(..tir_px).ok_or(FwError::Job("output too large for the image"))?;
+            let name = if linear { "linear" } else { "plateau" };
+            say!(m.con, "@fw run {} agc {} none {}x{}", i, name, tw, th);
+            if run.fault {
+                crate::arch::undefined_instruction();
+            }
+            let params = if linear { AgcParams::linear() } else { AgcParams::plateau(tir_px) };
+            agc.reset();
+            let out_frame = FrameMut::new(&mut *out, tw, th)?;
+            m.region("agc", || agc_frame(agc, counts, out_frame, &params))?;
+            let sum = fnv1a(out);
+            let mut file_name = [0u8; 16];
+            let file = job::out_name(i, &mut file_name);
+            semihosting::write_file(file, out).map_err(|e| FwError::Io(e, "out<i>.gray"))?;
+            say!(m.con, "@fw result {} guards 0x00 rescaled 0 fnv1a {:08x} file {}", i, sum, file);
+            continue;
+        }
         let pipeline = run.pipeline();
         let (w, h) = fusion_grid(vis.size(), tir.size(), pipeline.rescale)?;
         let out = out_buf.get_mut(..w * h).ok_or(FwError::Job("output too large for the image"))?;

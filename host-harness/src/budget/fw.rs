@@ -150,7 +150,38 @@ pub fn build_plugin(out: &Path) -> Result<PathBuf> {
     Ok(dst)
 }
 
-/// One run of a job: a method on the job's pair.
+/// The thermal AGC's two mappings, as an AGC run of a job measures them.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum AgcKind {
+    /// `AgcParams::plateau(pixels)`.
+    Plateau,
+    /// `AgcParams::linear()`.
+    Linear,
+}
+
+impl AgcKind {
+    /// Both, in table order.
+    pub const ALL: [AgcKind; 2] = [AgcKind::Plateau, AgcKind::Linear];
+
+    /// Name (the budget key's stage).
+    pub fn name(self) -> &'static str {
+        match self {
+            AgcKind::Plateau => "plateau",
+            AgcKind::Linear => "linear",
+        }
+    }
+
+    /// The core parameters the image uses for a frame of `pixels`.
+    pub fn params(self, pixels: usize) -> fusion_nostd::AgcParams {
+        match self {
+            AgcKind::Plateau => fusion_nostd::AgcParams::plateau(pixels),
+            AgcKind::Linear => fusion_nostd::AgcParams::linear(),
+        }
+    }
+}
+
+/// One run of a job: a method on the job's pair (or, with `agc`, the thermal AGC on the job's
+/// 16-bit TIR frame; the other fields are then unused).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct RunSpec {
     /// Fusion method.
@@ -168,12 +199,31 @@ pub struct RunSpec {
     /// Fuse strip by strip in the image's 512 KiB strip scratch (`fusion_nostd::strips`); the
     /// output must equal the host's whole-frame `fuse`.
     pub strips: bool,
+    /// An AGC run instead of a fusion.
+    pub agc: Option<AgcKind>,
 }
 
 impl RunSpec {
     /// A whole-pipeline run (no stages, no fault, no skipping).
     pub fn plain(method: MethodArg, variant: VariantArg, policy: RescaleArg) -> Self {
-        RunSpec { method, variant, policy, skip: SkipArg::None, stages: false, fault: false, strips: false }
+        RunSpec {
+            method,
+            variant,
+            policy,
+            skip: SkipArg::None,
+            stages: false,
+            fault: false,
+            strips: false,
+            agc: None,
+        }
+    }
+
+    /// An AGC run on the job's 16-bit TIR frame.
+    pub fn agc(kind: AgcKind) -> Self {
+        RunSpec {
+            agc: Some(kind),
+            ..RunSpec::plain(MethodArg::Tsifsd, VariantArg::Classic, RescaleArg::None)
+        }
     }
 
     /// The core configuration the image builds for this run (`fw/src/job.rs`), for the host's
@@ -189,6 +239,9 @@ impl RunSpec {
 
     /// The four bytes of this run in `job.bin`.
     pub fn encode(&self) -> [u8; 4] {
+        if let Some(kind) = self.agc {
+            return [4, u8::from(kind == AgcKind::Linear), 2, u8::from(self.fault) << 1];
+        }
         let method = match self.method {
             MethodArg::Adf => 0,
             MethodArg::Tsifsd => 1,
@@ -216,6 +269,18 @@ impl RunSpec {
 
     /// The inverse of [`RunSpec::encode`], with the image's checks (`fw/src/job.rs`).
     pub fn decode([method, variant, policy, flags]: [u8; 4]) -> Result<Self> {
+        if method == 4 {
+            ensure!(
+                policy == 2 && flags & !2 == 0,
+                "an AGC run takes policy 2 and no flag but the fault bit"
+            );
+            let kind = match variant {
+                0 => AgcKind::Plateau,
+                1 => AgcKind::Linear,
+                _ => bail!("bad AGC mapping {variant}"),
+            };
+            return Ok(RunSpec { fault: flags & 2 != 0, ..RunSpec::agc(kind) });
+        }
         let method = match method {
             0 => MethodArg::Adf,
             1 => MethodArg::Tsifsd,
@@ -244,7 +309,7 @@ impl RunSpec {
         let (stages, fault, strips) = (flags & 1 != 0, flags & 2 != 0, flags & 0x10 != 0);
         ensure!(!(stages && skip != SkipArg::None), "a staged run cannot skip");
         ensure!(!(strips && (stages || skip != SkipArg::None)), "a strip run cannot be staged or skip");
-        Ok(RunSpec { method, variant, policy, skip, stages, fault, strips })
+        Ok(RunSpec { method, variant, policy, skip, stages, fault, strips, agc: None })
     }
 }
 
@@ -270,12 +335,20 @@ pub struct Job {
     pub tir: Gray<u8>,
     /// Runs, in order (at most 32).
     pub runs: Vec<RunSpec>,
+    /// 16-bit TIR counts of the AGC runs (the TIR size), written as `tir16.gray`.
+    pub tir16: Option<Gray<u16>>,
 }
 
 impl Job {
     /// The `job.bin` bytes.
     pub fn encode(&self) -> Result<Vec<u8>> {
         ensure!((1..=32).contains(&self.runs.len()), "a job has 1 to 32 runs");
+        let tir_size = (self.tir.width, self.tir.height);
+        ensure!(
+            self.runs.iter().all(|r| r.agc.is_none())
+                || self.tir16.as_ref().is_some_and(|t| (t.width, t.height) == tir_size),
+            "AGC runs need 16-bit TIR counts of the TIR size"
+        );
         let mut b = b"FWJ1".to_vec();
         for v in [self.vis.width, self.vis.height, self.tir.width, self.tir.height, self.runs.len()] {
             b.extend_from_slice(&u32::try_from(v)?.to_le_bytes());
@@ -482,6 +555,10 @@ fn emulate(
     files.add_bytes(&dir.join("job.bin"), &job.encode()?)?;
     files.add_bytes(&dir.join("vis.gray"), &job.vis.data)?;
     files.add_bytes(&dir.join("tir.gray"), &job.tir.data)?;
+    if let Some(t) = &job.tir16 {
+        let bytes: Vec<u8> = t.data.iter().flat_map(|v| v.to_le_bytes()).collect();
+        files.add_bytes(&dir.join("tir16.gray"), &bytes)?;
+    }
     files.commit()?;
     let (qemu, machine) = target.qemu();
     let mut cmd = Command::new(qemu);
@@ -569,7 +646,7 @@ pub fn check_fault_exit(
 ) -> Result<()> {
     let spec =
         RunSpec { fault: true, ..RunSpec::plain(MethodArg::Tsifsd, VariantArg::Flight, RescaleArg::None) };
-    let job = Job { vis: Gray::new(8, 8), tir: Gray::new(8, 8), runs: vec![spec] };
+    let job = Job { vis: Gray::new(8, 8), tir: Gray::new(8, 8), runs: vec![spec], tir16: None };
     let done = emulate(target, image, plugin, &job, dir, timeout)?;
     ensure!(
         !done.status.success(),
@@ -653,7 +730,9 @@ mod tests {
                 stages: true,
                 fault: true,
                 strips: false,
+                agc: None,
             }],
+            tir16: None,
         };
         let b = job.encode()?;
         assert_eq!(&b[..4], b"FWJ1");
@@ -662,8 +741,22 @@ mod tests {
         assert_eq!(&b[16..20], &2u32.to_le_bytes());
         assert_eq!(&b[20..24], &1u32.to_le_bytes());
         assert_eq!(&b[24..], &[2, 0, 1, 3]);
-        let empty = Job { runs: Vec::new(), ..job };
+        let empty = Job { runs: Vec::new(), ..job.clone() };
         assert!(empty.encode().is_err());
+        // AGC runs: method 4, the mapping in the variant byte, policy 2; they need the counts.
+        for (kind, byte) in [(AgcKind::Plateau, 0), (AgcKind::Linear, 1)] {
+            let spec = RunSpec::agc(kind);
+            assert_eq!(spec.encode(), [4, byte, 2, 0]);
+            assert_eq!(RunSpec::decode(spec.encode())?, spec);
+            let fault = RunSpec { fault: true, ..spec };
+            assert_eq!(RunSpec::decode(fault.encode())?, fault);
+        }
+        assert!(RunSpec::decode([4, 0, 0, 0]).is_err());
+        assert!(RunSpec::decode([4, 0, 2, 1]).is_err());
+        let agc = Job { runs: vec![RunSpec::agc(AgcKind::Linear)], ..job.clone() };
+        assert!(agc.encode().is_err(), "no counts");
+        let agc = Job { tir16: Some(Gray::new(3, 2)), ..agc };
+        assert_eq!(&agc.encode()?[24..], &[4, 1, 2, 0]);
         Ok(())
     }
 }

@@ -177,20 +177,20 @@ impl Check {
     }
 }
 
-/// Checks every measured stage against `budgets`.
-pub fn check(measured: &[Measured], budgets: &Table) -> Check {
+/// Checks every measured stage (and AGC run) against `budgets`.
+pub fn check(measured: &[Measured], agc: &[AgcMeasured], budgets: &Table) -> Check {
     let mut c = Check::default();
-    for m in measured {
-        for s in &m.stages {
-            let key = m.key(s.key);
-            let got = m.per_px(s);
-            c.checked += 1;
-            match budgets.get(&key) {
-                None => c.missing.push(key),
-                Some(b) if got > b => c.over.push((key, got, b)),
-                Some(b) if got < b / 1.10 => c.slack.push((key, got, b)),
-                Some(_) => {}
-            }
+    let entries = measured
+        .iter()
+        .flat_map(|m| m.stages.iter().map(move |s| (m.key(s.key), m.per_px(s))))
+        .chain(agc.iter().map(|a| (a.key(), a.per_px())));
+    for (key, got) in entries {
+        c.checked += 1;
+        match budgets.get(&key) {
+            None => c.missing.push(key),
+            Some(b) if got > b => c.over.push((key, got, b)),
+            Some(b) if got < b / 1.10 => c.slack.push((key, got, b)),
+            Some(_) => {}
         }
     }
     c
@@ -198,7 +198,7 @@ pub fn check(measured: &[Measured], budgets: &Table) -> Check {
 
 /// A budget table (TOML text) for these measurements: measured + 2 %, rounded up to 0.1
 /// instr/px; `goals` lines are copied from `old`.
-pub fn budget_table_text(measured: &[Measured], old: &Table) -> String {
+pub fn budget_table_text(measured: &[Measured], agc: &[AgcMeasured], old: &Table) -> String {
     let mut s = String::from(
         "# Instruction budgets of the fusion core on the emulated flight targets, in instructions per\n\
          # output pixel of the fusion grid (exact counts / W·H), checked by `fusion budget`.\n\
@@ -211,6 +211,19 @@ pub fn budget_table_text(measured: &[Measured], old: &Table) -> String {
         for st in &m.stages {
             let _ = writeln!(s, "{} = {}", st.key, table::budget_for(m.per_px(st), 0.02, 0.1));
         }
+    }
+    let mut header = String::new();
+    for a in agc {
+        let table = format!("{}.{}.agc", a.target, a.size.0);
+        if table != header {
+            let _ = writeln!(
+                s,
+                "\n# The thermal AGC (fusion_nostd::agc) on a {}x{} 14-bit TIR frame, per TIR pixel.\n[{table}]",
+                a.size.0, a.size.1
+            );
+            header = table;
+        }
+        let _ = writeln!(s, "{} = {}", a.kind.name(), table::budget_for(a.per_px(), 0.02, 0.1));
     }
     let goals: Vec<_> = old.iter().filter(|(k, _)| k.starts_with("goal.")).collect();
     if !goals.is_empty() {
@@ -334,6 +347,33 @@ pub struct Outcome {
     pub fault_exit: Vec<Target>,
     /// The strip runs, each beside its whole-frame run.
     pub strips: Vec<StripRun>,
+    /// The thermal AGC's `agc` regions.
+    pub agc: Vec<AgcMeasured>,
+}
+
+/// One AGC run's count.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct AgcMeasured {
+    /// Target.
+    pub target: Target,
+    /// Mapping.
+    pub kind: fw::AgcKind,
+    /// Instructions of the `agc` region (marker overhead included).
+    pub count: u64,
+    /// TIR frame size.
+    pub size: (usize, usize),
+}
+
+impl AgcMeasured {
+    /// Instructions per TIR pixel.
+    pub fn per_px(&self) -> f64 {
+        self.count as f64 / (self.size.0 * self.size.1) as f64
+    }
+
+    /// Budget-table key: `<target>.<TIR side>.agc.<mapping>`.
+    pub fn key(&self) -> String {
+        format!("{}.{}.agc.{}", self.target, self.size.0, self.kind.name())
+    }
 }
 
 /// One strip run of the budget job and the whole-frame run of the same pipeline.
@@ -353,11 +393,44 @@ pub struct StripRun {
     pub whole: u64,
 }
 
+/// The host's AGC of `counts` with a fresh state, as an AGC run of the image computes it.
+pub fn agc_host(counts: &Gray<u16>, kind: fw::AgcKind) -> Result<Gray<u8>> {
+    let mut out = Gray::<u8>::new(counts.width, counts.height);
+    let mut agc = Box::new(fusion_nostd::Agc::new());
+    fusion_nostd::agc_frame(&mut agc, counts.view()?, out.view_mut()?, &kind.params(counts.data.len()))?;
+    Ok(out)
+}
+
+/// The budget pair's TIR frame as 14-bit counts, the input of the AGC runs: each 8-bit level
+/// times 64 plus a deterministic 6-bit dither (the AGC's cost does not depend on the values
+/// beyond the histogram's spread).
+pub fn counts_of(tir: &Gray<u8>) -> Gray<u16> {
+    let data = tir
+        .data
+        .iter()
+        .enumerate()
+        .map(|(i, &v)| (u16::from(v) << 6) | ((i as u32).wrapping_mul(2_654_435_761) >> 26) as u16)
+        .collect();
+    Gray { width: tir.width, height: tir.height, data }
+}
+
 /// Compares every run of `report` with the host's result for the same job; returns how many
 /// runs were identical, and describes the first difference in `diffs`.
 fn compare_with_host(job: &Job, report: &FwReport, diffs: &mut Vec<String>, what: &str) -> Result<usize> {
     let mut same = 0;
     for (spec, run) in job.runs.iter().zip(&report.runs) {
+        if let Some(kind) = spec.agc {
+            let counts = job.tir16.as_ref().context("an AGC run without counts")?;
+            let host = agc_host(counts, kind)?;
+            let fw = run.image.as_ref().context("no image")?;
+            if host == *fw {
+                same += 1;
+            } else {
+                let differ = host.data.iter().zip(&fw.data).filter(|(a, b)| a != b).count();
+                diffs.push(format!("{what}: agc {}: {differ} pixels differ", kind.name()));
+            }
+            continue;
+        }
         let host = fuse_core(&job.vis, &job.tir, &spec.pipeline(), false)?;
         let fw = run.image.as_ref().context("no image")?;
         let differ = host.image.data.iter().zip(&fw.data).filter(|(a, b)| a != b).count();
@@ -415,17 +488,18 @@ fn exactness_jobs(opts: &Options, pair: &(Gray<u8>, Gray<u8>)) -> Result<Vec<(St
             vis: pair.0.clone(),
             tir: pair.1.clone(),
             runs: all(&[RescaleArg::TirUp, RescaleArg::VisDown]),
+            tir16: None,
         },
     )];
     let (vis, tir) = synthetic_pair(301, 233);
     jobs.push((
         format!("synthetic {}x{}/{}x{}", vis.width, vis.height, tir.width, tir.height),
-        Job { vis, tir, runs: all(&[RescaleArg::TirUp, RescaleArg::VisDown]) },
+        Job { vis, tir, runs: all(&[RescaleArg::TirUp, RescaleArg::VisDown]), tir16: None },
     ));
     for (name, vis, tir) in crate::io::vifb_pairs(&opts.vifb)? {
         jobs.push((
             format!("VIFB {name} {}x{}", vis.width, vis.height),
-            Job { vis, tir, runs: all(&[RescaleArg::None]) },
+            Job { vis, tir, runs: all(&[RescaleArg::None]), tir16: None },
         ));
     }
     Ok(jobs)
@@ -479,10 +553,14 @@ pub fn run(opts: &Options) -> Result<Outcome> {
                 let whole = RunSpec::plain(method, VariantArg::Classic, grid.policy());
                 [whole, RunSpec { strips: true, ..whole }]
             });
+            // The thermal AGC on the pair's TIR frame as 14-bit counts (the TIR frame is 512² on
+            // both grids: measured once, in the 512² job).
+            let agc = fw::AgcKind::ALL.into_iter().filter(|_| grid == Grid::G512).map(RunSpec::agc);
             let job = Job {
                 vis: pair.0.clone(),
                 tir: pair.1.clone(),
-                runs: staged.chain(strips).chain(classic).collect(),
+                runs: staged.chain(strips).chain(classic).chain(agc).collect(),
+                tir16: (grid == Grid::G512).then(|| counts_of(&pair.1)),
             };
             let mut first: Option<FwReport> = None;
             for rep in 0..opts.repeat.max(1) {
@@ -524,8 +602,9 @@ pub fn run(opts: &Options) -> Result<Outcome> {
             )?;
             out.exact.push((
                 format!(
-                    "{target}: budget pair, {}² grid, flight (whole frame and strips), TSIFSD classic (whole frame and strips)",
-                    grid.side()
+                    "{target}: budget pair, {}² grid, flight (whole frame and strips), TSIFSD classic (whole frame and strips){}",
+                    grid.side(),
+                    if job.tir16.is_some() { ", thermal AGC (plateau, linear)" } else { "" }
                 ),
                 job.runs.len(),
                 same,
@@ -534,6 +613,11 @@ pub fn run(opts: &Options) -> Result<Outcome> {
             out.overheads.push((target, grid, report.overhead));
             let mut classic_whole = None;
             for (spec, run) in job.runs.iter().zip(&report.runs) {
+                if let Some(kind) = spec.agc {
+                    let count = run.region("agc").context("no agc region in an AGC run")?;
+                    out.agc.push(AgcMeasured { target, kind, count, size: (job.tir.width, job.tir.height) });
+                    continue;
+                }
                 if spec.variant == VariantArg::Classic {
                     let count = run.region("pipeline").context("no pipeline region in a classic run")?;
                     if !spec.strips {
@@ -760,6 +844,36 @@ pub fn report(out: &Outcome, budgets: &Table, chk: &Check) -> String {
             "\nEvery region includes the marker overhead of {overhead} instructions (an empty region)."
         );
     }
+    if !out.agc.is_empty() {
+        s.push_str(
+            "\n### Thermal AGC (`fusion_nostd::agc_frame`, the budget pair's TIR as 14-bit counts)\n\n\
+             | target | mapping | TIR | instructions | instr/px | budget | time at 400 MHz (CPI range) | |\n\
+             |---|---|---|---:|---:|---:|---|---|\n",
+        );
+        for a in &out.agc {
+            let b = budgets.get(&a.key());
+            let verdict = match b {
+                None => "no budget",
+                Some(b) if a.per_px() > b => "**over**",
+                Some(_) => "ok",
+            };
+            let (lo, hi) = a.target.cpi();
+            let ms = |cpi: f64| format!("{:.2}", a.count as f64 * cpi / CLOCK_HZ * 1e3);
+            let _ = writeln!(
+                s,
+                "| {} | {} | {}x{} | {} | {:.2} | {} | {}–{} ms | {verdict} |",
+                a.target,
+                a.kind.name(),
+                a.size.0,
+                a.size.1,
+                a.count,
+                a.per_px(),
+                b.map_or_else(|| "—".to_string(), |b| format!("{b}")),
+                ms(lo),
+                ms(hi),
+            );
+        }
+    }
     s.push_str("\n### Whole pipeline: estimates at 400 MHz\n\n");
     s.push_str("| target | grid | method | instr/px | instructions | CPI | cycles | time/frame | frames/s | goal (instr/px) |\n");
     s.push_str("|---|---|---|---:|---:|---|---:|---:|---:|---|\n");
@@ -903,14 +1017,14 @@ mod tests {
     #[test]
     fn budget_check_flags_over_missing_and_slack() -> Result<()> {
         let t = Table::parse("[arm.512.tsifsd]\npipeline = 100\nmethod = 100\n")?;
-        let c = check(&[measured(100)], &t);
+        let c = check(&[measured(100)], &[], &t);
         assert!(c.passed());
         assert_eq!(c.checked, 2);
         assert_eq!(c.slack.len(), 1, "method at 90 of 100 is 10 % under: {:?}", c.slack);
-        let c = check(&[measured(101)], &t);
+        let c = check(&[measured(101)], &[], &t);
         assert!(!c.passed());
         assert_eq!(c.over[0].0, "arm.512.tsifsd.pipeline");
-        let c = check(&[measured(100)], &Table::parse("[arm.512.tsifsd]\npipeline = 100\n")?);
+        let c = check(&[measured(100)], &[], &Table::parse("[arm.512.tsifsd]\npipeline = 100\n")?);
         assert_eq!(c.missing, ["arm.512.tsifsd.method"]);
         assert!(!c.passed());
         Ok(())
@@ -919,11 +1033,20 @@ mod tests {
     #[test]
     fn written_table_reads_back_and_passes() -> Result<()> {
         let m = [measured(123)];
+        let agc = [AgcMeasured {
+            target: Target::Arm,
+            kind: fw::AgcKind::Linear,
+            count: 10 * 512 * 512,
+            size: (512, 512),
+        }];
         let old = Table::parse("[goal.arm.1024]\ntsifsd = 120\nadf = 500\n")?;
-        let text = budget_table_text(&m, &old);
+        let text = budget_table_text(&m, &agc, &old);
         let t = Table::parse(&text)?;
-        assert!(check(&m, &t).passed());
+        assert!(check(&m, &agc, &t).passed());
         assert_eq!(t.get("arm.512.tsifsd.pipeline"), Some(125.5));
+        assert_eq!(t.get("arm.512.agc.linear"), Some(10.2));
+        let over = [AgcMeasured { count: 11 * 512 * 512, ..agc[0] }];
+        assert_eq!(check(&m, &over, &t).over[0].0, "arm.512.agc.linear");
         assert_eq!(t.get("goal.arm.1024.tsifsd"), Some(120.0));
         assert_eq!(t.get("goal.arm.1024.adf"), Some(500.0));
         Ok(())

@@ -163,7 +163,7 @@ pub fn run(args: &BudgetArgs) -> Result<()> {
         out: args.out.clone(),
     };
     let outcome = budget::run(&opts)?;
-    let chk = budget::check(&outcome.measured, &budgets);
+    let chk = budget::check(&outcome.measured, &outcome.agc, &budgets);
     let mut text = budget::report(&outcome, &budgets, &chk);
     text.push_str("\n### Static memory of the images\n\n");
     text.push_str(&budget::memory_report(&outcome)?);
@@ -176,7 +176,10 @@ pub fn run(args: &BudgetArgs) -> Result<()> {
     let mut batch = crate::io::Batch::default();
     batch.add_bytes(&report_path, text.as_bytes())?;
     if let Some(path) = &opts.write_budgets {
-        batch.add_bytes(path, budget::budget_table_text(&outcome.measured, &budgets).as_bytes())?;
+        batch.add_bytes(
+            path,
+            budget::budget_table_text(&outcome.measured, &outcome.agc, &budgets).as_bytes(),
+        )?;
     }
     batch.commit()?;
     note!("budget: report written to {}", report_path.display());

@@ -285,9 +285,8 @@ impl OutFormat {
     /// The format `path`'s extension names (case-insensitive); anything else is refused, so no
     /// file carries bytes its name does not say.
     pub fn of(path: &Path) -> Result<OutFormat> {
-        if path.is_dir() {
-            bail!("cannot write {}: it is a folder", path.display());
-        }
+        // What the write path refuses first (a folder, a device…), in its words.
+        render_host::output::check_destination(path)?;
         let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
         match ext.as_deref() {
             Some("png") => Ok(OutFormat::Png),
@@ -336,19 +335,28 @@ pub fn encode_channels(
 
 pub use render_host::output::{Batch, write_atomic, write_bytes};
 
-/// Saves an 8-bit grey PNG (atomically).
+/// Saves an 8-bit grey PNG or TIFF, by the extension (atomically).
 pub fn save_gray_u8(path: &Path, img: &Gray<u8>) -> Result<()> {
-    save_png(path, img.width, img.height, image::ExtendedColorType::L8, &img.data)
+    save_by_extension(path, img.width, img.height, image::ExtendedColorType::L8, &img.data)
 }
 
-/// Saves a 16-bit grey PNG (atomically).
+/// Saves a 16-bit grey PNG or TIFF, by the extension (atomically).
 pub fn save_gray_u16(path: &Path, img: &Gray<u16>) -> Result<()> {
     let bytes: Vec<u8> = img.data.iter().flat_map(|v| v.to_ne_bytes()).collect();
-    save_png(path, img.width, img.height, image::ExtendedColorType::L16, &bytes)
+    save_by_extension(path, img.width, img.height, image::ExtendedColorType::L16, &bytes)
 }
 
-fn save_png(path: &Path, w: usize, h: usize, color: image::ExtendedColorType, bytes: &[u8]) -> Result<()> {
-    write_atomic(path, |out| encode_png(out, w, h, color, bytes))
+/// Saves in the format `path`'s extension names ([`OutFormat`]: `.png`, `.tif`, `.tiff`;
+/// anything else refused before anything is written).
+fn save_by_extension(
+    path: &Path,
+    w: usize,
+    h: usize,
+    color: image::ExtendedColorType,
+    bytes: &[u8],
+) -> Result<()> {
+    let format = OutFormat::of(path)?;
+    write_atomic(path, |out| encode_image(out, format, w, h, color, bytes))
 }
 
 /// Encodes a PNG into `out` (for [`Batch::add`]).

@@ -78,6 +78,8 @@ fn outputs_follow_their_extension_and_anything_else_is_refused() {
     ok(&fusion(&["fuse", p(&vis), p(&tir), p(&tif)]));
     assert_eq!(&std::fs::read(&tif).unwrap()[..2], b"II", "a little-endian TIFF");
     assert_eq!(load_picture(&png).unwrap(), load_picture(&tif).unwrap());
+    let grey = dir.path().join("grey.png");
+    ok(&fusion(&["fuse", "--color", "gray", p(&vis), p(&tir), p(&grey)]));
     for bad in ["a.jpg", "a.bmp", "noext"] {
         let out = dir.path().join(bad);
         let o = fusion(&["fuse", p(&vis), p(&tir), p(&out)]);
@@ -86,7 +88,17 @@ fn outputs_follow_their_extension_and_anything_else_is_refused() {
         assert_eq!(err.trim().lines().count(), 1, "{err}");
         assert!(err.contains(".png, .tif or .tiff"), "{err}");
         assert!(!out.exists(), "{bad} written");
+        // The same rule for `fusion rescale` (8- and 16-bit).
+        let o = fusion(&["rescale", "--width", "20", "--height", "16", p(&grey), p(&out)]);
+        assert!(!o.status.success() && String::from_utf8_lossy(&o.stderr).contains(".png, .tif or .tiff"));
+        assert!(!out.exists(), "{bad} written by rescale");
     }
+    let (small_png, small_tif) = (dir.path().join("s.png"), dir.path().join("s.tif"));
+    for out in [&small_png, &small_tif] {
+        ok(&fusion(&["rescale", "--width", "20", "--height", "16", p(&grey), p(out)]));
+    }
+    assert_eq!(&std::fs::read(&small_tif).unwrap()[..2], b"II");
+    assert_eq!(load_picture(&small_png).unwrap(), load_picture(&small_tif).unwrap());
 }
 
 /// A thermal-like 16-bit frame: cold background, a warm block, counts in 14 bits.

@@ -61,7 +61,7 @@ fn folder_of(path: &Path) -> &Path {
 
 /// Refuses a destination that exists and is not a regular file (following a symbolic link:
 /// a link to a device is refused; a dangling link is replaced by the rename like any name).
-fn check_destination(path: &Path) -> Result<()> {
+pub fn check_destination(path: &Path) -> Result<()> {
     if path.file_name().is_none() {
         bail!("cannot write {}: not a file name", path.display());
     }

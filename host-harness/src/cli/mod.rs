@@ -38,15 +38,17 @@ pub enum Command {
     Bench(bench::BenchArgs),
     /// The study's Tables 2–7 on a rendered dataset, with plots and conclusions.
     Report(report::ReportArgs),
-    /// Rescale a grey PNG with the core's bicubic or area rescaler (8-bit or 16-bit).
+    /// Rescale a grey image (PNG, JPEG, TIFF; 8- or 16-bit) with the core's bicubic or area
+    /// rescaler.
     Rescale(rescale::RescaleArgs),
-    /// Fuse a VIS/TIR pair: ADF, TSIFSD, IFEVIP (core or f64 reference); GFF, MGFF, TEPGFL, DRIF
-    /// (the study's host-only methods, f64).
+    /// Fuse a VIS/TIR pair or two folders of pairs: ADF, TSIFSD, IFEVIP, adaptive (core or f64
+    /// reference); GFF, MGFF, TEPGFL, DRIF (the study's host-only methods, f64). PNG, JPEG, TIFF;
+    /// colour kept, 14/16-bit thermal through the core's AGC.
     Fuse(fuse::FuseArgs),
     /// Render a dataset of aligned VIS/TIR pairs of a spacecraft target (ray traced).
     Render(render_host::cli::RenderArgs),
-    /// Fusion metrics of a fused image: the study's suite, VIFB's 13 (exactly as its code), or
-    /// both; noise metrics with --ref.
+    /// Fusion metrics of a fused image (or three folders): the study's suite, VIFB's 13 (exactly
+    /// as its code), or both; noise metrics with --ref.
     Eval(eval::EvalArgs),
     /// Instruction budgets on the emulated Cortex-M7 and RV32 (QEMU): counts per stage and
     /// method, cycle and frame-rate estimates, memory, bit-exactness against the host.

@@ -1,4 +1,4 @@
-//! `fusion rescale`: the core's rescalers on a PNG file.
+//! `fusion rescale`: the core's rescalers on an image file (PNG, JPEG or TIFF in; PNG or TIFF out).
 
 use crate::io::{ColorPolicy, Gray, GrayInput, load_image, save_gray_u8, save_gray_u16};
 use anyhow::{Result, bail};
@@ -36,9 +36,9 @@ pub struct RescaleArgs {
     /// Output height in pixels.
     #[arg(long)]
     pub height: usize,
-    /// Input PNG (8-bit or 16-bit grey).
+    /// Input image (PNG, JPEG or TIFF; 8-bit or 16-bit grey).
     pub input: PathBuf,
-    /// Output PNG (same bit depth as the input).
+    /// Output (.png or .tif/.tiff, by the extension; same bit depth as the input).
     pub output: PathBuf,
 }
 
@@ -55,6 +55,7 @@ fn rescaled<T: fusion_nostd::Sample + Default>(
 
 /// Runs `fusion rescale`.
 pub fn run(args: &RescaleArgs) -> Result<()> {
+    crate::io::OutFormat::of(&args.output)?;
     if args.width == 0 || args.height == 0 {
         bail!("the requested size {}x{} has a zero side", args.width, args.height);
     }

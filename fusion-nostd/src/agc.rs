@@ -27,18 +27,21 @@
 //! that bin to mid-range, bins below it to `out_low` and above it to `out_high`.
 //!
 //! **Temporal smoothing** (`smoothing = k > 0`, for sequences): the Q8 mapping moves 1/2ᵏ of
-//! the way to the new frame's each frame, `q ← q + ((q_new − q) >> k)` (arithmetic shift), so
-//! the level does not flicker when the histogram changes from frame to frame. The first frame
-//! after [`Agc::new`] or [`Agc::reset`] takes its own mapping.
+//! the way to the new frame's each frame, the step `(q_new − q) / 2ᵏ` rounded away from zero
+//! (so it reaches the new mapping exactly when the scene holds still, from above and from
+//! below), and the level does not flicker when the histogram changes from frame to frame. The
+//! first frame after [`Agc::new`] or [`Agc::reset`] takes its own mapping.
 //!
 //! **Frames, strips, rows.** [`agc_frame`] accumulates the whole frame, builds the mapping and
-//! applies it. Strip by strip, two orders give the same result:
+//! applies it. Strip by strip, two orders:
 //! * a first pass: [`Agc::accumulate`] every strip, [`Agc::update`], then [`Agc::apply`] every
 //!   strip — the bits of [`agc_frame`];
 //! * the previous frame's mapping (one pass, for a camera read out line by line): per strip
 //!   [`Agc::apply`] (the mapping built at the end of the last frame) then
-//!   [`Agc::accumulate`]; [`Agc::update`] at the end of the frame. The first frame needs a
-//!   mapping: run it with a first pass, or accept [`Error::InvalidParameter`] `"agc mapping"`.
+//!   [`Agc::accumulate`]; [`Agc::update`] at the end of the frame. Each frame is mapped with
+//!   the table of the frame before it (the mapping built at its end is [`agc_frame`]'s for
+//!   it). The first frame needs a mapping: run it with a first pass, or accept
+//!   [`Error::InvalidParameter`] `"agc mapping"`.
 
 use crate::error::Error;
 use crate::frame::{FrameMut, FrameRef};
@@ -248,7 +251,14 @@ impl Agc {
             let Some(slot) = map.get_mut(b) else { return };
             let q = q as i32;
             let old = i32::from(*slot);
-            let s = if shift > 0 { old + ((q - old) >> shift) } else { q };
+            // The step rounded away from zero: an arithmetic shift floors, so a rising step
+            // adds 2ᵏ − 1 first (round up), a falling one floors (rounds down).
+            let d = q - old;
+            let s = match shift {
+                0 => q,
+                k if d > 0 => old + ((d + (1 << k) - 1) >> k),
+                k => old + (d >> k),
+            };
             *slot = s as u16;
             if let Some(l) = lut.get_mut(b) {
                 *l = ((s + 128) >> 8) as u8;

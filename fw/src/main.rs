@@ -269,11 +269,9 @@ fn exercise_entry_points() {
     // The thermal AGC: the frame entry and the row entries, both modes, parameters unseen.
     #[cfg(not(feature = "rescale-only"))]
     {
-        use fusion_nostd::{Agc, AgcMode, AgcParams, agc_frame};
-        // 112 KiB in `.bss` (RAM): the frames and work planes fill `.bigram`.
-        static mut AGC: Agc = Agc::new();
-        // SAFETY: single-threaded; the only reference to this state.
-        let agc = unsafe { &mut *core::ptr::addr_of_mut!(AGC) };
+        use fusion_nostd::{AgcMode, AgcParams, agc_frame};
+        // SAFETY: single-threaded; the only reference to the runner's AGC state while this runs.
+        let agc = unsafe { &mut *core::ptr::addr_of_mut!(crate::AGC) };
         for mode in
             [AgcMode::Plateau { limit: black_box(3) }, AgcMode::Linear { low: black_box(100), high: 9_990 }]
         {

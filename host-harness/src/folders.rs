@@ -29,12 +29,75 @@ fn images_by_stem(dir: &Path) -> Result<BTreeMap<String, Vec<PathBuf>>> {
 /// with the reason. `names` name the folders in messages (e.g. "visible", "thermal").
 pub type Pairing = (Vec<(String, Vec<PathBuf>)>, Vec<(String, String)>);
 
-/// Pairs the images of `dirs` by stem, sorted by stem. An error when a folder cannot be listed
-/// or no stem is in all of them.
+/// Names in natural order: runs of digits compare by value (`frame_99` < `frame_100`), the
+/// rest character by character; a sequence's frames come in time order whatever the padding.
+pub fn natural_order(a: &str, b: &str) -> std::cmp::Ordering {
+    fn chunks(s: &str) -> Vec<(bool, &str)> {
+        let mut out = Vec::new();
+        let mut start = 0;
+        let bytes = s.as_bytes();
+        for i in 1..=bytes.len() {
+            if i == bytes.len() || bytes[i].is_ascii_digit() != bytes[start].is_ascii_digit() {
+                out.push((bytes[start].is_ascii_digit(), &s[start..i]));
+                start = i;
+            }
+        }
+        out
+    }
+    let (ca, cb) = (chunks(a), chunks(b));
+    for ((da, sa), (db, sb)) in ca.iter().zip(&cb) {
+        let ord = if *da && *db {
+            let (ta, tb) = (sa.trim_start_matches('0'), sb.trim_start_matches('0'));
+            ta.len().cmp(&tb.len()).then(ta.cmp(tb)).then(sa.len().cmp(&sb.len()))
+        } else {
+            sa.cmp(sb)
+        };
+        if ord != std::cmp::Ordering::Equal {
+            return ord;
+        }
+    }
+    ca.len().cmp(&cb.len())
+}
+
+/// Refuses an output folder that is one of the input folders (the outputs would land beside,
+/// or over, the inputs).
+pub fn check_output_folder(out: &Path, inputs: &[&Path]) -> Result<()> {
+    let Ok(out_real) = out.canonicalize() else { return Ok(()) };
+    for input in inputs {
+        if input.canonicalize().is_ok_and(|i| i == out_real) {
+            bail!("{} is an input folder: give the outputs a folder of their own", out.display());
+        }
+    }
+    Ok(())
+}
+
+/// Names with what each gave, and names with why each failed.
+pub type Split<R> = (Vec<(String, R)>, Vec<(String, String)>);
+
+/// The items that worked, and every failure (`unpaired` and the items' errors) sorted by name.
+pub fn split_results<T, R>(
+    items: &[(String, T)],
+    results: Vec<Result<R>>,
+    unpaired: Vec<(String, String)>,
+) -> Split<R> {
+    let mut ok = Vec::new();
+    let mut failed = unpaired;
+    for ((stem, _), r) in items.iter().zip(results) {
+        match r {
+            Ok(v) => ok.push((stem.clone(), v)),
+            Err(e) => failed.push((stem.clone(), format!("{e:#}"))),
+        }
+    }
+    failed.sort_by(|a, b| natural_order(&a.0, &b.0));
+    (ok, failed)
+}
+
+/// Pairs the images of `dirs` by stem, in natural order ([`natural_order`]). An error when a
+/// folder cannot be listed or no stem is in all of them.
 pub fn pair_by_stem(dirs: &[(&Path, &str)]) -> Result<Pairing> {
     let maps = dirs.iter().map(|(d, _)| images_by_stem(d)).collect::<Result<Vec<_>>>()?;
     let mut stems: Vec<&String> = maps.iter().flat_map(|m| m.keys()).collect();
-    stems.sort();
+    stems.sort_by(|a, b| natural_order(a, b));
     stems.dedup();
     let (mut pairs, mut unpaired) = (Vec::new(), Vec::new());
     for stem in stems {
@@ -131,4 +194,16 @@ pub fn run_all<T: Send + Sync, R: Send + std::fmt::Display>(
     });
     bar.finish_and_clear();
     Ok(results)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn natural_order_puts_frames_in_time_order() {
+        let mut v = vec!["frame_1000", "frame_101", "frame_99", "frame_100", "a", "frame_0099", "b2", "b10"];
+        v.sort_by(|a, b| natural_order(a, b));
+        assert_eq!(v, ["a", "b2", "b10", "frame_99", "frame_0099", "frame_100", "frame_101", "frame_1000"]);
+    }
 }

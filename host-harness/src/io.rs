@@ -43,7 +43,7 @@ impl<T: Copy + Default> Gray<T> {
     }
 }
 
-/// A PNG as it was stored: 8-bit or 16-bit grey.
+/// An image as it was stored, in grey: 8-bit or 16-bit.
 #[derive(Debug, Clone, PartialEq)]
 pub enum GrayInput {
     /// 8-bit grey.
@@ -52,7 +52,7 @@ pub enum GrayInput {
     U16(Gray<u16>),
 }
 
-/// What to do with a colour PNG.
+/// What to do with a colour image where grey is needed.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum ColorPolicy {
     /// Refuse it with an error.
@@ -272,8 +272,8 @@ pub fn load_gray_u8(path: &Path, color: ColorPolicy) -> Result<Gray<u8>> {
     }
 }
 
-/// An output format, chosen by the output's extension.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+/// An output format, chosen by the output's extension (or, for a folder run, by `--format`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum OutFormat {
     /// `.png`
     Png,
@@ -282,6 +282,14 @@ pub enum OutFormat {
 }
 
 impl OutFormat {
+    /// The extension an output of this format gets in a folder run.
+    pub fn extension(self) -> &'static str {
+        match self {
+            OutFormat::Png => "png",
+            OutFormat::Tiff => "tif",
+        }
+    }
+
     /// The format `path`'s extension names (case-insensitive); anything else is refused, so no
     /// file carries bytes its name does not say.
     pub fn of(path: &Path) -> Result<OutFormat> {
@@ -369,11 +377,6 @@ pub fn encode_png(
 ) -> Result<()> {
     image::codecs::png::PngEncoder::new(out).write_image(bytes, w as u32, h as u32, color)?;
     Ok(())
-}
-
-/// Encodes an 8-bit grey image as PNG into `out`.
-pub fn encode_gray_u8(out: &mut impl std::io::Write, img: &Gray<u8>) -> Result<()> {
-    encode_png(out, img.width, img.height, image::ExtendedColorType::L8, &img.data)
 }
 
 /// Reads a float32 or float64 `.npy` array of shape `(H, W)` (C or Fortran order) as `f64`,

@@ -21,6 +21,7 @@ macro_rules! note {
     ($($t:tt)*) => { render_host::output::stderr_note(format_args!($($t)*)) };
 }
 
+pub mod agc;
 pub mod budget;
 pub mod cli;
 pub mod color;

@@ -138,10 +138,22 @@ fn sixteen_bit_thermal_counts_fuse_through_the_core_agc_from_png_and_tiff() {
             assert_eq!(load_picture(&out).unwrap(), want, "{agc} from {}", input.display());
         }
     }
-    // The default is linear.
+    // The default is linear; --plateau alone asks for plateau equalisation with that plateau.
     let out = dir.path().join("default.png");
     ok(&fusion(&["fuse", p(&vis), p(&png16), p(&out)]));
     assert_eq!(load_picture(&out).unwrap(), load_picture(&dir.path().join("expected-linear.png")).unwrap());
+    let (alone, both) = (dir.path().join("alone.png"), dir.path().join("both.png"));
+    ok(&fusion(&["fuse", "--plateau", "9", p(&vis), p(&png16), p(&alone)]));
+    ok(&fusion(&["fuse", "--agc", "plateau", "--plateau", "9", p(&vis), p(&png16), p(&both)]));
+    assert_eq!(load_picture(&alone).unwrap(), load_picture(&both).unwrap());
+    assert_ne!(load_picture(&alone).unwrap(), load_picture(&out).unwrap());
+    let o = fusion(&["fuse", "--agc", "linear", "--plateau", "9", p(&vis), p(&png16), p(&alone)]);
+    assert!(!o.status.success());
+    // Folder-only options on one pair are refused rather than ignored.
+    for opt in [["--jobs", "2"], ["--format", "tiff"]] {
+        let o = fusion(&["fuse", opt[0], opt[1], p(&vis), p(&png16), p(&alone)]);
+        assert!(!o.status.success() && String::from_utf8_lossy(&o.stderr).contains("for folders"));
+    }
     // A 16-bit visible frame is refused in one line.
     let o = fusion(&["fuse", p(&png16), p(&png16), p(&out)]);
     assert!(!o.status.success());
@@ -171,10 +183,26 @@ fn a_rendered_16_bit_sequence_fuses_directly() {
     let o = fusion(&["fuse", "--agc-smoothing", "3", p(&seq.join("vis")), p(&seq.join("tir16")), p(&out)]);
     ok(&o);
     assert!(String::from_utf8_lossy(&o.stdout).contains("fused 3 of 3 pairs"));
+    // The same as the AGC carried through the frames in order by hand, then one pair at a time.
+    let params = AgcParams { smoothing: 3, ..AgcParams::linear() };
+    let mut agc = host_harness::agc::fresh();
     for i in 0..3 {
-        let f = load_picture(&out.join(format!("frame_{i:03}.png"))).unwrap();
+        let name = format!("frame_{i:03}.png");
+        let Picture::Gray16(counts) = load_picture(&seq.join("tir16").join(&name)).unwrap() else {
+            panic!("tir16 is 16-bit")
+        };
+        let mapped = host_harness::agc::map_counts(&mut agc, &counts, &params).unwrap();
+        let t8 = dir.path().join(format!("t8-{i}.png"));
+        save_gray_u8(&t8, &mapped).unwrap();
+        let single = dir.path().join(format!("single-{i}.png"));
+        ok(&fusion(&["fuse", p(&seq.join("vis").join(&name)), p(&t8), p(&single)]));
+        let f = load_picture(&out.join(&name)).unwrap();
         assert_eq!(f.size(), (128, 128));
+        assert_eq!(f, load_picture(&single).unwrap(), "{name}");
     }
+    // The outputs may not go into an input folder.
+    let o = fusion(&["fuse", p(&seq.join("vis")), p(&seq.join("tir16")), p(&seq.join("vis"))]);
+    assert!(!o.status.success() && String::from_utf8_lossy(&o.stderr).contains("input folder"));
 }
 
 #[test]

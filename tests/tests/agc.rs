@@ -209,6 +209,26 @@ fn smoothing_over_a_sequence_matches_the_reference_and_damps_the_level() {
 }
 
 #[test]
+fn smoothing_reaches_a_still_scene_exactly_from_above_and_below() {
+    // A scene that changes once and then holds still: the smoothed mapping must end on the
+    // still scene's own table, whichever way its levels moved (a floor-only step would stop
+    // short on the rising bins).
+    let mut rng = Rng(9);
+    let (a, b) = (thermal_frame(40, 30, 16, &mut rng), thermal_frame(40, 30, 14, &mut rng));
+    for (first, still) in [(&a, &b), (&b, &a)] {
+        let p = AgcParams { smoothing: 3, ..AgcParams::linear() };
+        let (mut agc, mut reference) = (Agc::new(), AgcReference::default());
+        core_frame(&mut agc, first, &p);
+        reference.frame(first, &p);
+        for _ in 0..120 {
+            let core = core_frame(&mut agc, still, &p);
+            assert_eq!(core.data, reference.frame(still, &p).data);
+        }
+        assert_eq!(agc.table().as_slice(), Agc::new_table(still, &p).as_slice());
+    }
+}
+
+#[test]
 fn bad_input_is_refused_and_nothing_is_written() {
     let img = Gray { width: 4, height: 2, data: vec![1000u16; 8] };
     let mut out = vec![9u8; 8];

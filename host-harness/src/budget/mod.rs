@@ -395,10 +395,7 @@ pub struct StripRun {
 
 /// The host's AGC of `counts` with a fresh state, as an AGC run of the image computes it.
 pub fn agc_host(counts: &Gray<u16>, kind: fw::AgcKind) -> Result<Gray<u8>> {
-    let mut out = Gray::<u8>::new(counts.width, counts.height);
-    let mut agc = Box::new(fusion_nostd::Agc::new());
-    fusion_nostd::agc_frame(&mut agc, counts.view()?, out.view_mut()?, &kind.params(counts.data.len()))?;
-    Ok(out)
+    crate::agc::map_counts(&mut crate::agc::fresh(), counts, &kind.params(counts.data.len()))
 }
 
 /// The budget pair's TIR frame as 14-bit counts, the input of the AGC runs: each 8-bit level

@@ -117,7 +117,7 @@ fn score(suite: Suite, vis: &Path, tir: &Path, fused: &Path) -> Result<MetricTab
         Suite::Vifb | Suite::All => Some(vifb::vifb_metrics(&vis, &tir, &fused)?),
         Suite::Study => None,
     };
-    Ok(MetricTable::new(study.as_ref(), vifb.as_ref(), None, suite == Suite::All))
+    Ok(MetricTable::new(study.as_ref(), vifb.as_ref(), suite == Suite::All))
 }
 
 /// Runs `fusion eval`: one triple, or three folders of them.
@@ -162,15 +162,8 @@ fn run_folders(args: &EvalArgs) -> Result<()> {
     let results = crate::folders::run_all(&triples, 0, "eval", |_, f| {
         score(args.suite, &f[0], &f[1], &f[2]).map(Scored)
     })?;
-    let mut scored = Vec::new();
-    let mut failed = unpaired;
-    for ((stem, _), r) in triples.iter().zip(results) {
-        match r {
-            Ok(Scored(t)) => scored.push((stem.clone(), t)),
-            Err(e) => failed.push((stem.clone(), format!("{e:#}"))),
-        }
-    }
-    failed.sort();
+    let (scored, failed) = crate::folders::split_results(&triples, results, unpaired);
+    let scored: Vec<(String, MetricTable)> = scored.into_iter().map(|(s, Scored(t))| (s, t)).collect();
     if let Some((_, first)) = scored.first() {
         let n = scored.len() as f64;
         let means: Vec<(String, f64)> = first
@@ -264,13 +257,9 @@ impl MetricTable {
 }
 
 impl MetricTable {
-    /// The rows of the suites given; `prefixed` names them `study.AG`, `vifb.AG`, ….
-    pub fn new(
-        study: Option<&StudyMetrics>,
-        vifb: Option<&VifbMetrics>,
-        noise: Option<&NoiseMetrics>,
-        prefixed: bool,
-    ) -> Self {
+    /// The rows of the suites given; `prefixed` names them `study.AG`, `vifb.AG`, …. The noise
+    /// metrics are added with [`MetricTable::add_noise`].
+    pub fn new(study: Option<&StudyMetrics>, vifb: Option<&VifbMetrics>, prefixed: bool) -> Self {
         let mut rows = Vec::new();
         let mut groups = Vec::new();
         let mut group = |suite: &'static str, values: Vec<(&str, f64)>, rows: &mut Vec<(String, f64)>| {
@@ -295,9 +284,6 @@ impl MetricTable {
         }
         if let Some(v) = vifb {
             group("vifb", vifb::KEYS.iter().copied().zip(v.values()).collect(), &mut rows);
-        }
-        if let Some(n) = noise {
-            group("noise", vec![("MSE_S", n.mse_s), ("PSNR_S", n.psnr_s), ("SSIM_S", n.ssim_s)], &mut rows);
         }
         Self { rows, groups }
     }

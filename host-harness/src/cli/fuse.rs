@@ -145,7 +145,8 @@ pub struct FuseArgs {
     pub plateau: Option<u32>,
     /// Folders as sequences: smooth the AGC mapping over the thermal frames in name order, each
     /// frame's mapping moving 1/2^K of the way to its own (0..=8; 0: none) so the level does not
-    /// flicker. Needs two folders and 14/16-bit thermal frames.
+    /// flicker. Needs two folders and 14/16-bit thermal frames; the mapped thermal frames are
+    /// held in memory (one byte per pixel) before the pairs are fused.
     #[arg(long, value_name = "K")]
     pub agc_smoothing: Option<u8>,
     /// A colour visible image: keep its colour (fuse the luminance, restore the chroma; RGB
@@ -155,9 +156,9 @@ pub struct FuseArgs {
     /// Folders: pairs fused at once [default: every core].
     #[arg(long, value_name = "N")]
     pub jobs: Option<usize>,
-    /// Folders: the outputs' format.
-    #[arg(long, value_enum, default_value_t = FormatArg::Png)]
-    pub format: FormatArg,
+    /// Folders: the outputs' format [default: png] (one output's format follows its extension).
+    #[arg(long, value_enum)]
+    pub format: Option<OutFormat>,
     /// Visible image (PNG, JPEG or TIFF; 8-bit grey or colour), or a folder of them.
     pub vis: PathBuf,
     /// Thermal-infrared image (PNG, JPEG or TIFF; 8-bit, or 14/16-bit counts through --agc;
@@ -394,18 +395,12 @@ pub enum ColorArg {
     Gray,
 }
 
-/// `--format` values (folders; a single output's format follows its extension).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-pub enum FormatArg {
-    /// `.png`
-    Png,
-    /// `.tif`
-    Tiff,
-}
-
-/// The core AGC parameters the options ask for, for a frame of `pixels`.
+/// The core AGC parameters the options ask for, for a frame of `pixels`: `--agc` (linear
+/// unless `--plateau` is given, which asks for plateau equalisation), `--plateau`,
+/// `--agc-smoothing`.
 pub fn agc_params(args: &FuseArgs, pixels: usize) -> fusion_nostd::AgcParams {
-    let mut p = match args.agc.unwrap_or(AgcArg::Linear) {
+    let default = if args.plateau.is_some() { AgcArg::Plateau } else { AgcArg::Linear };
+    let mut p = match args.agc.unwrap_or(default) {
         AgcArg::Plateau => fusion_nostd::AgcParams::plateau(pixels),
         AgcArg::Linear => fusion_nostd::AgcParams::linear(),
     };
@@ -423,11 +418,8 @@ pub fn agc_map(
     counts: &Gray<u16>,
     path: &Path,
 ) -> Result<Gray<u8>> {
-    let params = agc_params(args, counts.width * counts.height);
-    let mut out = Gray::<u8>::new(counts.width, counts.height);
-    fusion_nostd::agc_frame(agc, counts.view()?, out.view_mut()?, &params)
-        .with_context(|| format!("thermal image {}: AGC", path.display()))?;
-    Ok(out)
+    crate::agc::map_counts(agc, counts, &agc_params(args, counts.width * counts.height))
+        .with_context(|| format!("thermal image {}: AGC", path.display()))
 }
 
 /// Both inputs read and made ready for the grey fusion.
@@ -478,7 +470,7 @@ fn prepare(
             g
         }
         Picture::Rgb8(c) => c.to_gray(),
-        Picture::Gray16(counts) => agc_map(args, &mut fusion_nostd::Agc::new(), &counts, tir_path)?,
+        Picture::Gray16(counts) => agc_map(args, &mut crate::agc::fresh(), &counts, tir_path)?,
     };
     Ok(Prepared { vis, chroma, tir })
 }
@@ -657,6 +649,9 @@ pub fn run(args: &FuseArgs) -> Result<()> {
         (false, false) => {
             if args.agc_smoothing.is_some() {
                 bail!("--agc-smoothing smooths over a sequence: give two folders of frames");
+            }
+            if args.jobs.is_some() || args.format.is_some() {
+                bail!("--jobs and --format are for folders; one output's format follows its extension");
             }
             let (report, guards) = fuse_files(args, &args.vis, &args.tir, None, &args.output)?;
             out!("{report}")?;

@@ -1,6 +1,6 @@
 //! The thermal AGC (`fusion_nostd::agc`) written straight from its definition, in f64, without
 //! the core's histogram walk: percentiles from the sorted samples, the plateau mapping as one
-//! division per bin, smoothing as `floor((q_new − q) / 2ᵏ)`.
+//! division per bin, smoothing as `(q_new − q) / 2ᵏ` rounded away from zero.
 
 use crate::io::Gray;
 use fusion_nostd::AgcParams;
@@ -83,7 +83,14 @@ impl AgcReference {
         let scale = f64::from(1u32 << p.smoothing);
         let q8 = match self.q8.take() {
             Some(old) if p.smoothing > 0 => {
-                old.iter().zip(&new).map(|(&o, &n)| o + ((n - o) / scale).floor()).collect()
+                // The step 1/2ᵏ of the way, rounded away from zero (towards the new mapping).
+                old.iter()
+                    .zip(&new)
+                    .map(|(&o, &n)| {
+                        let step = (n - o) / scale;
+                        o + if step > 0.0 { step.ceil() } else { step.floor() }
+                    })
+                    .collect()
             }
             _ => new,
         };

@@ -17,7 +17,7 @@ use std::time::Duration;
 fn triple(w: usize, h: usize) -> [Gray<u8>; 3] {
     ["kettle_VIS.png", "kettle_IR.png", "kettle_TSIFSD_ref.png"].map(|name| {
         let img = load_gray_u8(&testdata::file(&format!("vifb/{name}")), ColorPolicy::Refuse).unwrap();
-        host_harness::cli::eval::on_grid(&img, w, h, fusion_nostd::Filter::Cubic).unwrap()
+        host_harness::study::source_on_grid(&img, (w, h), fusion_nostd::Filter::Cubic).unwrap()
     })
 }
 

@@ -9,7 +9,7 @@ use crate::metrics::{
 };
 use anyhow::{Result, bail};
 use clap::{Args, ValueEnum};
-use fusion_nostd::{Filter, rescale};
+use fusion_nostd::Filter;
 use std::path::{Path, PathBuf};
 
 /// Output formats.
@@ -58,20 +58,10 @@ pub struct EvalArgs {
     pub fused: PathBuf,
 }
 
-/// `img` on a `w × h` grid with the core's rescaler (a copy if it already is).
-pub fn on_grid(img: &Gray<u8>, w: usize, h: usize, filter: Filter) -> Result<Gray<u8>> {
-    if (img.width, img.height) == (w, h) {
-        return Ok(img.clone());
-    }
-    let mut out = Gray::new(w, h);
-    rescale(img.view()?, out.view_mut()?, filter)?;
-    Ok(out)
-}
-
 /// Every channel of `img` on a `w × h` grid.
 fn channels_on_grid(img: &Channels, w: usize, h: usize, filter: Filter) -> Result<Channels> {
     let planes = (0..img.planes.len())
-        .map(|k| Ok(on_grid(&img.plane(k), w, h, filter)?.data))
+        .map(|k| Ok(crate::study::source_on_grid(&img.plane(k), (w, h), filter)?.data))
         .collect::<Result<Vec<_>>>()?;
     Ok(Channels { width: w, height: h, planes })
 }

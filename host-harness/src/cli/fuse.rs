@@ -139,8 +139,8 @@ pub struct FuseArgs {
     /// `fusion_nostd::agc`) [default: linear]. An 8-bit thermal image is used as it is.
     #[arg(long, value_enum)]
     pub agc: Option<AgcArg>,
-    /// The plateau of --agc plateau, in pixels per histogram bin (bins of 4 counts)
-    /// [default: the thermal frame's pixels / 2^18, at least 1].
+    /// The plateau of plateau equalisation, in pixels per histogram bin (bins of 4 counts); given
+    /// alone it asks for --agc plateau [default: the thermal frame's pixels / 2^18, at least 1].
     #[arg(long, value_name = "PIXELS")]
     pub plateau: Option<u32>,
     /// Folders as sequences: smooth the AGC mapping over the thermal frames in name order, each
@@ -619,8 +619,8 @@ fn fuse_files(
         Some([cb, cr]) => {
             // The chroma follows the luminance onto the fusion grid (area, as the VIS band).
             let (w, h) = (fused.image.width, fused.image.height);
-            let cb = crate::cli::eval::on_grid(cb, w, h, fusion_nostd::Filter::Area)?;
-            let cr = crate::cli::eval::on_grid(cr, w, h, fusion_nostd::Filter::Area)?;
+            let cb = crate::study::source_on_grid(cb, (w, h), fusion_nostd::Filter::Area)?;
+            let cr = crate::study::source_on_grid(cr, (w, h), fusion_nostd::Filter::Area)?;
             crate::color::ycbcr_to_rgb(&fused.image, &cb, &cr)
         }
     };

@@ -1,5 +1,6 @@
-//! Image and array I/O for the host tools: PNG, JPEG and TIFF in (8/16-bit grey, 8-bit colour),
-//! PNG and TIFF out (chosen by the output's extension, [`OutFormat`]), float32 `.npy`.
+//! Image and array I/O for the host tools: PNG, JPEG, TIFF and binary PGM/PPM in (8/16-bit grey,
+//! 8-bit colour), PNG, TIFF and PGM out (chosen by the output's extension, [`OutFormat`]), float32
+//! `.npy`.
 //!
 //! Every output goes through the one write path, `render_host::output` (re-exported here:
 //! [`write_atomic`], [`write_bytes`], [`Batch`]): an exclusive temporary in the destination
@@ -68,13 +69,14 @@ fn format_name(f: image::ImageFormat) -> Option<&'static str> {
         image::ImageFormat::Png => Some("PNG"),
         image::ImageFormat::Jpeg => Some("JPEG"),
         image::ImageFormat::Tiff => Some("TIFF"),
+        image::ImageFormat::Pnm => Some("PGM/PPM"),
         _ => None,
     }
 }
 
 /// An input's decoder with its header read (nothing of the image data yet), and its format's
 /// name. The format is judged by the file's first bytes (a PNG named `.jpg` is read as PNG);
-/// a file that is none of PNG, JPEG and TIFF is refused by its extension's name.
+/// a file that is none of PNG, JPEG, TIFF and PGM/PPM is refused by its extension's name.
 fn decoder(path: &Path) -> Result<(impl image::ImageDecoder, &'static str)> {
     let reader = image::ImageReader::open(path)
         .with_context(|| format!("cannot open {}", path.display()))?
@@ -82,7 +84,7 @@ fn decoder(path: &Path) -> Result<(impl image::ImageDecoder, &'static str)> {
         .with_context(|| format!("cannot read {}", path.display()))?;
     let by_name = image::ImageFormat::from_path(path).ok().and_then(format_name);
     let Some(name) = reader.format().and_then(format_name).or(by_name) else {
-        bail!("{} is not a PNG, JPEG or TIFF file", path.display());
+        bail!("{} is not a PNG, JPEG, TIFF or PGM/PPM file", path.display());
     };
     let decoder =
         reader.into_decoder().with_context(|| format!("{} is not a valid {name}", path.display()))?;
@@ -146,7 +148,7 @@ impl Picture {
     }
 }
 
-/// Loads a PNG, JPEG or TIFF as it is stored ([`Picture`]). 16-bit colour and floating-point
+/// Loads a PNG, JPEG, TIFF or PGM/PPM as it is stored ([`Picture`]). 16-bit colour and floating-point
 /// images are refused.
 pub fn load_picture(path: &Path) -> Result<Picture> {
     let img = decode(path)?;
@@ -279,6 +281,8 @@ pub enum OutFormat {
     Png,
     /// `.tif`, `.tiff`
     Tiff,
+    /// `.pgm`: binary 8/16-bit grey (P5), the format of C flight tools (`fusion-ffi/examples`).
+    Pgm,
 }
 
 impl OutFormat {
@@ -287,6 +291,7 @@ impl OutFormat {
         match self {
             OutFormat::Png => "png",
             OutFormat::Tiff => "tif",
+            OutFormat::Pgm => "pgm",
         }
     }
 
@@ -299,8 +304,9 @@ impl OutFormat {
         match ext.as_deref() {
             Some("png") => Ok(OutFormat::Png),
             Some("tif" | "tiff") => Ok(OutFormat::Tiff),
+            Some("pgm") => Ok(OutFormat::Pgm),
             _ => bail!(
-                "{}: an output must end in .png, .tif or .tiff (the format follows the extension)",
+                "{}: an output must end in .png, .tif, .tiff or .pgm (the format follows the extension)",
                 path.display()
             ),
         }
@@ -320,6 +326,29 @@ pub fn encode_image(
         OutFormat::Png => encode_png(out, w, h, color, bytes),
         OutFormat::Tiff => {
             image::codecs::tiff::TiffEncoder::new(out).write_image(bytes, w as u32, h as u32, color)?;
+            Ok(())
+        }
+        OutFormat::Pgm => {
+            if !matches!(color, image::ExtendedColorType::L8 | image::ExtendedColorType::L16) {
+                bail!(
+                    "a PGM holds grey only: write a colour image as .png or .tif (or fuse with --color gray)"
+                );
+            }
+            // Binary P5, header `P5\n<w> <h> <maxval>\n`; 16-bit samples big-endian (the PGM rule).
+            let encoder = image::codecs::pnm::PnmEncoder::new(out).with_subtype(
+                image::codecs::pnm::PnmSubtype::Graymap(image::codecs::pnm::SampleEncoding::Binary),
+            );
+            let be: Vec<u8>;
+            let bytes = if color == image::ExtendedColorType::L16 {
+                be = bytes
+                    .chunks_exact(2)
+                    .flat_map(|c| u16::from_ne_bytes([c[0], c[1]]).to_be_bytes())
+                    .collect();
+                &be
+            } else {
+                bytes
+            };
+            encoder.write_image(bytes, w as u32, h as u32, color)?;
             Ok(())
         }
     }
@@ -343,18 +372,18 @@ pub fn encode_channels(
 
 pub use render_host::output::{Batch, write_atomic, write_bytes};
 
-/// Saves an 8-bit grey PNG or TIFF, by the extension (atomically).
+/// Saves an 8-bit grey PNG, TIFF or PGM, by the extension (atomically).
 pub fn save_gray_u8(path: &Path, img: &Gray<u8>) -> Result<()> {
     save_by_extension(path, img.width, img.height, image::ExtendedColorType::L8, &img.data)
 }
 
-/// Saves a 16-bit grey PNG or TIFF, by the extension (atomically).
+/// Saves a 16-bit grey PNG, TIFF or PGM, by the extension (atomically).
 pub fn save_gray_u16(path: &Path, img: &Gray<u16>) -> Result<()> {
     let bytes: Vec<u8> = img.data.iter().flat_map(|v| v.to_ne_bytes()).collect();
     save_by_extension(path, img.width, img.height, image::ExtendedColorType::L16, &bytes)
 }
 
-/// Saves in the format `path`'s extension names ([`OutFormat`]: `.png`, `.tif`, `.tiff`;
+/// Saves in the format `path`'s extension names ([`OutFormat`]: `.png`, `.tif`, `.tiff`, `.pgm`;
 /// anything else refused before anything is written).
 fn save_by_extension(
     path: &Path,

@@ -86,11 +86,13 @@ fn outputs_follow_their_extension_and_anything_else_is_refused() {
         assert!(!o.status.success());
         let err = String::from_utf8_lossy(&o.stderr);
         assert_eq!(err.trim().lines().count(), 1, "{err}");
-        assert!(err.contains(".png, .tif or .tiff"), "{err}");
+        assert!(err.contains(".png, .tif, .tiff or .pgm"), "{err}");
         assert!(!out.exists(), "{bad} written");
         // The same rule for `fusion rescale` (8- and 16-bit).
         let o = fusion(&["rescale", "--width", "20", "--height", "16", p(&grey), p(&out)]);
-        assert!(!o.status.success() && String::from_utf8_lossy(&o.stderr).contains(".png, .tif or .tiff"));
+        assert!(
+            !o.status.success() && String::from_utf8_lossy(&o.stderr).contains(".png, .tif, .tiff or .pgm")
+        );
         assert!(!out.exists(), "{bad} written by rescale");
     }
     let (small_png, small_tif) = (dir.path().join("s.png"), dir.path().join("s.tif"));
@@ -99,6 +101,30 @@ fn outputs_follow_their_extension_and_anything_else_is_refused() {
     }
     assert_eq!(&std::fs::read(&small_tif).unwrap()[..2], b"II");
     assert_eq!(load_picture(&small_png).unwrap(), load_picture(&small_tif).unwrap());
+
+    // PGM (the C example's format): grey out, with the header the C example writes; read back
+    // as the same pixels; PGM inputs fuse to the PNG inputs' bytes; a colour output is refused.
+    let pgm = dir.path().join("grey.pgm");
+    ok(&fusion(&["fuse", "--color", "gray", p(&vis), p(&tir), p(&pgm)]));
+    let bytes = std::fs::read(&pgm).unwrap();
+    let g = load_gray_u8(&grey, ColorPolicy::Refuse).unwrap();
+    let header = format!("P5\n{} {} 255\n", g.width, g.height);
+    assert_eq!(&bytes[..header.len()], header.as_bytes());
+    assert_eq!(&bytes[header.len()..], &g.data[..]);
+    let (vis_pgm, tir_pgm) = (dir.path().join("v.pgm"), dir.path().join("t.pgm"));
+    ok(&fusion(&["rescale", "--width", "64", "--height", "48", p(&grey), p(&vis_pgm)]));
+    ok(&fusion(&["rescale", "--width", "32", "--height", "24", p(&grey), p(&tir_pgm)]));
+    let (vis_png, tir_png) = (dir.path().join("v.png"), dir.path().join("t.png"));
+    ok(&fusion(&["rescale", "--width", "64", "--height", "48", p(&grey), p(&vis_png)]));
+    ok(&fusion(&["rescale", "--width", "32", "--height", "24", p(&grey), p(&tir_png)]));
+    let (from_pgm, from_png) = (dir.path().join("f1.pgm"), dir.path().join("f2.png"));
+    ok(&fusion(&["fuse", "--method", "adf", p(&vis_pgm), p(&tir_pgm), p(&from_pgm)]));
+    ok(&fusion(&["fuse", "--method", "adf", p(&vis_png), p(&tir_png), p(&from_png)]));
+    assert_eq!(load_picture(&from_pgm).unwrap(), load_picture(&from_png).unwrap());
+    let colour = dir.path().join("c.pgm");
+    let o = fusion(&["fuse", p(&vis), p(&tir), p(&colour)]);
+    assert!(!o.status.success() && String::from_utf8_lossy(&o.stderr).contains("PGM holds grey only"));
+    assert!(!colour.exists());
 }
 
 /// A thermal-like 16-bit frame: cold background, a warm block, counts in 14 bits.

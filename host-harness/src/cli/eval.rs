@@ -54,7 +54,7 @@ pub struct EvalArgs {
     pub vis: PathBuf,
     /// Thermal source (rescaled with bicubic to the fused grid if its size differs), or a folder.
     pub tir: PathBuf,
-    /// Fused image (PNG, JPEG or TIFF), or a folder.
+    /// Fused image (PNG, JPEG, TIFF or PGM), or a folder.
     pub fused: PathBuf,
 }
 

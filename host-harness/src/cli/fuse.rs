@@ -159,13 +159,13 @@ pub struct FuseArgs {
     /// Folders: the outputs' format [default: png] (one output's format follows its extension).
     #[arg(long, value_enum)]
     pub format: Option<OutFormat>,
-    /// Visible image (PNG, JPEG or TIFF; 8-bit grey or colour), or a folder of them.
+    /// Visible image (PNG, JPEG, TIFF or PGM/PPM; 8-bit grey or colour), or a folder of them.
     pub vis: PathBuf,
-    /// Thermal-infrared image (PNG, JPEG or TIFF; 8-bit, or 14/16-bit counts through --agc;
+    /// Thermal-infrared image (PNG, JPEG, TIFF or PGM; 8-bit, or 14/16-bit counts through --agc;
     /// colour is converted with BT.601 weights), or a folder of them (paired with the visible
     /// folder's files by name without extension).
     pub tir: PathBuf,
-    /// Fused output (.png or .tif/.tiff; RGB when the visible image is colour and --color
+    /// Fused output (.png, .tif/.tiff, or .pgm for grey; RGB when the visible image is colour and --color
     /// keep), or a folder for the pairs of two folders.
     pub output: PathBuf,
 }

@@ -38,7 +38,7 @@ pub enum Command {
     Bench(bench::BenchArgs),
     /// The study's Tables 2–7 on a rendered dataset, with plots and conclusions.
     Report(report::ReportArgs),
-    /// Rescale a grey image (PNG, JPEG, TIFF; 8- or 16-bit) with the core's bicubic or area
+    /// Rescale a grey image (PNG, JPEG, TIFF, PGM; 8- or 16-bit) with the core's bicubic or area
     /// rescaler.
     Rescale(rescale::RescaleArgs),
     /// Fuse a VIS/TIR pair or two folders of pairs: ADF, TSIFSD, IFEVIP, adaptive (core or f64

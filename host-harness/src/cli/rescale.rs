@@ -1,4 +1,4 @@
-//! `fusion rescale`: the core's rescalers on an image file (PNG, JPEG or TIFF in; PNG or TIFF out).
+//! `fusion rescale`: the core's rescalers on an image file (PNG, JPEG, TIFF or PGM in; PNG, TIFF or PGM out).
 
 use crate::io::{ColorPolicy, Gray, GrayInput, load_image, save_gray_u8, save_gray_u16};
 use anyhow::{Result, bail};
@@ -36,9 +36,9 @@ pub struct RescaleArgs {
     /// Output height in pixels.
     #[arg(long)]
     pub height: usize,
-    /// Input image (PNG, JPEG or TIFF; 8-bit or 16-bit grey).
+    /// Input image (PNG, JPEG, TIFF or PGM; 8-bit or 16-bit grey).
     pub input: PathBuf,
-    /// Output (.png or .tif/.tiff, by the extension; same bit depth as the input).
+    /// Output (.png, .tif/.tiff or .pgm, by the extension; same bit depth as the input).
     pub output: PathBuf,
 }
 

@@ -97,3 +97,13 @@ mod tests {
         }
     }
 }
+
+/// A fused luminance `y` back in colour with the visible frame's chroma: `cb` and `cr` follow
+/// the luminance onto the fusion grid (area, as the VIS band) when their size differs, then
+/// [`ycbcr_to_rgb`]. `fusion fuse` and the Python package (`vistir.fuse`) both colour here.
+pub fn fused_in_colour(y: &Gray<u8>, cb: &Gray<u8>, cr: &Gray<u8>) -> anyhow::Result<Channels> {
+    let grid = (y.width, y.height);
+    let cb = crate::study::source_on_grid(cb, grid, fusion_nostd::Filter::Area)?;
+    let cr = crate::study::source_on_grid(cr, grid, fusion_nostd::Filter::Area)?;
+    Ok(ycbcr_to_rgb(y, &cb, &cr))
+}

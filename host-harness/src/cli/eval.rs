@@ -98,9 +98,16 @@ fn score(suite: Suite, vis: &Path, tir: &Path, fused: &Path) -> Result<MetricTab
     let bytes =
         crate::memory::estimate((w as u64).saturating_mul(h as u64).saturating_mul(channels as u64), per_px);
     crate::memory::check(&fused.display().to_string(), "scoring this image", bytes)?;
-    let fused = load_channels_u8(fused)?;
-    let vis = channels_on_grid(&load_channels_u8(vis)?, w, h, Filter::Area)?;
-    let tir = channels_on_grid(&load_channels_u8(tir)?, w, h, Filter::Cubic)?;
+    score_images(suite, &load_channels_u8(vis)?, &load_channels_u8(tir)?, &load_channels_u8(fused)?)
+}
+
+/// Scores one triple of images (grey: one plane; colour: three): the sources are brought onto
+/// the fused grid (VIS area, TIR bicubic) when their sizes differ. `fusion eval` and the Python
+/// package (`vistir.eval`) both score here.
+pub fn score_images(suite: Suite, vis: &Channels, tir: &Channels, fused: &Channels) -> Result<MetricTable> {
+    let (w, h) = (fused.width, fused.height);
+    let vis = channels_on_grid(vis, w, h, Filter::Area)?;
+    let tir = channels_on_grid(tir, w, h, Filter::Cubic)?;
     let study = matches!(suite, Suite::Study | Suite::All)
         .then(|| study_metrics(&vis.to_gray(), &tir.to_gray(), &fused.to_gray()));
     let vifb = match suite {

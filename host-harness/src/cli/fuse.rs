@@ -616,13 +616,7 @@ fn fuse_files(
     }
     let image = match &input.chroma {
         None => Channels::from_gray(fused.image.clone()),
-        Some([cb, cr]) => {
-            // The chroma follows the luminance onto the fusion grid (area, as the VIS band).
-            let (w, h) = (fused.image.width, fused.image.height);
-            let cb = crate::study::source_on_grid(cb, (w, h), fusion_nostd::Filter::Area)?;
-            let cr = crate::study::source_on_grid(cr, (w, h), fusion_nostd::Filter::Area)?;
-            crate::color::ycbcr_to_rgb(&fused.image, &cb, &cr)
-        }
+        Some([cb, cr]) => crate::color::fused_in_colour(&fused.image, cb, cr)?,
     };
     // Both outputs or neither: the image and the raw array are staged, then renamed together.
     let mut batch = Batch::default();

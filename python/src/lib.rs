@@ -1,0 +1,489 @@
+//! `vistir`: the VIS/TIR fusion core, its metrics and its renderer from Python.
+//!
+//! Every function takes and returns numpy arrays (`uint8`, `uint16`; grey `(H, W)`, colour
+//! `(H, W, 3)`) and runs with the GIL released. Inputs whose rows are contiguous (any row
+//! stride) are read in place; the output is written in place into the array returned. The
+//! names of methods, variants, policies, filters and suites are the `fusion` CLI's, and so are
+//! the results, bit for bit (`tests/test_vistir.py` checks it against the CLI).
+
+use anyhow::{Context, bail};
+use clap::ValueEnum;
+use fusion_nostd::pipeline::{FuseReport, Pipeline};
+use fusion_nostd::{AgcMode, AgcParams, FrameMut, FrameRef};
+use host_harness::cli::eval::Suite;
+use host_harness::cli::fuse::{AgcArg, MethodArg, RescaleArg, SkipArg, VariantArg, method_for};
+use host_harness::cli::rescale::FilterArg;
+use host_harness::io::{Channels, Gray};
+use numpy::ndarray::ArrayView2;
+use numpy::{
+    IntoPyArray, PyArray2, PyArrayMethods, PyReadonlyArray2, PyReadonlyArray3, PyUntypedArrayMethods,
+};
+use pyo3::exceptions::{PyOSError, PyTypeError, PyValueError};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use std::path::PathBuf;
+
+/// A Python exception for a host error: `OSError` when a file operation failed, `ValueError`
+/// for everything else (the core's refusals, bad names), with the whole message chain.
+fn py_err(e: anyhow::Error) -> PyErr {
+    let message = format!("{e:#}");
+    if e.chain().any(|c| c.downcast_ref::<std::io::Error>().is_some()) {
+        PyOSError::new_err(message)
+    } else {
+        PyValueError::new_err(message)
+    }
+}
+
+/// A name the CLI knows for `what`, or a `ValueError` listing the names.
+fn named<T: ValueEnum>(what: &str, name: &str) -> PyResult<T> {
+    T::from_str(name, false).map_err(|_| {
+        let names: Vec<String> = T::value_variants()
+            .iter()
+            .filter_map(|v| v.to_possible_value().map(|p| p.get_name().to_string()))
+            .collect();
+        PyValueError::new_err(format!("{what} {name:?} is not one of {}", names.join(", ")))
+    })
+}
+
+/// A 2-D array's pixels as the core reads them: in place when each row is contiguous, else a
+/// contiguous copy.
+struct Plane<'a, T: Clone> {
+    data: std::borrow::Cow<'a, [T]>,
+    width: usize,
+    height: usize,
+    stride: usize,
+}
+
+impl<'a, T: Copy> Plane<'a, T> {
+    fn of(view: ArrayView2<'a, T>) -> Self {
+        let (height, width) = view.dim();
+        let strides = view.strides();
+        if height > 0 && width > 0 && strides[1] == 1 && strides[0] >= width as isize {
+            let stride = strides[0] as usize;
+            let len = (height - 1) * stride + width;
+            // SAFETY: numpy's buffer holds `height` rows `stride` elements apart, each with
+            // `width` contiguous elements from `as_ptr()`: `len` elements in all, alive and not
+            // written while the read-only borrow (`PyReadonlyArray`) lasts.
+            let data = unsafe { std::slice::from_raw_parts(view.as_ptr(), len) };
+            return Plane { data: data.into(), width, height, stride };
+        }
+        let data: Vec<T> = view.iter().copied().collect();
+        Plane { data: data.into(), width, height, stride: width }
+    }
+
+    fn view(&self) -> anyhow::Result<FrameRef<'_, T>> {
+        Ok(FrameRef::with_stride(&self.data, self.width, self.height, self.stride)?)
+    }
+
+    fn to_gray(&self) -> anyhow::Result<Gray<T>>
+    where
+        T: Default,
+    {
+        let v = self.view()?;
+        Ok(Gray { width: self.width, height: self.height, data: v.rows().flatten().copied().collect() })
+    }
+}
+
+/// The planes of a colour `(H, W, 3)` array as the host's [`Channels`] (a copy: colour is
+/// converted anyway).
+fn channels_of(rgb: &PyReadonlyArray3<'_, u8>) -> anyhow::Result<Channels> {
+    let a = rgb.as_array();
+    let (h, w, c) = a.dim();
+    if c != 3 {
+        bail!("a colour image is (H, W, 3); this one is (H, W, {c})");
+    }
+    let planes = (0..3).map(|k| a.index_axis(numpy::ndarray::Axis(2), k).iter().copied().collect()).collect();
+    Ok(Channels { width: w, height: h, planes })
+}
+
+/// An image argument: grey 8-bit, grey 16-bit or colour 8-bit.
+enum Image<'py> {
+    Gray8(PyReadonlyArray2<'py, u8>),
+    Gray16(PyReadonlyArray2<'py, u16>),
+    Rgb8(PyReadonlyArray3<'py, u8>),
+}
+
+impl<'py> Image<'py> {
+    fn of(what: &str, obj: &Bound<'py, PyAny>) -> PyResult<Self> {
+        if let Ok(a) = obj.extract::<PyReadonlyArray2<'py, u8>>() {
+            return Ok(Image::Gray8(a));
+        }
+        if let Ok(a) = obj.extract::<PyReadonlyArray2<'py, u16>>() {
+            return Ok(Image::Gray16(a));
+        }
+        if let Ok(a) = obj.extract::<PyReadonlyArray3<'py, u8>>()
+            && a.shape()[2] == 3
+        {
+            return Ok(Image::Rgb8(a));
+        }
+        let described = match obj.extract::<Bound<'py, numpy::PyUntypedArray>>() {
+            Ok(a) => format!("a {}-D array of {}", a.ndim(), a.dtype()),
+            Err(_) => format!("a {}", obj.get_type().name().map(|n| n.to_string()).unwrap_or_default()),
+        };
+        Err(PyTypeError::new_err(format!(
+            "{what}: need a numpy uint8 (H, W) or (H, W, 3), or uint16 (H, W) array; got {described}"
+        )))
+    }
+}
+
+/// The core configuration the CLI builds from these names.
+fn pipeline(method: &str, variant: &str, rescale: &str, skip: &str) -> PyResult<Pipeline> {
+    Ok(Pipeline {
+        method: method_for(named::<MethodArg>("method", method)?, named::<VariantArg>("variant", variant)?),
+        rescale: named::<RescaleArg>("rescale", rescale)?.into(),
+        skip: named::<SkipArg>("skip", skip)?.into(),
+        ..Pipeline::default()
+    })
+}
+
+/// The AGC parameters of the CLI's `--agc` and `--plateau` for a frame of `pixels`.
+fn agc_params(agc: &str, plateau: Option<u32>, pixels: usize) -> PyResult<AgcParams> {
+    let mode = match (named::<AgcArg>("agc", agc)?, plateau) {
+        (AgcArg::Linear, None) => return Ok(AgcParams::linear()),
+        (AgcArg::Linear, Some(_)) => return Err(PyValueError::new_err("plateau= is for agc=\"plateau\"")),
+        (AgcArg::Plateau, Some(0)) => {
+            return Err(PyValueError::new_err("plateau must be at least 1 pixel per bin"));
+        }
+        (AgcArg::Plateau, limit) => limit.map(|limit| AgcMode::Plateau { limit }),
+    };
+    let mut p = AgcParams::plateau(pixels);
+    if let Some(m) = mode {
+        p.mode = m;
+    }
+    Ok(p)
+}
+
+/// The fused grey frame and what the core reported.
+fn fuse_gray(
+    vis: &Plane<'_, u8>,
+    tir: &Plane<'_, u8>,
+    pipeline: &Pipeline,
+    strips: Option<usize>,
+    out: &mut [u8],
+    grid: (usize, usize),
+) -> anyhow::Result<FuseReport> {
+    let out = FrameMut::new(out, grid.0, grid.1)?;
+    if let Some(rows) = strips {
+        let mut scratch = host_harness::strips::HostStripScratch::default();
+        let (report, _) = fusion_nostd::strips::fuse_strips(
+            vis.view()?,
+            tir.view()?,
+            out,
+            &mut scratch.view_mut(),
+            pipeline,
+            rows,
+        )?;
+        return Ok(report);
+    }
+    let pixels = pipeline.scratch_pixels((vis.width, vis.height), (tir.width, tir.height))?;
+    let mut scratch = host_harness::CoreScratch::new(pixels);
+    Ok(fusion_nostd::fuse(vis.view()?, tir.view()?, out, &mut scratch.view_mut(), pipeline)?)
+}
+
+/// The report as a dict (`report=True`).
+fn report_dict<'py>(py: Python<'py>, r: &FuseReport) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(py);
+    d.set_item("grid", r.grid)?;
+    d.set_item("rescaled", r.rescaled)?;
+    d.set_item("guards", r.guards.to_string())?;
+    d.set_item("guard_bits", r.guards.0)?;
+    let s = &r.skip;
+    d.set_item("skip_taken", s.taken.0)?;
+    d.set_item("skip_declined", s.declined.map(|d| format!("{d:?}")))?;
+    d.set_item("illumination", s.illumination.map(|i| format!("{i:?}")))?;
+    d.set_item("window", (s.computed.x0, s.computed.y0, s.computed.x1, s.computed.y1))?;
+    d.set_item("background", s.background)?;
+    Ok(d)
+}
+
+/// Fuses a visible and a thermal frame: the same bytes as `fusion fuse`.
+///
+/// vis: uint8 (H, W) grey or (H, W, 3) RGB (the luminance is fused, the colour kept: an
+///   (H, W, 3) result). tir: uint8 (h, w), or uint16 (h, w) thermal counts mapped to 8 bits
+///   by the core AGC first (agc="linear" 1-99.9 %, or "plateau" equalisation with `plateau`
+///   pixels per bin). method: "adf", "tsifsd", "ifevip", "adaptive"; variant: "flight" or
+///   "classic"; rescale: "tir-up" (bicubic onto the VIS grid), "vis-down" (area onto the TIR
+///   grid), "none"; skip: "none", "roi", "all" (scene skipping). strips=N fuses in the 512 KiB
+///   strip working set, at most N rows a strip (the same bytes). report=True returns
+///   (image, dict) with the grid, guards and what skipping did.
+///
+/// Rows that are contiguous in memory are read in place (any row stride); the GIL is released
+/// while the core runs. Raises TypeError for an array of another dtype or shape, ValueError
+/// with the core's message for sizes or names it refuses.
+#[pyfunction]
+#[pyo3(signature = (vis, tir, method="tsifsd", variant="flight", rescale="tir-up", skip="none", *, agc="linear", plateau=None, strips=None, report=false))]
+#[allow(clippy::too_many_arguments)]
+fn fuse<'py>(
+    py: Python<'py>,
+    vis: &Bound<'py, PyAny>,
+    tir: &Bound<'py, PyAny>,
+    method: &str,
+    variant: &str,
+    rescale: &str,
+    skip: &str,
+    agc: &str,
+    plateau: Option<u32>,
+    strips: Option<usize>,
+    report: bool,
+) -> PyResult<Py<PyAny>> {
+    let pipeline = pipeline(method, variant, rescale, skip)?;
+    if strips == Some(0) {
+        return Err(PyValueError::new_err("strips is the most rows per strip: at least 1 (or None)"));
+    }
+    if strips.is_some() && skip != "none" {
+        return Err(PyValueError::new_err("strips run without scene skipping: give skip=\"none\""));
+    }
+    let (vis_in, tir_in) = (Image::of("vis", vis)?, Image::of("tir", tir)?);
+    // The visible frame: grey as given, colour as its luminance with the chroma kept.
+    let (vis_gray, chroma) = match &vis_in {
+        Image::Gray8(a) => (Plane::of(a.as_array()), None),
+        Image::Gray16(_) => {
+            return Err(PyValueError::new_err(
+                "vis is 16-bit; give an 8-bit one (the AGC is for the thermal band)",
+            ));
+        }
+        Image::Rgb8(a) => {
+            let [y, cb, cr] = host_harness::color::rgb_to_ycbcr(&channels_of(a).map_err(py_err)?);
+            (Plane { width: y.width, height: y.height, stride: y.width, data: y.data.into() }, Some([cb, cr]))
+        }
+    };
+    // The thermal frame: 8-bit as given, 16-bit counts through the core AGC, colour as grey.
+    let tir_gray: Plane<'_, u8> = match &tir_in {
+        Image::Gray8(a) => Plane::of(a.as_array()),
+        Image::Gray16(a) => {
+            let counts = Plane::of(a.as_array());
+            let params = agc_params(agc, plateau, counts.width * counts.height)?;
+            let mut mapped = Gray::<u8>::new(counts.width, counts.height);
+            py.detach(|| -> anyhow::Result<()> {
+                let mut state = host_harness::agc::fresh();
+                fusion_nostd::agc_frame(&mut state, counts.view()?, mapped.view_mut()?, &params)?;
+                Ok(())
+            })
+            .context("tir: AGC")
+            .map_err(py_err)?;
+            Plane {
+                width: mapped.width,
+                height: mapped.height,
+                stride: mapped.width,
+                data: mapped.data.into(),
+            }
+        }
+        Image::Rgb8(a) => {
+            let g = channels_of(a).map_err(py_err)?.to_gray();
+            Plane { width: g.width, height: g.height, stride: g.width, data: g.data.into() }
+        }
+    };
+    let grid = fusion_nostd::pipeline::fusion_grid(
+        (vis_gray.width, vis_gray.height),
+        (tir_gray.width, tir_gray.height),
+        pipeline.rescale,
+    )
+    .map_err(|e| py_err(e.into()))?;
+    let fused = PyArray2::<u8>::zeros(py, [grid.1, grid.0], false);
+    // SAFETY: the array was just created here and no Python code can see it yet.
+    let out = unsafe { fused.as_slice_mut() }.map_err(|e| PyValueError::new_err(e.to_string()))?;
+    let r = py.detach(|| fuse_gray(&vis_gray, &tir_gray, &pipeline, strips, out, grid)).map_err(py_err)?;
+    let image: Py<PyAny> = match chroma {
+        None => fused.into_any().unbind(),
+        Some([cb, cr]) => {
+            let y = Gray { width: grid.0, height: grid.1, data: fused.readonly().as_slice()?.to_vec() };
+            let rgb = py.detach(|| host_harness::color::fused_in_colour(&y, &cb, &cr)).map_err(py_err)?;
+            let interleaved: Vec<u8> = (0..grid.0 * grid.1)
+                .flat_map(|i| [rgb.planes[0][i], rgb.planes[1][i], rgb.planes[2][i]])
+                .collect();
+            let flat = interleaved.into_pyarray(py);
+            flat.reshape([grid.1, grid.0, 3])?.into_any().unbind()
+        }
+    };
+    if report {
+        let d = report_dict(py, &r)?;
+        return Ok((image, d).into_pyobject(py)?.into_any().unbind());
+    }
+    Ok(image)
+}
+
+/// Rescales a grey image with the core's rescalers (`fusion rescale`): filter "cubic" (Keys,
+/// a = -0.75, cv2.INTER_CUBIC) or "area" (cv2.INTER_AREA); bit-exact with OpenCV at factor 2.
+/// img: uint8 or uint16 (H, W); returns the same dtype, (height, width).
+#[pyfunction]
+#[pyo3(signature = (img, width, height, filter="cubic"))]
+fn rescale<'py>(
+    py: Python<'py>,
+    img: &Bound<'py, PyAny>,
+    width: usize,
+    height: usize,
+    filter: &str,
+) -> PyResult<Py<PyAny>> {
+    let filter: fusion_nostd::Filter = named::<FilterArg>("filter", filter)?.into();
+    fn run<'py, T: fusion_nostd::Sample + numpy::Element + Default + Send + Sync>(
+        py: Python<'py>,
+        src: &PyReadonlyArray2<'py, T>,
+        w: usize,
+        h: usize,
+        filter: fusion_nostd::Filter,
+    ) -> PyResult<Py<PyAny>> {
+        let plane = Plane::of(src.as_array());
+        let out = PyArray2::<T>::zeros(py, [h, w], false);
+        // SAFETY: created here, not visible to Python yet.
+        let slice = unsafe { out.as_slice_mut() }.map_err(|e| PyValueError::new_err(e.to_string()))?;
+        py.detach(|| -> anyhow::Result<()> {
+            fusion_nostd::rescale(plane.view()?, FrameMut::new(slice, w, h)?, filter)?;
+            Ok(())
+        })
+        .map_err(py_err)?;
+        Ok(out.into_any().unbind())
+    }
+    match Image::of("img", img)? {
+        Image::Gray8(a) => run(py, &a, width, height, filter),
+        Image::Gray16(a) => run(py, &a, width, height, filter),
+        Image::Rgb8(_) => Err(PyTypeError::new_err("img: rescale takes a grey (H, W) uint8 or uint16 array")),
+    }
+}
+
+/// An 8-bit image argument as the host's [`Channels`] (grey or colour).
+fn channels_arg(what: &str, obj: &Bound<'_, PyAny>) -> PyResult<Channels> {
+    match Image::of(what, obj)? {
+        Image::Gray8(a) => {
+            let g = Plane::of(a.as_array()).to_gray().map_err(py_err)?;
+            Ok(Channels::from_gray(g))
+        }
+        Image::Rgb8(a) => channels_of(&a).map_err(py_err),
+        Image::Gray16(_) => Err(PyTypeError::new_err(format!("{what}: metrics take 8-bit images"))),
+    }
+}
+
+/// Fusion metrics of `fused` against its sources (`fusion eval`): a dict of name -> value,
+/// with the names of the CLI's CSV header. suite: "vifb" (VIFB's 13 metrics exactly as its
+/// MATLAB code computes them; colour per channel), "study" (AG, MI, FMI, SSIM, RMSE and
+/// Haghighat's FMIs), "all" (both, names prefixed "study." / "vifb."). The sources are brought
+/// onto the fused grid first (VIS area, TIR bicubic). NaN where the reference code is undefined.
+#[pyfunction]
+#[pyo3(name = "eval", signature = (vis, tir, fused, suite="vifb"))]
+fn eval_metrics<'py>(
+    py: Python<'py>,
+    vis: &Bound<'py, PyAny>,
+    tir: &Bound<'py, PyAny>,
+    fused: &Bound<'py, PyAny>,
+    suite: &str,
+) -> PyResult<Bound<'py, PyDict>> {
+    let suite = named::<Suite>("suite", suite)?;
+    let (v, t, f) = (channels_arg("vis", vis)?, channels_arg("tir", tir)?, channels_arg("fused", fused)?);
+    let table = py.detach(|| host_harness::cli::eval::score_images(suite, &v, &t, &f)).map_err(py_err)?;
+    let d = PyDict::new(py);
+    for (name, value) in &table.rows {
+        d.set_item(name, *value)?;
+    }
+    Ok(d)
+}
+
+/// Reads an image file (PNG, JPEG, TIFF, PGM/PPM): uint8 (H, W) or (H, W, 3), or uint16 (H, W).
+#[pyfunction]
+fn load(py: Python<'_>, path: PathBuf) -> PyResult<Py<PyAny>> {
+    let picture = py.detach(|| host_harness::io::load_picture(&path)).map_err(py_err)?;
+    Ok(match picture {
+        host_harness::io::Picture::Gray8(g) => {
+            g.data.into_pyarray(py).reshape([g.height, g.width])?.into_any().unbind()
+        }
+        host_harness::io::Picture::Gray16(g) => {
+            g.data.into_pyarray(py).reshape([g.height, g.width])?.into_any().unbind()
+        }
+        host_harness::io::Picture::Rgb8(c) => {
+            let n = c.width * c.height;
+            let interleaved: Vec<u8> =
+                (0..n).flat_map(|i| [c.planes[0][i], c.planes[1][i], c.planes[2][i]]).collect();
+            interleaved.into_pyarray(py).reshape([c.height, c.width, 3])?.into_any().unbind()
+        }
+    })
+}
+
+/// Writes an image by its extension (`.png`, `.tif`/`.tiff`, `.pgm` for grey), atomically:
+/// the file appears whole or not at all.
+#[pyfunction]
+fn save(py: Python<'_>, path: PathBuf, img: &Bound<'_, PyAny>) -> PyResult<()> {
+    match Image::of("img", img)? {
+        Image::Gray8(a) => {
+            let g = Plane::of(a.as_array()).to_gray().map_err(py_err)?;
+            py.detach(|| host_harness::io::save_gray_u8(&path, &g)).map_err(py_err)
+        }
+        Image::Gray16(a) => {
+            let g = Plane::of(a.as_array()).to_gray().map_err(py_err)?;
+            py.detach(|| host_harness::io::save_gray_u16(&path, &g)).map_err(py_err)
+        }
+        Image::Rgb8(a) => {
+            let c = channels_of(&a).map_err(py_err)?;
+            py.detach(|| -> anyhow::Result<()> {
+                let format = host_harness::io::OutFormat::of(&path)?;
+                host_harness::io::write_atomic(&path, |w| host_harness::io::encode_channels(w, format, &c))
+            })
+            .map_err(py_err)
+        }
+    }
+}
+
+/// `fusion render`'s options, parsed by the CLI's own parser.
+#[derive(clap::Parser)]
+struct RenderCommand {
+    #[command(flatten)]
+    args: render_host::cli::RenderArgs,
+}
+
+/// Renders a dataset (`fusion render`) or a rendezvous sequence (sequence="approach" or
+/// "flyaround") into the folder `out` (a new folder appears whole or not at all; an existing
+/// one is written into) and returns its manifest, the
+/// parsed `manifest.json`: per frame the files, the camera pose and the illumination phase.
+/// frames: how many (default: the CLI's); tir_sizes: thermal frame sizes (dataset); tir16:
+/// also write 16-bit thermal counts.
+#[pyfunction]
+#[pyo3(signature = (out, frames=None, sequence=None, seed=1, vis_size=1024, tir_sizes=None, tir16=false))]
+#[allow(clippy::too_many_arguments)]
+fn render<'py>(
+    py: Python<'py>,
+    out: PathBuf,
+    frames: Option<usize>,
+    sequence: Option<&str>,
+    seed: u64,
+    vis_size: u32,
+    tir_sizes: Option<Vec<u32>>,
+    tir16: bool,
+) -> PyResult<Bound<'py, PyAny>> {
+    let mut argv: Vec<String> = vec!["render".into(), "--out".into(), out.display().to_string()];
+    argv.extend(["--seed".into(), seed.to_string(), "--vis-size".into(), vis_size.to_string()]);
+    if let Some(n) = frames {
+        argv.extend(["--frames".into(), n.to_string()]);
+    }
+    if let Some(s) = sequence {
+        argv.extend(["--sequence".into(), s.to_string()]);
+    }
+    if let Some(sizes) = tir_sizes {
+        let list: Vec<String> = sizes.iter().map(u32::to_string).collect();
+        argv.extend(["--tir-sizes".into(), list.join(",")]);
+    }
+    if tir16 {
+        argv.push("--tir16".into());
+    }
+    let command = <RenderCommand as clap::Parser>::try_parse_from(&argv)
+        .map_err(|e| PyValueError::new_err(e.to_string().trim().to_string()))?;
+    let manifest = py
+        .detach(|| -> anyhow::Result<String> {
+            render_host::output::set_quiet(true);
+            render_host::cli::run(&command.args)?;
+            let path = out.join("manifest.json");
+            std::fs::read_to_string(&path).with_context(|| format!("cannot read {}", path.display()))
+        })
+        .map_err(py_err)?;
+    py.import("json")?.call_method1("loads", (manifest,))
+}
+
+/// VIS/TIR image fusion for spacecraft navigation: the flight core, the metrics and the
+/// renderer from Python.
+#[pymodule]
+fn vistir(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    m.add_function(wrap_pyfunction!(fuse, m)?)?;
+    m.add_function(wrap_pyfunction!(rescale, m)?)?;
+    m.add_function(wrap_pyfunction!(eval_metrics, m)?)?;
+    m.add_function(wrap_pyfunction!(load, m)?)?;
+    m.add_function(wrap_pyfunction!(save, m)?)?;
+    m.add_function(wrap_pyfunction!(render, m)?)?;
+    Ok(())
+}

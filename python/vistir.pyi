@@ -1,0 +1,96 @@
+"""VIS/TIR image fusion for spacecraft navigation: the flight core, the metrics and the
+renderer of the `fusion` project, with numpy arrays. Results are the `fusion` CLI's, bit for bit.
+"""
+
+from os import PathLike
+from typing import Any, Literal, Optional, Sequence, Tuple, Union, overload
+
+import numpy as np
+import numpy.typing as npt
+
+__version__: str
+
+Gray8 = npt.NDArray[np.uint8]  # (H, W)
+Gray16 = npt.NDArray[np.uint16]  # (H, W) thermal counts
+Rgb8 = npt.NDArray[np.uint8]  # (H, W, 3)
+Method = Literal["adf", "tsifsd", "ifevip", "adaptive"]
+VariantName = Literal["flight", "classic"]
+RescaleName = Literal["tir-up", "vis-down", "none"]
+SkipName = Literal["none", "roi", "all"]
+AgcName = Literal["linear", "plateau"]
+Path = Union[str, PathLike[str]]
+
+@overload
+def fuse(
+    vis: Union[Gray8, Rgb8],
+    tir: Union[Gray8, Gray16],
+    method: Method = "tsifsd",
+    variant: VariantName = "flight",
+    rescale: RescaleName = "tir-up",
+    skip: SkipName = "none",
+    *,
+    agc: AgcName = "linear",
+    plateau: Optional[int] = None,
+    strips: Optional[int] = None,
+    report: Literal[False] = False,
+) -> npt.NDArray[np.uint8]: ...
+@overload
+def fuse(
+    vis: Union[Gray8, Rgb8],
+    tir: Union[Gray8, Gray16],
+    method: Method = "tsifsd",
+    variant: VariantName = "flight",
+    rescale: RescaleName = "tir-up",
+    skip: SkipName = "none",
+    *,
+    agc: AgcName = "linear",
+    plateau: Optional[int] = None,
+    strips: Optional[int] = None,
+    report: Literal[True],
+) -> Tuple[npt.NDArray[np.uint8], dict[str, Any]]:
+    """Fuses a visible and a thermal frame: the same bytes as `fusion fuse`.
+
+    vis: uint8 (H, W) grey or (H, W, 3) RGB (the luminance is fused and the colour kept: the
+    result is then (H, W, 3)). tir: uint8 (h, w), or uint16 (h, w) thermal counts mapped to 8
+    bits by the core AGC first. The output is on the VIS grid for rescale="tir-up", on the TIR
+    grid for "vis-down". strips=N fuses in the 512 KiB strip working set (at most N rows a
+    strip): the same bytes. report=True also returns a dict: grid, rescaled, guards,
+    guard_bits, skip_taken, skip_declined, illumination, window, background.
+
+    Raises TypeError for another dtype or shape, ValueError with the core's message for sizes
+    or names it refuses. The GIL is released while the core runs.
+    """
+
+def rescale(
+    img: Union[Gray8, Gray16], width: int, height: int, filter: Literal["cubic", "area"] = "cubic"
+) -> Union[Gray8, Gray16]:
+    """Rescales a grey image with the core's rescalers (cv2.INTER_CUBIC / cv2.INTER_AREA
+    semantics, bit-exact with OpenCV at factor 2); returns (height, width) of the same dtype."""
+
+def eval(
+    vis: Union[Gray8, Rgb8],
+    tir: Union[Gray8, Rgb8],
+    fused: Union[Gray8, Rgb8],
+    suite: Literal["vifb", "study", "all"] = "vifb",
+) -> dict[str, float]:
+    """Fusion metrics of `fused` against its sources (`fusion eval`), named as the CLI's CSV
+    header: VIFB's 13 (AG, CE, EI, EN, MI, PSNR, Qabf, Qcb, Qcv, RMSE, SF, SSIM, SD) exactly as
+    VIFB's MATLAB code computes them, the study's suite, or both. NaN where undefined."""
+
+def load(path: Path) -> Union[Gray8, Gray16, Rgb8]:
+    """Reads a PNG, JPEG, TIFF or PGM/PPM: uint8 (H, W) or (H, W, 3), or uint16 (H, W)."""
+
+def save(path: Path, img: Union[Gray8, Gray16, Rgb8]) -> None:
+    """Writes .png, .tif/.tiff or .pgm (grey) by the extension; the file appears whole or not at all."""
+
+def render(
+    out: Path,
+    frames: Optional[int] = None,
+    sequence: Optional[Literal["approach", "flyaround"]] = None,
+    seed: int = 1,
+    vis_size: int = 1024,
+    tir_sizes: Optional[Sequence[int]] = None,
+    tir16: bool = False,
+) -> dict[str, Any]:
+    """Renders a dataset or a rendezvous sequence (with ground truth) into the folder `out` (a
+    new folder appears whole or not at all) and returns its manifest (the parsed manifest.json)."""

@@ -111,7 +111,7 @@ pub fn score_images(suite: Suite, vis: &Channels, tir: &Channels, fused: &Channe
     let study = matches!(suite, Suite::Study | Suite::All)
         .then(|| study_metrics(&vis.to_gray(), &tir.to_gray(), &fused.to_gray()));
     let vifb = match suite {
-        Suite::Vifb | Suite::All => Some(vifb::vifb_metrics(&vis, &tir, &fused)?),
+        Suite::Vifb | Suite::All => Some(vifb::vifb_metrics(&vis, &tir, fused)?),
         Suite::Study => None,
     };
     Ok(MetricTable::new(study.as_ref(), vifb.as_ref(), suite == Suite::All))

@@ -54,6 +54,16 @@ pub fn ycbcr_to_rgb(y: &Gray<u8>, cb: &Gray<u8>, cr: &Gray<u8>) -> Channels {
     }
 }
 
+/// A fused luminance `y` back in colour with the visible frame's chroma: `cb` and `cr` follow
+/// the luminance onto the fusion grid (area, as the VIS band) when their size differs, then
+/// [`ycbcr_to_rgb`]. `fusion fuse` and the Python package (`vistir.fuse`) both colour here.
+pub fn fused_in_colour(y: &Gray<u8>, cb: &Gray<u8>, cr: &Gray<u8>) -> anyhow::Result<Channels> {
+    let grid = (y.width, y.height);
+    let cb = crate::study::source_on_grid(cb, grid, fusion_nostd::Filter::Area)?;
+    let cr = crate::study::source_on_grid(cr, grid, fusion_nostd::Filter::Area)?;
+    Ok(ycbcr_to_rgb(y, &cb, &cr))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -96,14 +106,4 @@ mod tests {
             assert!(worst <= Some(1), "channel {k}: {worst:?}");
         }
     }
-}
-
-/// A fused luminance `y` back in colour with the visible frame's chroma: `cb` and `cr` follow
-/// the luminance onto the fusion grid (area, as the VIS band) when their size differs, then
-/// [`ycbcr_to_rgb`]. `fusion fuse` and the Python package (`vistir.fuse`) both colour here.
-pub fn fused_in_colour(y: &Gray<u8>, cb: &Gray<u8>, cr: &Gray<u8>) -> anyhow::Result<Channels> {
-    let grid = (y.width, y.height);
-    let cb = crate::study::source_on_grid(cb, grid, fusion_nostd::Filter::Area)?;
-    let cr = crate::study::source_on_grid(cr, grid, fusion_nostd::Filter::Area)?;
-    Ok(ycbcr_to_rgb(y, &cb, &cr))
 }

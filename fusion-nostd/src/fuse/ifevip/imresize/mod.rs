@@ -557,7 +557,7 @@ impl Sample for u8 {
     fn pass_cols(src: FrameRef<'_, u8>, taps: &Taps<'_>, dst: FrameMut<'_, i32>, out: Output) {
         #[cfg(fusion_arm_dsp)]
         if taps.stride == 8 + 2 && matches!(out, Output::U8) {
-            arm_cols::cols8::<u8, true>(src, taps, dst, arm_cols::u8_to_u8);
+            arm::cols8::<u8, true>(src, taps, dst, arm::u8_to_u8);
             return;
         }
         cols_u8_best(src, taps, dst, out)
@@ -572,7 +572,7 @@ impl Sample for i32 {
             match out {
                 Output::U8 => rows_with::<i32, 8, true>(src, taps, dst, dot8_arm),
                 Output::Same => {
-                    if !arm_cols::rows8::<false>(src, taps, dst.reborrow()) {
+                    if !arm::rows8::<false>(src, taps, dst.reborrow()) {
                         rows_with::<i32, 8, false>(src, taps, dst, dot8_arm);
                     }
                 }
@@ -595,84 +595,15 @@ impl Sample for i32 {
     fn pass_cols(src: FrameRef<'_, i32>, taps: &Taps<'_>, dst: FrameMut<'_, i32>, out: Output) {
         #[cfg(fusion_arm_dsp)]
         if taps.stride == 8 + 2 && matches!(out, Output::Same) {
-            arm_cols::cols8::<i32, false>(src, taps, dst, arm_cols::i32_to_same);
+            arm::cols8::<i32, false>(src, taps, dst, arm::i32_to_same);
             return;
         }
         cols_i32_best(src, taps, dst, out)
     }
 }
 
-/// The 8-tap row pass of `i32` planes on x86-64 with AVX2 (IFEVIP's passes at 1024² all have
-/// 8 taps): `vpmuldq` forms the exact `i64` products four at a time, four outputs are reduced
-/// together. The same sums, hence the same bits, as [`rows_n`] (test
-/// `avx2_rows_equal_portable_rows`).
 #[cfg(target_arch = "x86_64")]
-mod avx2 {
-    use super::{Taps, WEIGHT_BITS, finish, row_n};
-    use crate::{FrameMut, FrameRef};
-    use core::arch::x86_64::*;
-
-    #[target_feature(enable = "avx2")]
-    #[inline]
-    fn load8(s: &[i32; 8]) -> __m256i {
-        // SAFETY: `s` is exactly 32 readable bytes; unaligned load.
-        unsafe { _mm256_loadu_si256(s.as_ptr().cast()) }
-    }
-
-    /// The 8 products `s·w` (exact, `i64`) summed pairwise into 4 lanes.
-    #[target_feature(enable = "avx2")]
-    #[inline]
-    fn products(s: &[i32; 8], w: &[i32; 8]) -> __m256i {
-        let (s, w) = (load8(s), load8(w));
-        let even = _mm256_mul_epi32(s, w);
-        let odd = _mm256_mul_epi32(_mm256_srli_epi64::<32>(s), _mm256_srli_epi64::<32>(w));
-        _mm256_add_epi64(even, odd)
-    }
-
-    #[target_feature(enable = "avx2")]
-    pub(super) fn rows8<const U8: bool>(src: FrameRef<'_, i32>, taps: &Taps<'_>, mut dst: FrameMut<'_, i32>) {
-        let half = _mm256_set1_epi64x(1 << (WEIGHT_BITS - 1));
-        let low_words = _mm256_setr_epi32(0, 2, 4, 6, 0, 0, 0, 0);
-        for (s, d) in src.rows().zip(dst.rows_mut()) {
-            let mut table = taps.table.chunks_exact(taps.stride.max(1));
-            let sum = |row: Option<&[i32]>| {
-                row.and_then(row_n::<8>)
-                    .and_then(|(start, ws)| Some(products(s.get(start..)?.first_chunk::<8>()?, ws)))
-                    .unwrap_or(_mm256_setzero_si256())
-            };
-            let (quads, tail) = d.as_chunks_mut::<4>();
-            for quad in quads {
-                let [s0, s1, s2, s3] = [(); 4].map(|_| sum(table.next()));
-                // Lane i of `total` = Σ of the four partials of s_i.
-                let a = _mm256_add_epi64(_mm256_unpacklo_epi64(s0, s1), _mm256_unpackhi_epi64(s0, s1));
-                let b = _mm256_add_epi64(_mm256_unpacklo_epi64(s2, s3), _mm256_unpackhi_epi64(s2, s3));
-                let total = _mm256_add_epi64(
-                    _mm256_permute2x128_si256::<0x20>(a, b),
-                    _mm256_permute2x128_si256::<0x31>(a, b),
-                );
-                // (Σ + 2²⁹) >> 30: the low 32 bits of a logical shift are the arithmetic ones
-                // (every result fits an i32, see `finish`).
-                let r = _mm256_srli_epi64::<{ WEIGHT_BITS as i32 }>(_mm256_add_epi64(total, half));
-                let mut v = _mm256_castsi256_si128(_mm256_permutevar8x32_epi32(r, low_words));
-                if U8 {
-                    v = _mm_min_epi32(_mm_max_epi32(v, _mm_setzero_si128()), _mm_set1_epi32(255));
-                }
-                let mut out = [0i32; 4];
-                // SAFETY: `out` is 16 writable bytes; unaligned store.
-                unsafe { _mm_storeu_si128(out.as_mut_ptr().cast(), v) };
-                *quad = out;
-            }
-            for o in tail {
-                let acc = table
-                    .next()
-                    .and_then(row_n::<8>)
-                    .and_then(|(start, ws)| Some(super::dot(s.get(start..)?.first_chunk::<8>()?, ws)))
-                    .unwrap_or(0);
-                *o = finish::<U8>(acc);
-            }
-        }
-    }
-}
+mod avx2;
 
 /// Resizes every row (along the width) with `taps`: `dst` must be `taps`' output length wide
 /// and as high as `src`.
@@ -768,254 +699,15 @@ crate::cpu::dispatch! {
     fn cols_i32_best(src: FrameRef<'_, i32>, taps: &Taps<'_>, dst: FrameMut<'_, i32>, out: Output) => cols_i32
 }
 
-/// The 8-tap column pass on the Cortex-M4/M7 for the two forms IFEVIP runs at every frame size
-/// — `u8` frame → [`Output::U8`] (the IR onto the quadtree grid) and `i32` plane →
-/// [`Output::Same`] (the background back onto the frame) — in assembly, two columns per loop
-/// pass: the weight read once for both, `ldrb`/`ldr` and `smlal` per tap and column, the
-/// rounding in 32 bits (LLVM's schedule reloaded the eight row pointers and the weights for
-/// every output: ≈ 49 instructions per output; this is ≈ 31). The same exact `i64` sums and
-/// the same rounding as [`cols_n`]: `u8` sources keep `|Σ| < 2³⁹`, so the rounded sum fits
-/// `i32` and `usat #8` is the clamp; `Same` keeps the low 32 bits, as `finish` does.
 #[cfg(fusion_arm_dsp)]
-mod arm_cols {
-    use super::{Taps, finish, row_n};
-    use crate::{FrameMut, FrameRef};
-
-    /// `pairs` pairs of outputs of one row: tap `t` of output column `x` reads the sample at
-    /// `src + t·step + x·size_of::<T>()` with weight `ws[t]`.
-    pub(super) type Kernel<T> =
-        unsafe fn(src: *const T, step: usize, ws: &[i32; 8], out: *mut i32, pairs: usize);
-
-    /// The two-column loop: `$load` reads tap `t`'s two samples (at `r5`) into r9 and r10,
-    /// `$advance` is the byte step to the next column pair, `$clamp` the optional `usat`.
-    /// r6/r7 are pushed and popped, every other register written is declared.
-    macro_rules! cols8_asm {
-        ($src:expr, $step:expr, $ws:expr, $out:expr, $pairs:expr,
-         [$($load:literal),+], $advance:literal, [$($clamp:literal),*]) => {
-            core::arch::asm!(
-                "push {{r6, r7}}",
-                "2:",
-                "mov r5, r0",
-                "ldr r8, [r2]",
-                $($load,)+
-                "smull r11, r12, r9, r8",
-                "smull lr, r6, r10, r8",
-                "add r5, r5, r1", "ldr r8, [r2, #4]", $($load,)+
-                "smlal r11, r12, r9, r8", "smlal lr, r6, r10, r8",
-                "add r5, r5, r1", "ldr r8, [r2, #8]", $($load,)+
-                "smlal r11, r12, r9, r8", "smlal lr, r6, r10, r8",
-                "add r5, r5, r1", "ldr r8, [r2, #12]", $($load,)+
-                "smlal r11, r12, r9, r8", "smlal lr, r6, r10, r8",
-                "add r5, r5, r1", "ldr r8, [r2, #16]", $($load,)+
-                "smlal r11, r12, r9, r8", "smlal lr, r6, r10, r8",
-                "add r5, r5, r1", "ldr r8, [r2, #20]", $($load,)+
-                "smlal r11, r12, r9, r8", "smlal lr, r6, r10, r8",
-                "add r5, r5, r1", "ldr r8, [r2, #24]", $($load,)+
-                "smlal r11, r12, r9, r8", "smlal lr, r6, r10, r8",
-                "add r5, r5, r1", "ldr r8, [r2, #28]", $($load,)+
-                "smlal r11, r12, r9, r8", "smlal lr, r6, r10, r8",
-                // The low 32 bits of (Σ + 2²⁹) >> 30 per column, then the optional clamp.
-                "adds r11, r11, #0x20000000",
-                "adc r12, r12, #0",
-                "lsr r11, r11, #30",
-                "orr r11, r11, r12, lsl #2",
-                $(concat!($clamp, " r11, #8, r11"),)*
-                "adds lr, lr, #0x20000000",
-                "adc r6, r6, #0",
-                "lsr lr, lr, #30",
-                "orr lr, lr, r6, lsl #2",
-                $(concat!($clamp, " lr, #8, lr"),)*
-                "strd r11, lr, [r3], #8",
-                concat!("add r0, r0, #", $advance),
-                "subs r4, r4, #1",
-                "bne 2b",
-                "pop {{r6, r7}}",
-                inout("r0") $src => _,
-                in("r1") $step,
-                in("r2") $ws.as_ptr(),
-                inout("r3") $out => _,
-                inout("r4") $pairs => _,
-                out("r5") _,
-                out("r8") _,
-                out("r9") _,
-                out("r10") _,
-                out("r11") _,
-                out("r12") _,
-                out("lr") _,
-            )
-        };
-    }
-
-    /// `u8` samples, [`super::Output::U8`].
-    ///
-    /// # Safety
-    /// For every `t < 8` and `x < 2·pairs` the sample address lies in one readable row, and
-    /// `out` has `2·pairs` writable, word-aligned `i32`; `pairs ≥ 1`.
-    pub(super) unsafe fn u8_to_u8(src: *const u8, step: usize, ws: &[i32; 8], out: *mut i32, pairs: usize) {
-        // SAFETY: the caller's contract.
-        unsafe { cols8_asm!(src, step, ws, out, pairs, ["ldrb r9, [r5]", "ldrb r10, [r5, #1]"], 2, ["usat"]) }
-    }
-
-    /// `i32` samples, [`super::Output::Same`] (the low 32 bits of the rounded sum).
-    ///
-    /// # Safety
-    /// As [`u8_to_u8`], with `i32` samples.
-    pub(super) unsafe fn i32_to_same(
-        src: *const i32,
-        step: usize,
-        ws: &[i32; 8],
-        out: *mut i32,
-        pairs: usize,
-    ) {
-        // SAFETY: the caller's contract.
-        unsafe { cols8_asm!(src, step, ws, out, pairs, ["ldrd r9, r10, [r5]"], 8, []) }
-    }
-
-    /// The 8-tap row pass of an `i32` plane, one output per loop pass in assembly: the table
-    /// row's start and weights read in place, four `ldrd` sample pairs, four `ldrd` weight
-    /// pairs, eight `smull`/`smlal`, the low 32 bits of the rounded sum as `finish` keeps them
-    /// for [`super::Output::Same`] (`CLAMP` false), or that value through `usat #8` for
-    /// [`super::Output::U8`] (`CLAMP` true; equal to `finish` when the rounded sum fits `i32`,
-    /// which the callers guarantee) — ≈ 26 instructions per output where the Rust loop around
-    /// [`super::dot8_arm`] took ≈ 36.
-    ///
-    /// # Safety
-    /// `table` holds `outputs` rows of 10 words `[start, count, w₀ … w₇]`, each with
-    /// `0 ≤ start` and `start + 8 ≤` the length of the row at `src`; `out` has `outputs`
-    /// writable `i32`; `outputs ≥ 1`.
-    unsafe fn row8<const CLAMP: bool>(src: *const i32, table: *const i32, out: *mut i32, outputs: usize) {
-        macro_rules! row8_asm {
-            ($($clamp:literal)?) => {
-                // SAFETY: the caller's contract; every register written is declared.
-                unsafe {
-                    core::arch::asm!(
-                        "2:",
-                        "ldr r5, [r1]",
-                        "add r5, r0, r5, lsl #2",
-                        "ldrd r8, r9, [r5]",
-                        "ldrd r10, r11, [r1, #8]",
-                        "smull r12, lr, r8, r10",
-                        "smlal r12, lr, r9, r11",
-                        "ldrd r8, r9, [r5, #8]",
-                        "ldrd r10, r11, [r1, #16]",
-                        "smlal r12, lr, r8, r10",
-                        "smlal r12, lr, r9, r11",
-                        "ldrd r8, r9, [r5, #16]",
-                        "ldrd r10, r11, [r1, #24]",
-                        "smlal r12, lr, r8, r10",
-                        "smlal r12, lr, r9, r11",
-                        "ldrd r8, r9, [r5, #24]",
-                        "ldrd r10, r11, [r1, #32]",
-                        "smlal r12, lr, r8, r10",
-                        "smlal r12, lr, r9, r11",
-                        "adds r12, r12, #0x20000000",
-                        "adc lr, lr, #0",
-                        "lsr r12, r12, #30",
-                        "orr r12, r12, lr, lsl #2",
-                        $($clamp,)?
-                        "str r12, [r2], #4",
-                        "add r1, r1, #40",
-                        "subs r3, r3, #1",
-                        "bne 2b",
-                        in("r0") src,
-                        inout("r1") table => _,
-                        inout("r2") out => _,
-                        inout("r3") outputs => _,
-                        out("r5") _,
-                        out("r8") _,
-                        out("r9") _,
-                        out("r10") _,
-                        out("r11") _,
-                        out("r12") _,
-                        out("lr") _,
-                        options(nostack),
-                    );
-                }
-            };
-        }
-        if CLAMP {
-            row8_asm!("usat r12, #8, r12");
-        } else {
-            row8_asm!();
-        }
-    }
-
-    /// The row pass with [`row8`] when every table row's eight samples lie inside the source
-    /// rows; returns false (nothing written) otherwise. `CLAMP` ([`super::Output::U8`]) only
-    /// for sources in `0..=255` (then `|Σ| < 2³⁹` and the rounded sum fits `i32`).
-    pub(super) fn rows8<const CLAMP: bool>(
-        src: FrameRef<'_, i32>,
-        taps: &Taps<'_>,
-        mut dst: FrameMut<'_, i32>,
-    ) -> bool {
-        let (sw, w) = (src.width(), dst.width());
-        let rows = taps.table.chunks_exact(10);
-        let inside = taps.stride == 10
-            && rows.len() >= w
-            && rows.take(w).all(|r| r.first().is_some_and(|&s| s >= 0 && s as usize + 8 <= sw));
-        if w == 0 || !inside || dst.height() != src.height() {
-            return false;
-        }
-        for (d, s) in dst.rows_mut().zip(src.rows()) {
-            // Always true: a view's rows are exactly its width long.
-            if d.len() >= w && s.len() >= sw {
-                // SAFETY: the table has ≥ w rows of 10 words, each with 0 ≤ start and
-                // start + 8 ≤ sw ≤ the length of `s` (checked above); `d` holds ≥ w `i32`;
-                // w ≥ 1.
-                unsafe { row8::<CLAMP>(s.as_ptr(), taps.table.as_ptr(), d.as_mut_ptr(), w) };
-            }
-        }
-        true
-    }
-
-    /// The column pass with `kernel` on every output row whose eight source rows are evenly
-    /// spaced in memory and at least as wide as `dst` (every row of a frame view); the odd
-    /// last column, and any row that is not, by the portable sum.
-    pub(super) fn cols8<T: Copy + Into<i64>, const U8: bool>(
-        src: FrameRef<'_, T>,
-        taps: &Taps<'_>,
-        mut dst: FrameMut<'_, i32>,
-        kernel: Kernel<T>,
-    ) {
-        let w = dst.width();
-        for (d, row) in dst.rows_mut().zip(taps.table.chunks_exact(taps.stride.max(1))) {
-            let Some((start, ws)) = row_n::<8>(row) else {
-                d.fill(0);
-                continue;
-            };
-            let rows: [&[T]; 8] =
-                core::array::from_fn(|t| if start + t < src.height() { src.row(start + t) } else { &[] });
-            let [first, second, ..] = rows;
-            let base = first.as_ptr() as usize;
-            let step = (second.as_ptr() as usize).wrapping_sub(base);
-            let even = rows
-                .iter()
-                .enumerate()
-                .all(|(t, r)| r.len() >= w && r.as_ptr() as usize == base.wrapping_add(t.wrapping_mul(step)));
-            let pairs = if even && d.len() >= w { w / 2 } else { 0 };
-            if pairs > 0 {
-                // SAFETY: output column x < 2·pairs ≤ w of tap t reads `rows[t][x]` (every row
-                // has ≥ w samples and starts at base + t·step, checked above); `d` holds ≥ w
-                // word-aligned `i32`.
-                unsafe { kernel(first.as_ptr(), step, ws, d.as_mut_ptr(), pairs) };
-            }
-            for (x, o) in d.iter_mut().enumerate().skip(2 * pairs) {
-                let acc = rows
-                    .iter()
-                    .zip(ws)
-                    .fold(0i64, |acc, (r, &wt)| acc + r.get(x).map_or(0, |&v| v.into()) * i64::from(wt));
-                *o = finish::<U8>(acc);
-            }
-        }
-    }
-}
+mod arm;
 
 /// [`pass_rows`] into [`Output::U8`] of a source whose samples all lie in `0..=255` (the
 /// output of a `U8` pass), which lets the Cortex-M kernel round in 32 bits; the same bytes as
 /// [`pass_rows`] (which it runs on other targets, or when a table row reaches outside).
 pub(crate) fn pass_rows_u8_range(src: FrameRef<'_, i32>, taps: &Taps<'_>, mut dst: FrameMut<'_, i32>) {
     #[cfg(fusion_arm_dsp)]
-    if arm_cols::rows8::<true>(src, taps, dst.reborrow()) {
+    if arm::rows8::<true>(src, taps, dst.reborrow()) {
         return;
     }
     pass_rows(src, taps, dst.reborrow(), Output::U8)
@@ -1028,103 +720,4 @@ pub fn pass_cols<T: Sample>(src: FrameRef<'_, T>, taps: &Taps<'_>, dst: FrameMut
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    extern crate std;
-
-    #[test]
-    fn weights_sum_to_one_and_identity_at_scale_one() -> Result<(), Error> {
-        let mut buf = [0i32; 8192];
-        for (n_in, n_out) in [(5usize, 5usize), (1, 7), (7, 1), (332, 512), (630, 512), (512, 2), (3, 512)] {
-            let taps = build(n_in, n_out, &mut buf)?;
-            let mut rows = 0;
-            for (start, ws) in taps.iter() {
-                rows += 1;
-                assert_eq!(
-                    ws.iter().map(|&w| i64::from(w)).sum::<i64>(),
-                    1 << WEIGHT_BITS,
-                    "{n_in}->{n_out}"
-                );
-                assert!(start + ws.len() <= n_in);
-            }
-            assert_eq!(rows, n_out);
-        }
-        let taps = build(5, 5, &mut buf)?;
-        for (x, (start, ws)) in taps.iter().enumerate() {
-            let ones: i32 = ws.iter().filter(|&&w| w == 1 << WEIGHT_BITS).count() as i32;
-            assert_eq!(ones, 1);
-            let pos = ws.iter().position(|&w| w == 1 << WEIGHT_BITS).unwrap_or(usize::MAX);
-            assert_eq!(start + pos, x);
-        }
-        Ok(())
-    }
-
-    /// The period reuse gives the table of the row-by-row exact computation.
-    #[test]
-    fn periodic_rows_equal_computed_rows() -> Result<(), Error> {
-        let mut a = std::vec![0i32; 1 << 16];
-        let mut b = std::vec![0i32; 1 << 16];
-        for (n_in, n_out) in [
-            (1024usize, 512usize),
-            (512, 1024),
-            (512, 512),
-            (301, 512),
-            (512, 232),
-            (7, 3),
-            (3, 7),
-            (1, 9),
-            (640, 480),
-        ] {
-            let reused = build_with(n_in, n_out, &mut a, true)?;
-            let (s1, t1) = (reused.stride, reused.table.to_vec());
-            let exact = build_with(n_in, n_out, &mut b, false)?;
-            assert_eq!((s1, t1), (exact.stride, exact.table.to_vec()), "{n_in} -> {n_out}");
-        }
-        Ok(())
-    }
-
-    /// The AVX2 8-tap row pass against the portable one (both output kinds, ragged widths).
-    #[test]
-    fn avx2_rows_equal_portable_rows() -> Result<(), Error> {
-        let mut buf = std::vec![0i32; 1 << 16];
-        let mut seed = 7u32;
-        for (n_in, n_out, h) in [(1024usize, 512usize, 3usize), (64, 35, 2), (40, 21, 1)] {
-            let taps = build(n_in, n_out, &mut buf)?;
-            if taps.stride() != 10 {
-                continue;
-            }
-            let src: std::vec::Vec<i32> = (0..n_in * h)
-                .map(|_| {
-                    seed = seed.wrapping_mul(1664525).wrapping_add(1013904223);
-                    (seed >> 4) as i32 - (1 << 27)
-                })
-                .collect();
-            for out in [Output::U8, Output::Same] {
-                let mut a = std::vec![0i32; n_out * h];
-                let mut b = std::vec![1i32; n_out * h];
-                pass_rows(FrameRef::new(&src, n_in, h)?, &taps, FrameMut::new(&mut a, n_out, h)?, out);
-                rows_kernel(FrameRef::new(&src, n_in, h)?, &taps, FrameMut::new(&mut b, n_out, h)?, out);
-                assert_eq!(a, b, "{n_in}->{n_out} {out:?}");
-            }
-        }
-        Ok(())
-    }
-
-    #[test]
-    fn kernel_matches_keys_half() {
-        // 2D³·cubic(σ/D) at σ/D = 0, 0.5, 1, 1.5, 2 with D = 8.
-        let d = 8;
-        let two_d3 = 2 * d * d * d;
-        assert_eq!(kernel_num(0, d), two_d3);
-        assert_eq!(kernel_num(4, d) * 16, two_d3 * 9); // cubic(0.5) = 0.5625
-        assert_eq!(kernel_num(-8, d), 0);
-        assert_eq!(kernel_num(12, d) * 16, -two_d3); // cubic(1.5) = −0.0625
-        assert_eq!(kernel_num(16, d), 0);
-    }
-
-    #[test]
-    fn small_too_small_buffer_is_an_error() {
-        let mut buf = [0i32; 8];
-        assert!(matches!(build(630, 512, &mut buf), Err(Error::ScratchTooSmall { .. })));
-    }
-}
+mod tests;

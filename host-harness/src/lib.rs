@@ -50,6 +50,11 @@ impl CoreScratch {
         Self { planes: std::array::from_fn(|_| vec![0; pixels]), band: vec![0; pixels] }
     }
 
+    /// Pixels each plane holds.
+    pub fn pixels(&self) -> usize {
+        self.band.len()
+    }
+
     /// The core view of the planes.
     pub fn view_mut(&mut self) -> fusion_nostd::ScratchMut<'_> {
         let [a, b, c] = &mut self.planes;

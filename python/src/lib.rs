@@ -176,8 +176,22 @@ fn fuse_gray(
         return Ok(report);
     }
     let pixels = pipeline.scratch_pixels((vis.width, vis.height), (tir.width, tir.height))?;
-    let mut scratch = host_harness::CoreScratch::new(pixels);
-    Ok(fusion_nostd::fuse(vis.view()?, tir.view()?, out, &mut scratch.view_mut(), pipeline)?)
+    SCRATCH.with_borrow_mut(|kept| {
+        // The work memory of the largest frame so far, kept for the thread's next call (the
+        // output never depends on what the scratch held: the core's contract).
+        let scratch = match kept {
+            Some(s) if s.pixels() >= pixels => s,
+            _ => kept.insert(host_harness::CoreScratch::new(pixels)),
+        };
+        Ok(fusion_nostd::fuse(vis.view()?, tir.view()?, out, &mut scratch.view_mut(), pipeline)?)
+    })
+}
+
+thread_local! {
+    /// Each thread's work memory, kept between calls: allocating and zeroing 13 bytes per
+    /// pixel on every call cost more than the fusion itself on small frames (IFEVIP's scratch
+    /// covers at least its 512² normalisation grid). BENCHMARKS.md, "From C and Python".
+    static SCRATCH: std::cell::RefCell<Option<host_harness::CoreScratch>> = const { std::cell::RefCell::new(None) };
 }
 
 /// The report as a dict (`report=True`).

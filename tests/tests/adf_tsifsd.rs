@@ -285,6 +285,39 @@ fn classic_weight_sum(vis: &Gray<u8>, tir: &Gray<u8>) -> f64 {
     p_ir.abs() + p_vis.abs()
 }
 
+/// Per pixel, how far classic ADF's published KL weights carry the core's diffusion error:
+/// `|Δp_IR·D_IR| + |Δp_VIS·D_VIS|`, with `Δp` the weights of the core's detail layers (from its
+/// own base layers, [`fusion_nostd::fuse::adf::diffuse_pair`]) less the reference's. Near a
+/// degenerate eigenvector (`v₁ + v₂ ≈ 0`) the weights are ill-conditioned: a base-layer error of
+/// a hundredth of a level moves them by more than the fixed-point bound allows for.
+fn classic_weight_error(vis: &Gray<u8>, tir: &Gray<u8>) -> Vec<f64> {
+    let p = adf(Variant::Classic);
+    let (w, h) = (vis.width, vis.height);
+    let mut state = vec![0i32; w * h];
+    let mut work = vec![0i32; 32_768 + 3 * (w + 2) * usize::from(p.iterations) + w * h];
+    let (bv, bt) = (FrameRef::new(&vis.data, w, h).unwrap(), FrameRef::new(&tir.data, w, h).unwrap());
+    let band = fusion_nostd::fuse::adf::Band::Frame;
+    fusion_nostd::fuse::adf::diffuse_pair(band(bv), band(bt), (w, h), &p, &mut state, &mut work).unwrap();
+    let q7 = 128.0;
+    let core_detail = |g: &Gray<u8>, half: fn(i32) -> i32| -> Vec<f64> {
+        g.data.iter().zip(&state).map(|(&x, &s)| f64::from(x) - f64::from(half(s)) / q7).collect()
+    };
+    let (cd_vis, cd_ir) = (core_detail(vis, |s| i32::from(s as i16)), core_detail(tir, |s| s >> 16));
+    let (v, t) = (to_f64(vis), to_f64(tir));
+    let (a_v, a_t) = (reference::adf::diffuse(&v, &p), reference::adf::diffuse(&t, &p));
+    let detail = |i: &Gray<f64>, a: &Gray<f64>| -> Vec<f64> {
+        i.data.iter().zip(&a.data).map(|(x, y)| x - y).collect()
+    };
+    let (rd_ir, rd_vis) = (detail(&t, &a_t), detail(&v, &a_v));
+    let (p_ir, p_vis) = reference::adf::kl_weights(&rd_ir, &rd_vis, Variant::Classic);
+    let (c_ir, c_vis) = reference::adf::kl_weights(&cd_ir, &cd_vis, Variant::Classic);
+    rd_ir
+        .iter()
+        .zip(&rd_vis)
+        .map(|(di, dv)| ((c_ir - p_ir) * di).abs() + ((c_vis - p_vis) * dv).abs())
+        .collect()
+}
+
 fn constant(w: usize, h: usize, v: u8) -> Gray<u8> {
     Gray { width: w, height: h, data: vec![v; w * h] }
 }
@@ -492,15 +525,15 @@ mod properties {
             let want = reference(method, variant, &to_f64(&vis), &to_f64(&tir));
             // Classic ADF's unbounded weights scale the fixed-point error (see
             // `core_matches_the_reference_on_synthetic_frames`).
-            let bound = if method == Method::Adf && variant == Variant::Classic {
-                2.0 * classic_weight_sum(&vis, &tir).max(1.0)
-            } else {
-                2.0
-            };
-            for (i, (&o, &r)) in out.data.iter().zip(&want.data).enumerate() {
+            // Near a degenerate eigenvector they are also ill-conditioned: the weights' own error,
+            // carried from the core's base layers, adds per pixel (`classic_weight_error`).
+            let classic = method == Method::Adf && variant == Variant::Classic;
+            let bound = if classic { 2.0 * classic_weight_sum(&vis, &tir).max(1.0) } else { 2.0 };
+            let weight_error = if classic { classic_weight_error(&vis, &tir) } else { vec![0.0; w * h] };
+            for (i, ((&o, &r), e)) in out.data.iter().zip(&want.data).zip(&weight_error).enumerate() {
                 // ADF classic near a degenerate eigenvector is ill-conditioned: skip huge weights.
                 if r.is_finite() && r.abs() < 1e4 {
-                    prop_assert!(f64::from(o.abs_diff(cast(r))) <= bound, "{method:?} {variant:?} {w}x{h} pixel {i}: {o} vs {r}, bound {bound}");
+                    prop_assert!(f64::from(o.abs_diff(cast(r))) <= bound + e, "{method:?} {variant:?} {w}x{h} pixel {i}: {o} vs {r}, bound {bound} + weight error {e}");
                 }
             }
         }

@@ -10,21 +10,12 @@
 //! with this test build's (x86-64, debug assertions on) when the images and QEMU are there.
 
 use fusion_nostd::pipeline::{Method, Pipeline, RescalePolicy, fuse};
-use fusion_nostd::{
-    AdaptiveParams, AdfParams, FrameMut, FrameRef, IfevipParams, ScratchMut, TsifsdParams, Variant,
-};
+use fusion_nostd::{AdaptiveParams, AdfParams, FrameMut, FrameRef, IfevipParams, ScratchMut, TsifsdParams};
 use fusion_tests::{TestRng, scene};
 use host_harness::io::Gray;
 
 fn methods() -> Vec<Method> {
-    let mut all = Vec::new();
-    for variant in [Variant::Classic, Variant::Flight] {
-        all.push(Method::Adf(AdfParams { variant, ..AdfParams::default() }));
-        all.push(Method::Tsifsd(TsifsdParams { variant, ..TsifsdParams::default() }));
-        all.push(Method::Ifevip(IfevipParams { variant, ..IfevipParams::default() }));
-    }
-    all.push(Method::Adaptive(AdaptiveParams::default()));
-    all
+    Method::all().to_vec()
 }
 
 /// Heap scratch whose every plane is pre-filled by `fill(plane, index)`.

@@ -3,23 +3,14 @@
 
 use fusion_nostd::fuse::{Guards, round_away_sat_u8};
 use fusion_nostd::pipeline::{Method, Pipeline, RescalePolicy, fuse, fuse_raw, fusion_grid};
-use fusion_nostd::{AdaptiveParams, AdfParams, Error, Filter, IfevipParams, TsifsdParams, Variant, rescale};
+use fusion_nostd::{Error, Filter, rescale};
 use fusion_tests::{assert_same, scene};
 use host_harness::CoreScratch;
 use host_harness::cli::fuse::{fuse_core, fuse_reference};
 use host_harness::io::Gray;
 
 fn methods() -> [Method; 7] {
-    let (c, f) = (Variant::Classic, Variant::Flight);
-    [
-        Method::Adf(AdfParams { variant: c, ..AdfParams::default() }),
-        Method::Adf(AdfParams::default()),
-        Method::Tsifsd(TsifsdParams { variant: c, ..TsifsdParams::default() }),
-        Method::Tsifsd(TsifsdParams { variant: f, ..TsifsdParams::default() }),
-        Method::Ifevip(IfevipParams { variant: c, ..IfevipParams::default() }),
-        Method::Ifevip(IfevipParams::default()),
-        Method::Adaptive(AdaptiveParams::default()),
-    ]
+    Method::all()
 }
 
 fn run(vis: &Gray<u8>, tir: &Gray<u8>, pipeline: &Pipeline) -> Result<(Gray<u8>, Guards, bool), Error> {
@@ -152,4 +143,29 @@ fn bad_geometry_is_an_error() {
     // a ratio the 2× kernels do not have still works through the general rescaler
     let tir = scene(30, 17, 2);
     assert!(run(&vis, &tir, &p).is_ok());
+}
+
+/// `Method::all` lists each method and variant once with valid default parameters, and its
+/// names are the ones navbench's JSON and the CLI use (`<method>-<variant>`, `adaptive`).
+#[test]
+fn every_method_and_variant_is_listed_once_by_name() {
+    let all = Method::all();
+    let names: Vec<&str> = all.iter().map(Method::name).collect();
+    assert_eq!(
+        names,
+        [
+            "adf-classic",
+            "adf-flight",
+            "tsifsd-classic",
+            "tsifsd-flight",
+            "ifevip-classic",
+            "ifevip-flight",
+            "adaptive"
+        ]
+    );
+    for m in &all {
+        m.validate().unwrap();
+        assert!(m.name().starts_with(m.kind()));
+        assert_eq!(m.variant().is_none(), m.kind() == "adaptive");
+    }
 }

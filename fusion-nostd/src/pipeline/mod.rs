@@ -53,11 +53,11 @@
 //!   follows the TIR target alone ([`Skips::ECLIPSE_TIR_TARGET`]; its VIS-side work, the box
 //!   sum, is ≈ 5 % and kept).
 
-use crate::fuse::Guards;
 use crate::fuse::adaptive::{AdaptiveParams, Decision, decide, decide_frame, fuse_adaptive};
 use crate::fuse::adf::{AdfParams, fuse_adf, fuse_adf_raw};
 use crate::fuse::ifevip::{IfevipParams, fuse_ifevip};
 use crate::fuse::tsifsd::{TsifsdParams, fuse_tsifsd, fuse_tsifsd_raw};
+use crate::fuse::{Guards, Variant};
 use crate::scene::{Decline, Illumination, Rect, Scene, SceneParams, analyze};
 use crate::{Error, Filter, FrameMut, FrameRef, ScratchMut, rescale};
 
@@ -386,6 +386,57 @@ fn on_grid(
 }
 
 impl Method {
+    /// Every method and variant with the default parameters, in a fixed order: ADF, TSIFSD
+    /// and IFEVIP each classic then flight, then the adaptive method (one variant). Tests,
+    /// firmware sweeps and tools iterate this instead of listing the methods by hand.
+    pub fn all() -> [Method; 7] {
+        let (c, f) = (Variant::Classic, Variant::Flight);
+        [
+            Method::Adf(AdfParams { variant: c, ..AdfParams::default() }),
+            Method::Adf(AdfParams { variant: f, ..AdfParams::default() }),
+            Method::Tsifsd(TsifsdParams { variant: c, ..TsifsdParams::default() }),
+            Method::Tsifsd(TsifsdParams { variant: f, ..TsifsdParams::default() }),
+            Method::Ifevip(IfevipParams { variant: c, ..IfevipParams::default() }),
+            Method::Ifevip(IfevipParams { variant: f, ..IfevipParams::default() }),
+            Method::Adaptive(AdaptiveParams::default()),
+        ]
+    }
+
+    /// The method's short name: `adf`, `tsifsd`, `ifevip`, `adaptive` (the CLI's and the C
+    /// interface's).
+    pub fn kind(&self) -> &'static str {
+        match self {
+            Method::Adf(_) => "adf",
+            Method::Tsifsd(_) => "tsifsd",
+            Method::Ifevip(_) => "ifevip",
+            Method::Adaptive(_) => "adaptive",
+        }
+    }
+
+    /// The variant, for the methods that have two (`None` for the adaptive method).
+    pub fn variant(&self) -> Option<Variant> {
+        match self {
+            Method::Adf(p) => Some(p.variant),
+            Method::Tsifsd(p) => Some(p.variant),
+            Method::Ifevip(p) => Some(p.variant),
+            Method::Adaptive(_) => None,
+        }
+    }
+
+    /// `<method>-<variant>` (`adf-flight`, `tsifsd-classic`, …) or `adaptive`: the names of
+    /// `fusion navbench`'s sources and of the budget table's rows.
+    pub fn name(&self) -> &'static str {
+        match (self.kind(), self.variant()) {
+            ("adf", Some(Variant::Classic)) => "adf-classic",
+            ("adf", _) => "adf-flight",
+            ("tsifsd", Some(Variant::Classic)) => "tsifsd-classic",
+            ("tsifsd", _) => "tsifsd-flight",
+            ("ifevip", Some(Variant::Classic)) => "ifevip-classic",
+            ("ifevip", _) => "ifevip-flight",
+            _ => "adaptive",
+        }
+    }
+
     /// Checks the method's parameters.
     pub fn validate(&self) -> Result<(), Error> {
         match self {

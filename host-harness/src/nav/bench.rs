@@ -22,11 +22,8 @@ use super::track::{Feature, describe, match_features, test_pairs};
 use crate::CoreScratch;
 use crate::io::{ColorPolicy, Gray, load_gray_u8};
 use anyhow::{Context, Result};
-use fusion_nostd::fuse::Variant;
 use fusion_nostd::pipeline::SkipPolicy;
-use fusion_nostd::{
-    AdaptiveParams, AdfParams, Filter, IfevipParams, Method, Pipeline, RescalePolicy, TsifsdParams,
-};
+use fusion_nostd::{AdaptiveParams, Filter, Method, Pipeline, RescalePolicy};
 use image::GrayImage;
 use rayon::prelude::*;
 use render_host::glam::{DVec2, DVec3};
@@ -64,21 +61,12 @@ pub fn streams() -> Vec<(String, Stream)> {
         ));
     }
     for skip in [SkipPolicy::None, SkipPolicy::All] {
-        for (m, variant) in [
-            ("adf", Variant::Classic),
-            ("adf", Variant::Flight),
-            ("tsifsd", Variant::Classic),
-            ("tsifsd", Variant::Flight),
-            ("ifevip", Variant::Classic),
-            ("ifevip", Variant::Flight),
-        ] {
-            let method = match m {
-                "adf" => Method::Adf(AdfParams { variant, ..AdfParams::default() }),
-                "tsifsd" => Method::Tsifsd(TsifsdParams { variant, ..TsifsdParams::default() }),
-                _ => Method::Ifevip(IfevipParams { variant, ..IfevipParams::default() }),
+        for method in Method::all().into_iter().filter(|m| m.variant().is_some()) {
+            let name = if skip == SkipPolicy::None {
+                method.name().to_string()
+            } else {
+                format!("{}-skip", method.name())
             };
-            let v = if variant == Variant::Classic { "classic" } else { "flight" };
-            let name = if skip == SkipPolicy::None { format!("{m}-{v}") } else { format!("{m}-{v}-skip") };
             out.push((
                 name,
                 Stream::Fused(Pipeline {

@@ -28,6 +28,7 @@ pub mod color;
 pub mod folders;
 pub mod io;
 pub mod memory;
+pub mod methods;
 pub mod metrics;
 pub mod nav;
 pub mod plot;

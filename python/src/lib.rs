@@ -11,9 +11,9 @@ use clap::ValueEnum;
 use fusion_nostd::pipeline::{FuseReport, Pipeline};
 use fusion_nostd::{AgcMode, AgcParams, FrameMut, FrameRef};
 use host_harness::cli::eval::Suite;
-use host_harness::cli::fuse::{AgcArg, MethodArg, RescaleArg, SkipArg, VariantArg, method_for};
 use host_harness::cli::rescale::FilterArg;
 use host_harness::io::{Channels, Gray};
+use host_harness::methods::{AgcArg, MethodArg, RescaleArg, SkipArg, VariantArg, method_for};
 use numpy::ndarray::ArrayView2;
 use numpy::{
     IntoPyArray, PyArray2, PyArrayMethods, PyReadonlyArray2, PyReadonlyArray3, PyUntypedArrayMethods,

@@ -9,8 +9,8 @@ use fusion_nostd::pipeline::{Method, Pipeline, RescalePolicy, adaptive_decision,
 use fusion_nostd::scene::SceneParams;
 use fusion_nostd::{Filter, Guards, rescale};
 use host_harness::CoreScratch;
-use host_harness::cli::fuse::{fuse_core, fuse_reference};
 use host_harness::io::Gray;
+use host_harness::methods::{fuse_core, fuse_reference};
 use host_harness::study::Dataset;
 use render_host::{DatasetConfig, render_dataset};
 

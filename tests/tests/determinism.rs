@@ -193,7 +193,7 @@ fn fw_selftest_matches_the_host() {
         ("adaptive", Method::Adaptive(AdaptiveParams::default())),
     ] {
         let p = Pipeline { rescale: RescalePolicy::TirUp, method, ..Default::default() };
-        let fused = host_harness::cli::fuse::fuse_core(&vis, &tir, &p, false).unwrap();
+        let fused = host_harness::methods::fuse_core(&vis, &tir, &p, false).unwrap();
         host.push(format!(
             "@fw selftest {name} guards 0x{:02x} fnv1a {:08x}",
             fused.guards.0,

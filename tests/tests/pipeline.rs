@@ -6,8 +6,8 @@ use fusion_nostd::pipeline::{Method, Pipeline, RescalePolicy, fuse, fuse_raw, fu
 use fusion_nostd::{Error, Filter, rescale};
 use fusion_tests::{assert_same, scene};
 use host_harness::CoreScratch;
-use host_harness::cli::fuse::{fuse_core, fuse_reference};
 use host_harness::io::Gray;
+use host_harness::methods::{fuse_core, fuse_reference};
 
 fn methods() -> [Method; 7] {
     Method::all()

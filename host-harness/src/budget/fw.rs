@@ -2,8 +2,8 @@
 //! reading back what the image reported (protocol: `fw/src/main.rs`, `fw/src/job.rs`).
 
 use super::elf::Elf;
-use crate::cli::fuse::{MethodArg, RescaleArg, SkipArg, VariantArg};
 use crate::io::Gray;
+use crate::methods::{MethodArg, RescaleArg, SkipArg, VariantArg};
 use anyhow::{Context, Result, bail, ensure};
 use std::fmt;
 use std::fs;
@@ -231,7 +231,7 @@ impl RunSpec {
     pub fn pipeline(&self) -> fusion_nostd::pipeline::Pipeline {
         fusion_nostd::pipeline::Pipeline {
             rescale: self.policy.into(),
-            method: crate::cli::fuse::method_for(self.method, self.variant),
+            method: crate::methods::method_for(self.method, self.variant),
             skip: self.skip.into(),
             scene: fusion_nostd::scene::SceneParams::default(),
         }

@@ -13,8 +13,8 @@ pub mod fw;
 pub mod skip_study;
 pub mod table;
 
-use crate::cli::fuse::{MethodArg, RescaleArg, VariantArg, fuse_core, method_for};
 use crate::io::{ColorPolicy, Gray, load_gray_u8};
+use crate::methods::{MethodArg, RescaleArg, VariantArg, fuse_core, method_for};
 use anyhow::{Context, Result, bail, ensure};
 use elf::Elf;
 use fusion_nostd::pipeline::Pipeline;

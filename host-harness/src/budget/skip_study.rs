@@ -11,9 +11,9 @@
 //! the first `whole_frames` frames of each set and version only (the host still fuses them all).
 
 use super::fw::{self, Grid, Job, RunOut, RunSpec, Target};
-use crate::cli::fuse::{MethodArg, RescaleArg, SkipArg, VariantArg};
 use crate::io::Gray;
 use crate::io::{ColorPolicy, load_gray_u8};
+use crate::methods::{MethodArg, RescaleArg, SkipArg, VariantArg};
 use crate::plot::{Labels, Series, Style, chart};
 use crate::skip::fuse_once;
 use crate::study::{Dataset, version};

@@ -8,7 +8,7 @@
 //!
 //! Inputs: frame 0 of a rendered dataset (`--data`, rendered at the study's sizes when empty).
 
-use crate::cli::fuse::fuse_reference;
+use crate::methods::fuse_reference;
 use crate::plot::{Labels, Series, Style, chart};
 use crate::skip::{SkipError, skip_error};
 use crate::study::{Dataset, fuse_timed, median};

@@ -5,7 +5,7 @@
 use crate::budget::fw::{Grid, Target};
 use crate::budget::table::Table;
 use crate::budget::{self, Options};
-use crate::cli::fuse::MethodArg;
+use crate::methods::MethodArg;
 use anyhow::{Context, Result, bail};
 use clap::{Args, ValueEnum};
 use std::path::PathBuf;

@@ -22,8 +22,8 @@
 //! It exits non-zero if the core panics, refuses a valid input, differs between runs, or an
 //! error exceeds [`bound`].
 
-use crate::cli::fuse::{fuse_core, fuse_reference, matlab_uint8, to_f64};
 use crate::io::Gray;
+use crate::methods::{fuse_core, fuse_reference, matlab_uint8, to_f64};
 use crate::reference;
 use anyhow::{Result, bail};
 use clap::Args;

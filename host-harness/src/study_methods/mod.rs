@@ -22,8 +22,8 @@ pub mod kernels;
 pub mod mgff;
 pub mod tepgfl;
 
-use crate::cli::fuse::{matlab_uint8, to_f64};
 use crate::io::Gray;
+use crate::methods::{matlab_uint8, to_f64};
 use anyhow::{Result, bail};
 use std::time::Instant;
 

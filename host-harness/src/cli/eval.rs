@@ -88,6 +88,11 @@ pub fn study_metrics(vis: &Gray<u8>, tir: &Gray<u8>, fused: &Gray<u8>) -> StudyM
 
 /// Scores one triple of files (no noise metrics).
 fn score(suite: Suite, vis: &Path, tir: &Path, fused: &Path) -> Result<MetricTable> {
+    Ok(score_loaded(suite, vis, tir, fused)?.0)
+}
+
+/// [`score`], also returning the fused image it decoded (for the noise metrics).
+fn score_loaded(suite: Suite, vis: &Path, tir: &Path, fused: &Path) -> Result<(MetricTable, Channels)> {
     let (w, h, channels) = crate::io::image_header(fused)?;
     let per_px = match suite {
         Suite::Study => crate::memory::per_pixel::EVAL_STUDY,
@@ -98,7 +103,8 @@ fn score(suite: Suite, vis: &Path, tir: &Path, fused: &Path) -> Result<MetricTab
     let bytes =
         crate::memory::estimate((w as u64).saturating_mul(h as u64).saturating_mul(channels as u64), per_px);
     crate::memory::check(&fused.display().to_string(), "scoring this image", bytes)?;
-    score_images(suite, &load_channels_u8(vis)?, &load_channels_u8(tir)?, &load_channels_u8(fused)?)
+    let fused = load_channels_u8(fused)?;
+    Ok((score_images(suite, &load_channels_u8(vis)?, &load_channels_u8(tir)?, &fused)?, fused))
 }
 
 /// Scores one triple of images (grey: one plane; colour: three): the sources are brought onto
@@ -126,9 +132,9 @@ pub fn run(args: &EvalArgs) -> Result<()> {
         }
         return run_folders(args);
     }
-    let mut table = score(args.suite, &args.vis, &args.tir, &args.fused)?;
+    let (mut table, fused) = score_loaded(args.suite, &args.vis, &args.tir, &args.fused)?;
     if let Some(p) = &args.r#ref {
-        let fused = load_channels_u8(&args.fused)?.to_gray();
+        let fused = fused.to_gray();
         let r = load_gray_u8(p, ColorPolicy::Bt601)?;
         if (r.width, r.height) != (fused.width, fused.height) {
             bail!("reference is {}x{}, the fused image {}x{}", r.width, r.height, fused.width, fused.height);

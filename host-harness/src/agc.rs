@@ -16,3 +16,19 @@ pub fn map_counts(agc: &mut Agc, counts: &Gray<u16>, params: &AgcParams) -> Resu
 pub fn fresh() -> Box<Agc> {
     Box::new(Agc::new())
 }
+
+/// The core AGC parameters for a frame of `pixels`: `mode`'s defaults (linear 1–99.9 %, or
+/// plateau `max(1, pixels / 2¹⁸)`), `plateau` pixels per bin instead for plateau (ignored for
+/// linear: the callers refuse that combination), `smoothing`. The CLI's `--agc`/`--plateau`/
+/// `--agc-smoothing` and the Python package's `agc=`/`plateau=` both map here.
+pub fn params(mode: crate::methods::AgcArg, plateau: Option<u32>, smoothing: u8, pixels: usize) -> AgcParams {
+    let mut p = match mode {
+        crate::methods::AgcArg::Plateau => AgcParams::plateau(pixels),
+        crate::methods::AgcArg::Linear => AgcParams::linear(),
+    };
+    if let (Some(limit), fusion_nostd::AgcMode::Plateau { .. }) = (plateau, p.mode) {
+        p.mode = fusion_nostd::AgcMode::Plateau { limit };
+    }
+    p.smoothing = smoothing;
+    p
+}

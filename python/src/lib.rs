@@ -9,7 +9,7 @@
 use anyhow::{Context, bail};
 use clap::ValueEnum;
 use fusion_nostd::pipeline::{FuseReport, Pipeline};
-use fusion_nostd::{AgcMode, AgcParams, FrameMut, FrameRef};
+use fusion_nostd::{AgcParams, FrameMut, FrameRef};
 use host_harness::cli::eval::Suite;
 use host_harness::cli::rescale::FilterArg;
 use host_harness::io::{Channels, Gray};
@@ -138,19 +138,12 @@ fn pipeline(method: &str, variant: &str, rescale: &str, skip: &str) -> PyResult<
 
 /// The AGC parameters of the CLI's `--agc` and `--plateau` for a frame of `pixels`.
 fn agc_params(agc: &str, plateau: Option<u32>, pixels: usize) -> PyResult<AgcParams> {
-    let mode = match (named::<AgcArg>("agc", agc)?, plateau) {
-        (AgcArg::Linear, None) => return Ok(AgcParams::linear()),
-        (AgcArg::Linear, Some(_)) => return Err(PyValueError::new_err("plateau= is for agc=\"plateau\"")),
-        (AgcArg::Plateau, Some(0)) => {
-            return Err(PyValueError::new_err("plateau must be at least 1 pixel per bin"));
-        }
-        (AgcArg::Plateau, limit) => limit.map(|limit| AgcMode::Plateau { limit }),
-    };
-    let mut p = AgcParams::plateau(pixels);
-    if let Some(m) = mode {
-        p.mode = m;
+    let mode = named::<AgcArg>("agc", agc)?;
+    match (mode, plateau) {
+        (AgcArg::Linear, Some(_)) => Err(PyValueError::new_err("plateau= is for agc=\"plateau\"")),
+        (_, Some(0)) => Err(PyValueError::new_err("plateau must be at least 1 pixel per bin")),
+        _ => Ok(host_harness::agc::params(mode, plateau, 0, pixels)),
     }
-    Ok(p)
 }
 
 /// The fused grey frame and what the core reported.

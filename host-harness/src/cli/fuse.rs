@@ -233,15 +233,7 @@ pub enum ColorArg {
 /// `--agc-smoothing`.
 pub fn agc_params(args: &FuseArgs, pixels: usize) -> fusion_nostd::AgcParams {
     let default = if args.plateau.is_some() { AgcArg::Plateau } else { AgcArg::Linear };
-    let mut p = match args.agc.unwrap_or(default) {
-        AgcArg::Plateau => fusion_nostd::AgcParams::plateau(pixels),
-        AgcArg::Linear => fusion_nostd::AgcParams::linear(),
-    };
-    p.smoothing = args.agc_smoothing.unwrap_or(0);
-    if let (Some(limit), fusion_nostd::AgcMode::Plateau { .. }) = (args.plateau, p.mode) {
-        p.mode = fusion_nostd::AgcMode::Plateau { limit };
-    }
-    p
+    crate::agc::params(args.agc.unwrap_or(default), args.plateau, args.agc_smoothing.unwrap_or(0), pixels)
 }
 
 /// One thermal frame's counts through the core AGC, with `agc`'s state (smoothing).

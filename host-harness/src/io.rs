@@ -208,6 +208,13 @@ pub struct Channels {
 }
 
 impl Channels {
+    /// The pixels interleaved, plane values of one pixel side by side (`R G B R G B …` for
+    /// colour, the plane itself for grey): the layout of encoders and numpy's `(H, W, 3)`.
+    pub fn interleaved(&self) -> Vec<u8> {
+        let n = self.width * self.height;
+        (0..n).flat_map(|i| self.planes.iter().map(move |p| p.get(i).copied().unwrap_or(0))).collect()
+    }
+
     /// A grey image as one plane.
     pub fn from_gray(g: Gray<u8>) -> Self {
         Self { width: g.width, height: g.height, planes: vec![g.data] }
@@ -362,10 +369,14 @@ pub fn encode_channels(
 ) -> Result<()> {
     match img.planes.as_slice() {
         [g] => encode_image(out, format, img.width, img.height, image::ExtendedColorType::L8, g),
-        [r, g, b] => {
-            let rgb: Vec<u8> = r.iter().zip(g).zip(b).flat_map(|((&r, &g), &b)| [r, g, b]).collect();
-            encode_image(out, format, img.width, img.height, image::ExtendedColorType::Rgb8, &rgb)
-        }
+        [_, _, _] => encode_image(
+            out,
+            format,
+            img.width,
+            img.height,
+            image::ExtendedColorType::Rgb8,
+            &img.interleaved(),
+        ),
         _ => bail!("an image of {} planes cannot be written", img.planes.len()),
     }
 }

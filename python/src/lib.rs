@@ -295,11 +295,7 @@ fn fuse<'py>(
         Some([cb, cr]) => {
             let y = Gray { width: grid.0, height: grid.1, data: fused.readonly().as_slice()?.to_vec() };
             let rgb = py.detach(|| host_harness::color::fused_in_colour(&y, &cb, &cr)).map_err(py_err)?;
-            let interleaved: Vec<u8> = (0..grid.0 * grid.1)
-                .flat_map(|i| [rgb.planes[0][i], rgb.planes[1][i], rgb.planes[2][i]])
-                .collect();
-            let flat = interleaved.into_pyarray(py);
-            flat.reshape([grid.1, grid.0, 3])?.into_any().unbind()
+            rgb.interleaved().into_pyarray(py).reshape([grid.1, grid.0, 3])?.into_any().unbind()
         }
     };
     if report {
@@ -395,10 +391,7 @@ fn load(py: Python<'_>, path: PathBuf) -> PyResult<Py<PyAny>> {
             g.data.into_pyarray(py).reshape([g.height, g.width])?.into_any().unbind()
         }
         host_harness::io::Picture::Rgb8(c) => {
-            let n = c.width * c.height;
-            let interleaved: Vec<u8> =
-                (0..n).flat_map(|i| [c.planes[0][i], c.planes[1][i], c.planes[2][i]]).collect();
-            interleaved.into_pyarray(py).reshape([c.height, c.width, 3])?.into_any().unbind()
+            c.interleaved().into_pyarray(py).reshape([c.height, c.width, 3])?.into_any().unbind()
         }
     })
 }

@@ -1,13 +1,78 @@
-//! Run-time choice of the best instruction set for the portable kernels (x86-64 hosts only).
+//! Run-time choice of the best instruction set for the host kernels (x86-64 hosts only), and
+//! the switch that caps it ([`limit_isa`]).
 //!
 //! The hot kernels are plain portable Rust marked `#[inline(always)]`. On x86-64,
 //! [`dispatch!`] compiles two more copies of a kernel, with AVX-512 (F, BW, VL) and with AVX2
-//! enabled, and calls the best one the CPU has. The arithmetic is integer (or IEEE operations
-//! proven exact), so every copy gives the same bits. On every other target (the flight targets
-//! included) the macro is a direct call.
+//! enabled, and calls the best one the CPU has; a few kernels have hand-written AVX2 and
+//! AVX-512 forms (`*/avx2.rs`, `*/avx512.rs`) chosen the same way. The arithmetic is integer
+//! (or IEEE operations proven exact), so every copy gives the same bits. On every other target
+//! (the flight targets included) the choice is made at compile time: the Armv7E-M forms
+//! (`*/arm.rs`) on `thumbv7em`, the portable code elsewhere.
+//!
+//! [`limit_isa`] caps the choice for the whole process: the tests run every SIMD form and the
+//! portable code on the same frames and compare the bytes, and a benchmark measures the AVX2
+//! forms on a machine that has AVX-512.
 
-#[cfg(target_arch = "x86_64")]
 use core::sync::atomic::{AtomicU8, Ordering};
+
+/// The instruction sets the host kernels choose from, plainest first.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum Isa {
+    /// The portable Rust code (what every target without a SIMD form runs).
+    Portable = 0,
+    /// x86-64 AVX2.
+    Avx2 = 1,
+    /// x86-64 AVX-512 F, BW and VL.
+    Avx512 = 2,
+}
+
+impl Isa {
+    /// Every set, plainest first.
+    pub const ALL: [Isa; 3] = [Isa::Portable, Isa::Avx2, Isa::Avx512];
+
+    /// Its lower-case name (`portable`, `avx2`, `avx512`).
+    pub fn name(self) -> &'static str {
+        match self {
+            Isa::Portable => "portable",
+            Isa::Avx2 => "avx2",
+            Isa::Avx512 => "avx512",
+        }
+    }
+}
+
+/// The cap set by [`limit_isa`] (an [`Isa`] as `u8`).
+static CAP: AtomicU8 = AtomicU8::new(Isa::Avx512 as u8);
+
+/// Caps the instruction set the host kernels use, for the whole process, from the next call
+/// on: [`Isa::Portable`] runs the portable code everywhere, [`Isa::Avx2`] the AVX2 forms on a
+/// machine with AVX-512, [`Isa::Avx512`] (the default) the best the CPU has. Every choice gives
+/// the same output bits; only the time differs. For tests and benchmarks; calls in progress on
+/// other threads may finish on the previous choice. No effect off x86-64 (the Armv7E-M forms
+/// are chosen at compile time).
+pub fn limit_isa(max: Isa) {
+    CAP.store(max as u8, Ordering::Relaxed);
+}
+
+/// The instruction set the host kernels use now: the best the CPU has, under the cap of
+/// [`limit_isa`]. Always [`Isa::Portable`] off x86-64.
+pub fn isa() -> Isa {
+    #[cfg(target_arch = "x86_64")]
+    {
+        if has_avx512bw() {
+            return Isa::Avx512;
+        }
+        if has_avx2() {
+            return Isa::Avx2;
+        }
+    }
+    Isa::Portable
+}
+
+/// Whether the cap allows `isa`.
+#[cfg(target_arch = "x86_64")]
+fn allowed(isa: Isa) -> bool {
+    CAP.load(Ordering::Relaxed) >= isa as u8
+}
 
 /// A CPU feature detected once: 0 unknown, 1 no, 2 yes.
 #[cfg(target_arch = "x86_64")]
@@ -38,17 +103,17 @@ static AVX2: Feature = Feature::new();
 #[cfg(target_arch = "x86_64")]
 static AVX512BW: Feature = Feature::new();
 
-/// Whether this x86-64 CPU and OS support AVX2 (CPUID leaf 7 and the XCR0 YMM state).
+/// Whether the cap allows AVX2 and this x86-64 CPU and OS support it (CPUID leaf 7 and the XCR0 YMM state).
 #[cfg(target_arch = "x86_64")]
 pub(crate) fn has_avx2() -> bool {
-    AVX2.get(detect_avx2)
+    allowed(Isa::Avx2) && AVX2.get(detect_avx2)
 }
 
-/// Whether this x86-64 CPU and OS support AVX-512 F, BW and VL on 512-bit registers (CPUID leaf
+/// Whether the cap allows AVX-512 and this x86-64 CPU and OS support AVX-512 F, BW and VL on 512-bit registers (CPUID leaf
 /// 7 and the XCR0 opmask and ZMM states).
 #[cfg(target_arch = "x86_64")]
 pub(crate) fn has_avx512bw() -> bool {
-    AVX512BW.get(|| has_avx2() && detect_avx512bw())
+    allowed(Isa::Avx512) && AVX512BW.get(|| AVX2.get(detect_avx2) && detect_avx512bw())
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -71,7 +136,7 @@ fn detect_avx512bw() -> bool {
     use core::arch::x86_64::__cpuid_count;
     let ebx = __cpuid_count(7, 0).ebx;
     let (f, bw, vl) = (ebx & (1 << 16) != 0, ebx & (1 << 30) != 0, ebx & (1 << 31) != 0);
-    // SAFETY: `has_avx2` (called first) saw OSXSAVE, so XGETBV is available.
+    // SAFETY: `detect_avx2` (called first) saw OSXSAVE, so XGETBV is available.
     let xcr0 = unsafe { xgetbv0() };
     // SSE, AVX, opmask, ZMM_Hi256 and Hi16_ZMM state enabled by the OS.
     f && bw && vl && xcr0 & 0b1110_0110 == 0b1110_0110

@@ -160,7 +160,7 @@
 struct ReadmeDoctests;
 
 #[macro_use]
-mod cpu;
+pub mod cpu;
 pub mod agc;
 pub mod error;
 pub mod filters;

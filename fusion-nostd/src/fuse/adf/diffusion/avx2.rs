@@ -1,11 +1,13 @@
-//! The AVX2 copy of the row loop (x86-64 hosts without AVX-512): eight pixels × two bands
-//! (16 lanes of `i16`) at a time, the fluxes read from the 128 KiB table with `vpgatherdd`
+//! The AVX2 form of the row loop (x86-64 hosts without AVX-512): [`Lanes`] on eight pixels ×
+//! two bands (16 lanes of `i16`) for the loop of `simd.rs`, the fluxes read from the 128 KiB
+//! table with `vpgatherdd`
 //! (AVX2 has no register permute of 16-bit words to hold the 64 segments, and the arithmetic
 //! form took 18 operations; this takes 7 and two gathers). The same values as the portable
 //! loop, so the same bits (checked by `avx2_rows_equal_the_portable_rows` and
 //! `table_and_avx512_equal_the_function_exhaustively`).
 
-use super::{RowCarry, TABLE_CENTRE, TABLE_ENTRIES, hi, lo, pack};
+use super::simd::{Lanes, row_blocks as blocks};
+use super::{RowCarry, TABLE_CENTRE, TABLE_ENTRIES};
 use core::arch::x86_64::*;
 
 /// Eight words at `s[at..at + 8]`.
@@ -88,9 +90,89 @@ pub(super) unsafe fn flux16(table: &[i16; TABLE_ENTRIES], x: [i16; 16]) -> [i16;
     out
 }
 
-/// Runs the row loop of `Diffusion::row` on whole blocks of eight pixels from the start of
-/// the row with the flux `table`, updating `carry`; returns the pixels done (0 when the
-/// table is short).
+impl Lanes for Flux {
+    type V = __m256i;
+    const WORDS: usize = 8;
+
+    // SAFETY (every method): a `Flux` is built only by `Flux::new`, compiled for AVX2, so the
+    // CPU has AVX2.
+    #[inline(always)]
+    fn zero(&self) -> __m256i {
+        // SAFETY: see above.
+        unsafe { _mm256_setzero_si256() }
+    }
+
+    #[inline(always)]
+    fn top(&self, w: i32) -> __m256i {
+        // SAFETY: see above.
+        unsafe { _mm256_set_epi32(w, 0, 0, 0, 0, 0, 0, 0) }
+    }
+
+    #[inline(always)]
+    fn load(&self, s: &[i32], at: usize) -> Option<__m256i> {
+        // SAFETY: see above.
+        unsafe { load(s, at) }
+    }
+
+    #[inline(always)]
+    fn store(&self, s: &mut [i32], at: usize, x: __m256i) -> Option<()> {
+        // SAFETY: see above.
+        unsafe { store(s, at, x) }
+    }
+
+    #[inline(always)]
+    fn word(&self, x: __m256i, i: usize) -> i32 {
+        let mut l = [0i32; 8];
+        // SAFETY: see above; writes the 32 bytes of `l`.
+        unsafe { _mm256_storeu_si256(l.as_mut_ptr().cast(), x) };
+        l.get(i).copied().unwrap_or(0)
+    }
+
+    #[inline(always)]
+    fn flux(&self, d: __m256i) -> __m256i {
+        // SAFETY: see above.
+        unsafe { self.apply(d) }
+    }
+
+    #[inline(always)]
+    fn sub(&self, a: __m256i, b: __m256i) -> __m256i {
+        // SAFETY: see above.
+        unsafe { _mm256_sub_epi16(a, b) }
+    }
+
+    #[inline(always)]
+    fn adds(&self, a: __m256i, b: __m256i) -> __m256i {
+        // SAFETY: see above.
+        unsafe { _mm256_adds_epi16(a, b) }
+    }
+
+    #[inline(always)]
+    fn subs(&self, a: __m256i, b: __m256i) -> __m256i {
+        // SAFETY: see above.
+        unsafe { _mm256_subs_epi16(a, b) }
+    }
+
+    #[inline(always)]
+    fn max0(&self, a: __m256i) -> __m256i {
+        // SAFETY: see above.
+        unsafe { _mm256_max_epi16(a, _mm256_setzero_si256()) }
+    }
+
+    #[inline(always)]
+    fn up<const K: usize>(&self, prev: __m256i, cur: __m256i) -> __m256i {
+        // SAFETY: see above.
+        unsafe {
+            match K {
+                1 => shift_in::<12>(prev, cur),
+                _ => shift_in::<8>(prev, cur),
+            }
+        }
+    }
+}
+
+/// Runs the row loop of `Diffusion::row` (`simd.rs`) on whole blocks of eight pixels from the
+/// start of the row with the flux `table`, updating `carry`; returns the pixels done (0 when
+/// the table is short).
 ///
 /// # Safety
 /// The CPU must support AVX2.
@@ -107,55 +189,5 @@ pub(super) unsafe fn row_blocks(
     else {
         return 0;
     };
-    let flux = Flux::new(table);
-    let zero = _mm256_setzero_si256();
-    let mut h_prev = _mm256_set_epi32(carry.h_prev, 0, 0, 0, 0, 0, 0, 0);
-    let mut v_prev = zero;
-    // Word 7 holds the carried value; the other words (and `v_prev`) are 0, so that the
-    // first block writes the unused `north[0]` exactly as the portable loop does.
-    let mut dr_prev = _mm256_set_epi32(carry.dr_prev, 0, 0, 0, 0, 0, 0, 0);
-    let mut x = 0;
-    while x + 8 <= out.len() {
-        let (Some(pc), Some(pr), Some(ql), Some(qc), Some(qr), Some(n_here)) =
-            (load(p, x + 1), load(p, x + 2), load(q, x), load(q, x + 1), load(q, x + 2), load(north, x + 1))
-        else {
-            break;
-        };
-        let h = flux.apply(_mm256_sub_epi16(pr, pc));
-        let v = flux.apply(_mm256_sub_epi16(qc, pc));
-        let dr = flux.apply(_mm256_sub_epi16(qr, pc));
-        let dl = flux.apply(_mm256_sub_epi16(ql, pc));
-        let west = shift_in::<12>(h_prev, h);
-        let t = _mm256_subs_epi16(_mm256_adds_epi16(h, v), west);
-        let s = _mm256_subs_epi16(_mm256_adds_epi16(dr, dl), n_here);
-        let step = _mm256_adds_epi16(_mm256_adds_epi16(t, t), s);
-        let next = _mm256_max_epi16(_mm256_adds_epi16(pc, step), zero);
-        // The north sums of the row below at x − 1 .. x + 6 (pixel indices 0-based):
-        // 2·v(k) + dr(k − 1) + dl(k + 1).
-        let v_up = shift_in::<12>(v_prev, v);
-        let dr_up = shift_in::<8>(dr_prev, dr);
-        let below = _mm256_adds_epi16(_mm256_adds_epi16(_mm256_adds_epi16(v_up, v_up), dr_up), dl);
-        if store(out, x, next).is_none() || store(north, x, below).is_none() {
-            break;
-        }
-        (h_prev, v_prev, dr_prev) = (h, v, dr);
-        x += 8;
-    }
-    if x > 0 {
-        let word = |a: __m256i, i: usize| {
-            let mut l = [0i32; 8];
-            // SAFETY: writes the 32 bytes of `l`.
-            unsafe { _mm256_storeu_si256(l.as_mut_ptr().cast(), a) };
-            l.get(i).copied().unwrap_or(0)
-        };
-        // The last whole block's fluxes (what the next block would take as `*_prev`).
-        let (v7, dr6) = (word(v_prev, 7), word(dr_prev, 6));
-        let partial = |f: fn(i32) -> i32| 2 * f(v7) + f(dr6);
-        *carry = RowCarry {
-            h_prev: word(h_prev, 7),
-            dr_prev: word(dr_prev, 7),
-            partial: pack(partial(lo), partial(hi)),
-        };
-    }
-    x
+    blocks(&Flux::new(table), p, q, north, out, carry)
 }

@@ -1,10 +1,11 @@
-//! The AVX-512 copy of the row loop (x86-64 hosts with AVX-512 F and BW): sixteen pixels × two
-//! bands (32 lanes of `i16`) at a time. The flux's two 64-entry tables sit in four registers and
+//! The AVX-512 form of the row loop (x86-64 hosts with AVX-512 F and BW): [`Lanes`] on sixteen
+//! pixels × two bands (32 lanes of `i16`) for the loop of `simd.rs`. The flux's two 64-entry tables sit in four registers and
 //! are read by `vpermi2w`, so a flux is nine operations (one multiply). The same values as the
 //! portable loop, so the same bits (checked by `avx512_rows_equal_the_portable_rows` and
 //! `table_and_avx512_equal_the_function_exhaustively`).
 
-use super::{FluxFn, RowCarry, SEGMENTS, hi, lo, pack};
+use super::simd::{Lanes, row_blocks as blocks};
+use super::{FluxFn, RowCarry, SEGMENTS};
 use core::arch::x86_64::*;
 
 /// Sixteen words at `s[at..at + 16]`.
@@ -93,8 +94,88 @@ pub(super) unsafe fn flux32(fx: &FluxFn, x: [i16; 32]) -> [i16; 32] {
     out
 }
 
-/// Runs the row loop of `Diffusion::row` on whole blocks of sixteen pixels from the start of
-/// the row, updating `carry`; returns the pixels done.
+impl Lanes for Flux {
+    type V = __m512i;
+    const WORDS: usize = 16;
+
+    // SAFETY (every method): a `Flux` is built only by `Flux::new`, compiled for AVX-512 F and
+    // BW, so the CPU has them.
+    #[inline(always)]
+    fn zero(&self) -> __m512i {
+        // SAFETY: see above.
+        unsafe { _mm512_setzero_si512() }
+    }
+
+    #[inline(always)]
+    fn top(&self, w: i32) -> __m512i {
+        // SAFETY: see above.
+        unsafe { _mm512_maskz_set1_epi32(1 << 15, w) }
+    }
+
+    #[inline(always)]
+    fn load(&self, s: &[i32], at: usize) -> Option<__m512i> {
+        // SAFETY: see above.
+        unsafe { load(s, at) }
+    }
+
+    #[inline(always)]
+    fn store(&self, s: &mut [i32], at: usize, x: __m512i) -> Option<()> {
+        // SAFETY: see above.
+        unsafe { store(s, at, x) }
+    }
+
+    #[inline(always)]
+    fn word(&self, x: __m512i, i: usize) -> i32 {
+        let mut l = [0i32; 16];
+        // SAFETY: see above; writes the 64 bytes of `l`.
+        unsafe { _mm512_storeu_si512(l.as_mut_ptr().cast(), x) };
+        l.get(i).copied().unwrap_or(0)
+    }
+
+    #[inline(always)]
+    fn flux(&self, d: __m512i) -> __m512i {
+        // SAFETY: see above.
+        unsafe { self.apply(d) }
+    }
+
+    #[inline(always)]
+    fn sub(&self, a: __m512i, b: __m512i) -> __m512i {
+        // SAFETY: see above.
+        unsafe { _mm512_sub_epi16(a, b) }
+    }
+
+    #[inline(always)]
+    fn adds(&self, a: __m512i, b: __m512i) -> __m512i {
+        // SAFETY: see above.
+        unsafe { _mm512_adds_epi16(a, b) }
+    }
+
+    #[inline(always)]
+    fn subs(&self, a: __m512i, b: __m512i) -> __m512i {
+        // SAFETY: see above.
+        unsafe { _mm512_subs_epi16(a, b) }
+    }
+
+    #[inline(always)]
+    fn max0(&self, a: __m512i) -> __m512i {
+        // SAFETY: see above.
+        unsafe { _mm512_max_epi16(a, _mm512_setzero_si512()) }
+    }
+
+    #[inline(always)]
+    fn up<const K: usize>(&self, prev: __m512i, cur: __m512i) -> __m512i {
+        // SAFETY: see above.
+        unsafe {
+            match K {
+                1 => _mm512_alignr_epi32::<15>(cur, prev),
+                _ => _mm512_alignr_epi32::<14>(cur, prev),
+            }
+        }
+    }
+}
+
+/// Runs the row loop of `Diffusion::row` (`simd.rs`) on whole blocks of sixteen pixels from
+/// the start of the row, updating `carry`; returns the pixels done.
 ///
 /// # Safety
 /// The CPU must support AVX-512 F and BW.
@@ -107,57 +188,5 @@ pub(super) unsafe fn row_blocks(
     out: &mut [i32],
     carry: &mut RowCarry,
 ) -> usize {
-    const TOP: __mmask16 = 1 << 15;
-    let flux = Flux::new(fx);
-    let zero = _mm512_setzero_si512();
-    // Word 15 holds the carried value; the other words (and `v_prev`) are 0, so that the
-    // first block writes the unused `north[0]` exactly as the portable loop does.
-    let mut h_prev = _mm512_maskz_set1_epi32(TOP, carry.h_prev);
-    let mut v_prev = zero;
-    let mut dr_prev = _mm512_maskz_set1_epi32(TOP, carry.dr_prev);
-    let mut x = 0;
-    while x + 16 <= out.len() {
-        let (Some(pc), Some(pr), Some(ql), Some(qc), Some(qr), Some(n_here)) =
-            (load(p, x + 1), load(p, x + 2), load(q, x), load(q, x + 1), load(q, x + 2), load(north, x + 1))
-        else {
-            break;
-        };
-        let h = flux.apply(_mm512_sub_epi16(pr, pc));
-        let v = flux.apply(_mm512_sub_epi16(qc, pc));
-        let dr = flux.apply(_mm512_sub_epi16(qr, pc));
-        let dl = flux.apply(_mm512_sub_epi16(ql, pc));
-        // `[prev[16 − k..], cur[..16 − k]]`: `cur` moved up by k words.
-        let west = _mm512_alignr_epi32::<15>(h, h_prev);
-        let t = _mm512_subs_epi16(_mm512_adds_epi16(h, v), west);
-        let s = _mm512_subs_epi16(_mm512_adds_epi16(dr, dl), n_here);
-        let step = _mm512_adds_epi16(_mm512_adds_epi16(t, t), s);
-        let next = _mm512_max_epi16(_mm512_adds_epi16(pc, step), zero);
-        // The north sums of the row below at x − 1 .. x + 14 (pixel indices 0-based):
-        // 2·v(k) + dr(k − 1) + dl(k + 1).
-        let v_up = _mm512_alignr_epi32::<15>(v, v_prev);
-        let dr_up = _mm512_alignr_epi32::<14>(dr, dr_prev);
-        let below = _mm512_adds_epi16(_mm512_adds_epi16(_mm512_adds_epi16(v_up, v_up), dr_up), dl);
-        if store(out, x, next).is_none() || store(north, x, below).is_none() {
-            break;
-        }
-        (h_prev, v_prev, dr_prev) = (h, v, dr);
-        x += 16;
-    }
-    if x > 0 {
-        let word = |a: __m512i, i: usize| {
-            let mut l = [0i32; 16];
-            // SAFETY: writes the 64 bytes of `l`.
-            unsafe { _mm512_storeu_si512(l.as_mut_ptr().cast(), a) };
-            l.get(i).copied().unwrap_or(0)
-        };
-        // The last whole block's fluxes (what the next block would take as `*_prev`).
-        let (v15, dr14) = (word(v_prev, 15), word(dr_prev, 14));
-        let partial = |f: fn(i32) -> i32| 2 * f(v15) + f(dr14);
-        *carry = RowCarry {
-            h_prev: word(h_prev, 15),
-            dr_prev: word(dr_prev, 15),
-            partial: pack(partial(lo), partial(hi)),
-        };
-    }
-    x
+    blocks(&Flux::new(fx), p, q, north, out, carry)
 }

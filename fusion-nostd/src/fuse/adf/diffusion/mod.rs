@@ -807,6 +807,9 @@ pub(crate) fn diffuse_rows(
 mod arm;
 
 #[cfg(target_arch = "x86_64")]
+mod simd;
+
+#[cfg(target_arch = "x86_64")]
 mod avx2;
 
 #[cfg(target_arch = "x86_64")]

@@ -1,0 +1,109 @@
+//! The row loop of the x86-64 SIMD forms, written once for any register width: [`Lanes`] is
+//! what a form provides (its register type, its loads and stores, its 16-bit lane arithmetic
+//! and its flux), [`row_blocks`] the loop over whole blocks of `Lanes::WORDS` pixels (both
+//! bands per 32-bit word, so `2·WORDS` lanes of `i16`). `avx2.rs` (8 pixels, fluxes gathered
+//! from the table) and `avx512.rs` (16 pixels, the flux function's segments in registers)
+//! each implement [`Lanes`] and call [`row_blocks`] from a function compiled for their
+//! instruction set, where every method here is inlined.
+//!
+//! Every sum in the loop is one of the portable loop's (`update_band` and the north sums) in
+//! saturating 16-bit lanes; no partial sum reaches 2¹⁵ (`MAX_FLUX`), so the lanes hold the
+//! portable values exactly and the output bits are the portable loop's.
+
+use super::{RowCarry, hi, lo, pack};
+
+/// One SIMD form of the row loop. A value of the implementing type exists only on a CPU that
+/// has the form's instruction set (its constructor is compiled for that set), so its methods
+/// may issue the set's instructions.
+pub(super) trait Lanes {
+    /// A register of `WORDS` words: `2·WORDS` lanes of `i16`.
+    type V: Copy;
+    /// Pixels per block.
+    const WORDS: usize;
+    /// All lanes 0.
+    fn zero(&self) -> Self::V;
+    /// Word `WORDS − 1` = `w`, every other word 0.
+    fn top(&self, w: i32) -> Self::V;
+    /// `s[at..at + WORDS]`, `None` past the end.
+    fn load(&self, s: &[i32], at: usize) -> Option<Self::V>;
+    /// Stores to `s[at..at + WORDS]`, `None` (nothing written) past the end.
+    fn store(&self, s: &mut [i32], at: usize, x: Self::V) -> Option<()>;
+    /// Word `i` of `x`.
+    fn word(&self, x: Self::V, i: usize) -> i32;
+    /// The flux of every lane's difference (in `−32768..=32767`).
+    fn flux(&self, d: Self::V) -> Self::V;
+    /// Lane-wise wrapping difference (exact for the states' differences, `|d| < 2¹⁵`).
+    fn sub(&self, a: Self::V, b: Self::V) -> Self::V;
+    /// Lane-wise saturating sum.
+    fn adds(&self, a: Self::V, b: Self::V) -> Self::V;
+    /// Lane-wise saturating difference.
+    fn subs(&self, a: Self::V, b: Self::V) -> Self::V;
+    /// Lane-wise `max(a, 0)`.
+    fn max0(&self, a: Self::V) -> Self::V;
+    /// `[prev[WORDS − K..], cur[..WORDS − K]]`: `cur` moved up by `K` words (`K` = 1 or 2),
+    /// the vacated words from the top of `prev`.
+    fn up<const K: usize>(&self, prev: Self::V, cur: Self::V) -> Self::V;
+}
+
+/// Runs the row loop of `Diffusion::row` on whole blocks of `L::WORDS` pixels from the start of
+/// the row, updating `carry`; returns the pixels done. Inlined into each form's entry point
+/// (compiled for its instruction set).
+#[inline(always)]
+pub(super) fn row_blocks<L: Lanes>(
+    l: &L,
+    p: &[i32],
+    q: &[i32],
+    north: &mut [i32],
+    out: &mut [i32],
+    carry: &mut RowCarry,
+) -> usize {
+    let n = L::WORDS;
+    // The top word holds the carried value; the other words (and `v_prev`) are 0, so that the
+    // first block writes the unused `north[0]` exactly as the portable loop does.
+    let mut h_prev = l.top(carry.h_prev);
+    let mut v_prev = l.zero();
+    let mut dr_prev = l.top(carry.dr_prev);
+    let mut x = 0;
+    while x + n <= out.len() {
+        let (Some(pc), Some(pr), Some(ql), Some(qc), Some(qr), Some(n_here)) = (
+            l.load(p, x + 1),
+            l.load(p, x + 2),
+            l.load(q, x),
+            l.load(q, x + 1),
+            l.load(q, x + 2),
+            l.load(north, x + 1),
+        ) else {
+            break;
+        };
+        let h = l.flux(l.sub(pr, pc));
+        let v = l.flux(l.sub(qc, pc));
+        let dr = l.flux(l.sub(qr, pc));
+        let dl = l.flux(l.sub(ql, pc));
+        let west = l.up::<1>(h_prev, h);
+        let t = l.subs(l.adds(h, v), west);
+        let s = l.subs(l.adds(dr, dl), n_here);
+        let step = l.adds(l.adds(t, t), s);
+        let next = l.max0(l.adds(pc, step));
+        // The north sums of the row below at x − 1 .. x + n − 2 (pixel indices 0-based):
+        // 2·v(k) + dr(k − 1) + dl(k + 1).
+        let v_up = l.up::<1>(v_prev, v);
+        let dr_up = l.up::<2>(dr_prev, dr);
+        let below = l.adds(l.adds(l.adds(v_up, v_up), dr_up), dl);
+        if l.store(out, x, next).is_none() || l.store(north, x, below).is_none() {
+            break;
+        }
+        (h_prev, v_prev, dr_prev) = (h, v, dr);
+        x += n;
+    }
+    if x > 0 {
+        // The last whole block's fluxes (what the next block would take as `*_prev`).
+        let (v_last, dr_before) = (l.word(v_prev, n - 1), l.word(dr_prev, n - 2));
+        let partial = |f: fn(i32) -> i32| 2 * f(v_last) + f(dr_before);
+        *carry = RowCarry {
+            h_prev: l.word(h_prev, n - 1),
+            dr_prev: l.word(dr_prev, n - 1),
+            partial: pack(partial(lo), partial(hi)),
+        };
+    }
+    x
+}

@@ -160,8 +160,10 @@
 struct ReadmeDoctests;
 
 #[macro_use]
-pub mod cpu;
+#[cfg(fusion_arm_dsp)]
+mod arch;
 pub mod agc;
+pub mod cpu;
 pub mod error;
 pub mod filters;
 pub mod frame;

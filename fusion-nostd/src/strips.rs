@@ -47,17 +47,12 @@
 //! 246), five strips per frame; 185 rows, six strips, for TSIFSD classic (the band's tail holds
 //! the wrapped rows).
 
-use crate::fuse::adaptive::{decide_frame, fuse_adaptive_rows, work_words as adaptive_words};
-use crate::fuse::adf::{Covariance, diffuse_rows, stream_words};
-use crate::fuse::ifevip::stream::{Analysis, Keys, Tree, crossing_words, output_rows};
-use crate::fuse::ifevip::{EntropyRatio, GainTables, Gains, top_k};
-use crate::fuse::tsifsd::{classic_words, flight_words, fuse_tsifsd_classic_rows, fuse_tsifsd_flight_rows};
-use crate::fuse::{Guards, Variant};
+use crate::fuse::Guards;
 use crate::pipeline::{
     BandRatio, FuseReport, Method, Pipeline, RescalePolicy, SkipPolicy, SkipReport, band_ratio, band_window,
     fusion_grid,
 };
-use crate::scene::Rect;
+use crate::scene::{Rect, SceneParams};
 use crate::{Error, Filter, FrameMut, FrameRef};
 
 /// `i32` words of method work memory in a [`StripScratch512K`] (256 KiB; ADF needs 64 572 at
@@ -152,18 +147,9 @@ impl StripReport {
     }
 }
 
-/// The methods that run in strips, with their parameters.
-enum Streamed<'p> {
-    TsifsdFlight(&'p crate::TsifsdParams),
-    TsifsdClassic(&'p crate::TsifsdParams),
-    Adf(&'p crate::AdfParams),
-    Ifevip(&'p crate::IfevipParams),
-    Adaptive(&'p crate::fuse::adaptive::AdaptiveParams),
-}
-
 /// Grid rows of a band outside its strip window.
 #[derive(Clone, Copy)]
-enum Rest<'b> {
+pub(crate) enum Rest<'b> {
     /// The band is on the grid: the whole input frame.
     Frame(FrameRef<'b, u8>),
     /// The rescaled rows from this grid row on (the rows a circular window wraps to).
@@ -174,19 +160,32 @@ enum Rest<'b> {
 
 /// One strip's window as [`Walk::run`] hands it to the method: both bands on the grid rows
 /// `y0 .. y0 + vis.height()` and, for the methods that wrap around the frame, the rows beyond.
-struct Window<'b> {
-    vis: FrameRef<'b, u8>,
-    tir: FrameRef<'b, u8>,
-    y0: usize,
+pub(crate) struct Window<'b> {
+    /// VIS on the window's grid rows.
+    pub(crate) vis: FrameRef<'b, u8>,
+    /// TIR on the window's grid rows.
+    pub(crate) tir: FrameRef<'b, u8>,
+    /// The window's first grid row.
+    pub(crate) y0: usize,
     /// The grid rows to keep (inside the window).
-    strip: core::ops::Range<usize>,
+    pub(crate) strip: core::ops::Range<usize>,
     vis_rest: Rest<'b>,
     tir_rest: Rest<'b>,
     /// Grid rows beyond the window that a wrapping method reads (from the other edge).
-    wrapped: usize,
+    pub(crate) wrapped: usize,
 }
 
 impl<'b> Window<'b> {
+    /// Grid row `y` of VIS: from the window, else from the rows beyond it (`None`: neither).
+    pub(crate) fn vis_row(&self, y: usize) -> Option<&'b [u8]> {
+        Self::row(self.vis, self.y0, self.vis_rest, y)
+    }
+
+    /// Grid row `y` of TIR: from the window, else from the rows beyond it (`None`: neither).
+    pub(crate) fn tir_row(&self, y: usize) -> Option<&'b [u8]> {
+        Self::row(self.tir, self.y0, self.tir_rest, y)
+    }
+
     /// Grid row `y` of a band: from the window, else from the rows beyond it.
     fn row(win: FrameRef<'b, u8>, y0: usize, rest: Rest<'b>, y: usize) -> Option<&'b [u8]> {
         let inside = |f: FrameRef<'b, u8>, first: usize| {
@@ -201,10 +200,13 @@ impl<'b> Window<'b> {
 }
 
 /// The strips of one frame pair and how each window is brought onto the grid.
-struct Walk<'f> {
-    vis: FrameRef<'f, u8>,
-    tir: FrameRef<'f, u8>,
-    grid: (usize, usize),
+pub(crate) struct Walk<'f> {
+    /// The whole VIS frame.
+    pub(crate) vis: FrameRef<'f, u8>,
+    /// The whole TIR frame.
+    pub(crate) tir: FrameRef<'f, u8>,
+    /// The fusion grid.
+    pub(crate) grid: (usize, usize),
     /// The policy's filter.
     filter: Filter,
     /// Whether the sizes differ (a band is rescaled), and whether it is a 2× cubic up.
@@ -223,7 +225,7 @@ impl Walk<'_> {
     /// One pass: for each strip, top to bottom, its [`Window`] (the rescaled band's rows in
     /// `band`) and `f(window)`, which returns the grid rows the method read. Adds the rows to
     /// `report`.
-    fn run(
+    pub(crate) fn run(
         &self,
         band: &mut [u8],
         report: &mut StripReport,
@@ -316,108 +318,48 @@ impl Walk<'_> {
     }
 }
 
-/// IFEVIP's three passes (see `fuse::ifevip::stream`): the analysis walk with the
-/// step-1 halo, then keys and output over halo-free strips (`rest`). Returns the work words
-/// used and the guards, and whether an output saturated. Each pass is a function of its own
-/// (never inlined), so their state — a few KiB each — never shares one stack frame.
-fn fuse_ifevip_strips(
-    walk: &Walk<'_>,
-    rest: &Walk<'_>,
-    band: &mut [u8],
-    work: &mut [i32],
-    out: &mut FrameMut<'_, u8>,
-    p: &crate::IfevipParams,
-    report: &mut StripReport,
-) -> Result<((usize, Guards), bool), Error> {
-    let (w, h) = walk.grid;
-    let capacity = work.len();
-    let (cross, work) = work
-        .split_at_mut_checked(crossing_words(p))
-        .ok_or(Error::ScratchTooSmall { needed: crossing_words(p), capacity })?;
-    let (tree, used_analysis) = ifevip_analysis(walk, band, cross, work, p, report)?;
-    let mut guards = Guards::NONE;
-    let Some(ratio) = EntropyRatio::of(&tree.hist_ir, &tree.hist_vis, p, &mut guards) else {
-        // Classic with a constant visible image: F = VIS.
-        rest.run(band, report, |win| {
-            let rel = win.strip.start - win.y0;
-            let mut rows = out.sub_rect_mut(0, win.strip.start, w, win.strip.len())?;
-            for (o, v) in rows.rows_mut().zip(win.vis.rows().skip(rel)) {
-                for (o, v) in o.iter_mut().zip(v) {
-                    *o = *v;
-                }
-            }
-            Ok(win.strip.len())
-        })?;
-        return Ok(((crossing_words(p) + used_analysis, guards), false));
-    };
-    let k = top_k((w * h) as u64, p, &mut guards);
-    let (top, used_keys) = ifevip_keys(rest, band, work, out, &tree, p, ratio.q24, k, report)?;
-    let gains = Gains::new(top, k, ratio.q32, p, &mut guards);
-    let saturated = ifevip_output(rest, band, out, &gains, report)?;
-    Ok(((crossing_words(p) + used_analysis.max(used_keys), guards), saturated))
+/// What a method's strip form needs from the walker.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct StripPlan {
+    /// Grid rows of halo on each side of a strip in the first pass (the passes of
+    /// [`StripRun::rest`] have none).
+    pub(crate) halo: usize,
+    /// Passes over the strips.
+    pub(crate) passes: usize,
+    /// Work words the method needs at the grid's width (checked before anything runs).
+    pub(crate) work_words: usize,
+    /// Whether the method's window wraps around the frame's top and bottom (a circular window),
+    /// so a strip near an edge also needs rows from the other edge.
+    pub(crate) wraps: bool,
 }
 
-/// IFEVIP pass 1: the tree and the histograms, and the work words it took.
-#[inline(never)]
-fn ifevip_analysis<'c>(
-    walk: &Walk<'_>,
-    band: &mut [u8],
-    cross: &'c mut [i32],
-    work: &mut [i32],
-    p: &crate::IfevipParams,
-    report: &mut StripReport,
-) -> Result<(Tree<'c>, usize), Error> {
-    let mut analysis = Analysis::new(walk.grid, p, cross, work)?;
-    walk.run(band, report, |win| {
-        analysis.add_window(win.vis, win.tir, win.y0, win.strip.clone())?;
-        Ok(win.vis.height())
-    })?;
-    let used = analysis.words();
-    Ok((analysis.finish()?, used))
+/// A method's strip form: what it needs ([`StripPlan`]) and its passes over the strips. Each
+/// method implements it in its own folder (`fuse/<method>/strips.rs`); [`fuse_strips`] only
+/// walks.
+pub(crate) trait StripForm {
+    /// The method's needs on a grid.
+    fn plan(&self, grid: (usize, usize)) -> StripPlan;
+    /// Runs the passes, writing every output row; returns the guards (with
+    /// [`Guards::OUTPUT_SATURATED`] when an output saturated).
+    fn run(&self, s: &mut StripRun<'_, '_, '_>) -> Result<Guards, Error>;
 }
 
-/// IFEVIP pass 2: `R` into `out`, and the sum of the `k` largest keys with the work words taken.
-#[inline(never)]
-#[allow(clippy::too_many_arguments)]
-fn ifevip_keys(
-    rest: &Walk<'_>,
-    band: &mut [u8],
-    work: &mut [i32],
-    out: &mut FrameMut<'_, u8>,
-    tree: &Tree<'_>,
-    p: &crate::IfevipParams,
-    ratio_q24: i64,
-    k: u64,
-    report: &mut StripReport,
-) -> Result<(i128, usize), Error> {
-    let w = rest.grid.0;
-    let mut keys = Keys::new(tree, rest.grid, p, ratio_q24, k, work)?;
-    rest.run(band, report, |win| {
-        let rows = out.sub_rect_mut(0, win.strip.start, w, win.strip.len())?;
-        keys.add_rows(win.vis, win.tir, win.y0, win.strip.clone(), rows)?;
-        Ok(win.strip.len())
-    })?;
-    Ok((keys.top_sum(), keys.words()))
-}
-
-/// IFEVIP pass 3: `F` in place; whether an output saturated.
-#[inline(never)]
-fn ifevip_output(
-    rest: &Walk<'_>,
-    band: &mut [u8],
-    out: &mut FrameMut<'_, u8>,
-    gains: &Gains,
-    report: &mut StripReport,
-) -> Result<bool, Error> {
-    let w = rest.grid.0;
-    let tables = GainTables::new(gains.g_q, gains.b_q);
-    let mut saturated = false;
-    rest.run(band, report, |win| {
-        let rows = out.sub_rect_mut(0, win.strip.start, w, win.strip.len())?;
-        saturated |= output_rows(win.vis, win.tir, win.y0, win.strip.clone(), rows, &tables)?;
-        Ok(win.strip.len())
-    })?;
-    Ok(saturated)
+/// What a [`StripForm`] runs on.
+pub(crate) struct StripRun<'a, 'f, 'o> {
+    /// The strips with the method's halo.
+    pub(crate) walk: &'a Walk<'f>,
+    /// The same grid in halo-free strips (for passes that read the strip's own rows only).
+    pub(crate) rest: &'a Walk<'f>,
+    /// The band buffer the walks rescale into.
+    pub(crate) band: &'a mut [u8],
+    /// The method's work words.
+    pub(crate) work: &'a mut [i32],
+    /// The output frame (the grid).
+    pub(crate) out: &'a mut FrameMut<'o, u8>,
+    /// The rows and words counted so far.
+    pub(crate) report: &'a mut StripReport,
+    /// The scene analysis' thresholds (the adaptive method decides per frame).
+    pub(crate) scene: &'a SceneParams,
 }
 
 /// Fuses a VIS/TIR pair like [`crate::pipeline::fuse`] with `pipeline.skip` =
@@ -432,7 +374,7 @@ fn ifevip_output(
 pub fn fuse_strips(
     vis: FrameRef<'_, u8>,
     tir: FrameRef<'_, u8>,
-    mut out: FrameMut<'_, u8>,
+    out: FrameMut<'_, u8>,
     scratch: &mut StripScratchMut<'_>,
     pipeline: &Pipeline,
     max_rows: usize,
@@ -448,26 +390,28 @@ pub fn fuse_strips(
     if out.size() != grid {
         return Err(Error::SizeMismatch { expected: grid, got: out.size() });
     }
+    match &pipeline.method {
+        Method::Tsifsd(p) => strips_with(p, vis, tir, out, scratch, pipeline, grid, max_rows),
+        Method::Adf(p) => strips_with(p, vis, tir, out, scratch, pipeline, grid, max_rows),
+        Method::Ifevip(p) => strips_with(p, vis, tir, out, scratch, pipeline, grid, max_rows),
+        Method::Adaptive(p) => strips_with(p, vis, tir, out, scratch, pipeline, grid, max_rows),
+    }
+}
+
+/// [`fuse_strips`] after the checks of the configuration and the grid, with `form`.
+#[allow(clippy::too_many_arguments)]
+fn strips_with<F: StripForm>(
+    form: &F,
+    vis: FrameRef<'_, u8>,
+    tir: FrameRef<'_, u8>,
+    mut out: FrameMut<'_, u8>,
+    scratch: &mut StripScratchMut<'_>,
+    pipeline: &Pipeline,
+    grid: (usize, usize),
+    max_rows: usize,
+) -> Result<(FuseReport, StripReport), Error> {
     let (w, h) = grid;
-    let (streamed, halo, passes, words) = match &pipeline.method {
-        // The kernels read rows y − r … y + r for output row y (the Scharr or median rows y ± 1
-        // lie inside for r ≥ 1): a halo of max(r, 1) rows keeps every output row exact.
-        Method::Tsifsd(p) if p.variant == Variant::Flight => {
-            let r = usize::from(p.mean_size / 2);
-            (Streamed::TsifsdFlight(p), r.max(1), 1, flight_words(w, r))
-        }
-        Method::Tsifsd(p) => {
-            let r = usize::from(p.mean_size / 2);
-            (Streamed::TsifsdClassic(p), r.max(1), 1, classic_words(w))
-        }
-        Method::Adf(p) => (Streamed::Adf(p), usize::from(p.iterations), 2, stream_words(w, p)),
-        // Pass 1's halo holds the vertical taps of the IR onto the quadtree grid; passes 2
-        // and 3 read the strip's own rows only.
-        Method::Ifevip(p) => (Streamed::Ifevip(p), Analysis::halo(grid, p), 3, 0),
-        // Rows y − r … y + r of both bands (the binomial's y ± 1 inside): two rows of column
-        // sums; the frame's decision comes from the scene analysis of the input frames first.
-        Method::Adaptive(p) => (Streamed::Adaptive(p), p.halo(), 1, adaptive_words(w)),
-    };
+    let StripPlan { halo, passes, work_words: words, wraps: wrap } = form.plan(grid);
     if scratch.work.len() < words {
         return Err(Error::ScratchTooSmall { needed: words, capacity: scratch.work.len() });
     }
@@ -487,7 +431,6 @@ pub fn fuse_strips(
     // band of a 2× up window holds up to 9 rows more (the taps' margins). A wrapping window
     // (TSIFSD classic) also needs up to `halo` rows from the frame's other edge, with their own
     // alignment row and margins.
-    let wrap = matches!(streamed, Streamed::TsifsdClassic(_));
     let band_rows_max = if rescaled { scratch.band.len() / w.max(1) } else { usize::MAX };
     let margin = if up2 { 9 } else { 0 };
     // The strips of a walk with `halo` rows on each side: as tall as the band holds.
@@ -517,81 +460,15 @@ pub fn fuse_strips(
     let rest = walk(0)?;
     let walk = first;
     let StripScratchMut { work, band } = scratch;
-    let mut guards = Guards::NONE;
-    match streamed {
-        Streamed::TsifsdFlight(p) => walk.run(band, &mut report, |win| {
-            let Window { vis: vis_w, tir: tir_w, y0, strip, .. } = win;
-            let rows = out.sub_rect_mut(0, strip.start, w, strip.len())?;
-            guards |= fuse_tsifsd_flight_rows(vis_w, tir_w, rows, strip.start - y0, p, work)?;
-            Ok(vis_w.height())
-        })?,
-        Streamed::TsifsdClassic(p) => walk.run(band, &mut report, |win| {
-            let rows = out.sub_rect_mut(0, win.strip.start, w, win.strip.len())?;
-            let vis_row = |y| Window::row(win.vis, win.y0, win.vis_rest, y);
-            let tir_row = |y| Window::row(win.tir, win.y0, win.tir_rest, y);
-            guards |= fuse_tsifsd_classic_rows(vis_row, tir_row, grid, win.strip.clone(), rows, p, work)?;
-            Ok(win.vis.height() + win.wrapped)
-        })?,
-        Streamed::Adf(p) => {
-            let mut cov = Covariance::new();
-            walk.run(band, &mut report, |win| {
-                let Window { vis: vis_w, tir: tir_w, y0, strip, .. } = win;
-                let keep = strip.start - y0..strip.end - y0;
-                diffuse_rows(vis_w, tir_w, p, work, keep.end, |y, a| {
-                    if keep.contains(&y) {
-                        cov.add_row(vis_w.row(y), tir_w.row(y), a);
-                    }
-                })?;
-                Ok(vis_w.height())
-            })?;
-            let fusion = cov.weights(w * h, p.variant);
-            guards |= fusion.guards;
-            let mut saturated = false;
-            walk.run(band, &mut report, |win| {
-                let Window { vis: vis_w, tir: tir_w, y0, strip, .. } = win;
-                let keep = strip.start - y0..strip.end - y0;
-                diffuse_rows(vis_w, tir_w, p, work, keep.end, |y, a| {
-                    if keep.contains(&y) {
-                        let (iv, it) = (vis_w.row(y), tir_w.row(y));
-                        saturated |= fusion.u8_row(iv, it, a, out.row_mut(y0 + y));
-                    }
-                })?;
-                Ok(vis_w.height())
-            })?;
-            if saturated {
-                guards |= Guards::OUTPUT_SATURATED;
-            }
-        }
-        Streamed::Adaptive(p) => {
-            let decision = decide_frame(vis, &pipeline.scene, p)?;
-            let (cv, ct) =
-                work.split_at_mut_checked(w).ok_or(Error::ScratchTooSmall { needed: 2 * w, capacity: 0 })?;
-            walk.run(band, &mut report, |win| {
-                let Window { vis: vis_w, tir: tir_w, y0, strip, .. } = win;
-                let mut rows = out.sub_rect_mut(0, strip.start, w, strip.len())?;
-                guards |= fuse_adaptive_rows(
-                    vis_w,
-                    tir_w,
-                    y0,
-                    h,
-                    strip,
-                    &mut rows,
-                    p,
-                    decision,
-                    [&mut *cv, &mut *ct],
-                )?;
-                Ok(vis_w.height())
-            })?;
-        }
-        Streamed::Ifevip(p) => {
-            let (used, saturated) = fuse_ifevip_strips(&walk, &rest, band, work, &mut out, p, &mut report)?;
-            report.work_words = used.0;
-            guards |= used.1;
-            if saturated {
-                guards |= Guards::OUTPUT_SATURATED;
-            }
-        }
-    }
+    let guards = form.run(&mut StripRun {
+        walk: &walk,
+        rest: &rest,
+        band,
+        work,
+        out: &mut out,
+        report: &mut report,
+        scene: &pipeline.scene,
+    })?;
     let fuse =
         FuseReport { grid, rescaled, guards, skip: SkipReport::none(SkipPolicy::None, grid, rescaled) };
     Ok((fuse, report))

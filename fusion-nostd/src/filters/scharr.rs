@@ -143,29 +143,7 @@ pub fn scharr_l1_pair([sm_l, sm_r]: [u32; 2], df: [u32; 3]) -> u32 {
     let gy = df[0].wrapping_add(df[2]).wrapping_mul(3).wrapping_add(df[1].wrapping_mul(10));
     #[cfg(fusion_arm_dsp)]
     {
-        let packed: u32;
-        // SAFETY: register-only Armv7E-M DSP instructions (no memory, no stack); they set and
-        // read the APSR.GE flags, which no other code relies on.
-        unsafe {
-            core::arch::asm!(
-                "ssub16 {x}, {s2}, {s0}",
-                "ssub16 {t}, {s0}, {s2}",
-                "sel {x}, {t}, {x}",
-                "ssub16 {y}, {gy}, {bias}",
-                "ssub16 {t}, {bias}, {gy}",
-                "sel {y}, {t}, {y}",
-                "uadd16 {x}, {x}, {y}",
-                x = out(reg) packed,
-                y = out(reg) _,
-                t = out(reg) _,
-                s0 = in(reg) sm_l,
-                s2 = in(reg) sm_r,
-                gy = in(reg) gy,
-                bias = in(reg) GY_BIAS,
-                options(pure, nomem, nostack),
-            );
-        }
-        packed
+        crate::arch::lane_abs_sum(sm_l, sm_r, gy, GY_BIAS)
     }
     #[cfg(not(fusion_arm_dsp))]
     {

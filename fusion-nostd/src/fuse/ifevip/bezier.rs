@@ -138,7 +138,7 @@ pub fn render_rows(
             #[cfg(fusion_arm_dsp)]
             if bits > BG_BITS && bits - BG_BITS < 32 {
                 let half = 1i64 << (bits - BG_BITS - 1);
-                step_row_arm(
+                super::arm::step_row_arm(
                     seg.get_mut(..len).unwrap_or(&mut []),
                     [v.wrapping_add(half), d1, d2, d3],
                     bits - BG_BITS,
@@ -154,55 +154,6 @@ pub fn render_rows(
         }
     }
     Ok(())
-}
-
-/// The forward-difference walk of [`render`] on the Cortex-M4/M7 in assembly for a right shift
-/// `sh` in `1..32` (leaves of side 16 to 256): `out[j] = low 32 bits of (v >> sh)` with `v`
-/// the rounded numerator (`f + 2^(sh−1)`, carried in `v`), then `v += d1`, `d1 += d2`,
-/// `d2 += d3`, all wrapping 64-bit additions — 12 instructions per pixel (LLVM's loop kept
-/// the state on the stack: 30). The same values as `to_q` of the portable loop.
-#[cfg(fusion_arm_dsp)]
-fn step_row_arm(out: &mut [i32], [v, d1, d2, d3]: [i64; 4], sh: u32) {
-    if out.is_empty() || !(1..32).contains(&sh) {
-        return;
-    }
-    let end = out.as_mut_ptr_range().end;
-    let lo = |x: i64| x as u32;
-    let hi = |x: i64| (x >> 32) as u32;
-    // SAFETY: writes out[0 .. len] (len ≥ 1; the loop stops at `end`); registers only
-    // otherwise. r6/r7 are pushed and popped, every other register written is declared.
-    unsafe {
-        core::arch::asm!(
-            "push {{r6, r7}}",
-            "rsb r7, r5, #32",
-            "2:",
-            "lsr r6, r0, r5",
-            "lsl r12, r1, r7",
-            "orr r6, r6, r12",
-            "str r6, [r10], #4",
-            "adds r0, r0, r2",
-            "adc r1, r1, r3",
-            "adds r2, r2, r4",
-            "adc r3, r3, lr",
-            "adds r4, r4, r8",
-            "adc lr, lr, r9",
-            "cmp r10, r11",
-            "bne 2b",
-            "pop {{r6, r7}}",
-            inout("r0") lo(v) => _,
-            inout("r1") hi(v) => _,
-            inout("r2") lo(d1) => _,
-            inout("r3") hi(d1) => _,
-            inout("r4") lo(d2) => _,
-            inout("lr") hi(d2) => _,
-            in("r8") lo(d3),
-            in("r9") hi(d3),
-            in("r5") sh,
-            inout("r10") out.as_mut_ptr() => _,
-            in("r11") end,
-            out("r12") _,
-        );
-    }
 }
 
 #[cfg(test)]

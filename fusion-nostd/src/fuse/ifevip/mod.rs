@@ -56,6 +56,15 @@ pub mod imresize;
 pub mod peak;
 pub mod quadtree;
 pub(crate) mod stream;
+/// The strip form ([`crate::strips::StripForm`]).
+mod strips;
+
+/// The Armv7E-M forms of the output rows and the Bézier walk.
+#[cfg(fusion_arm_dsp)]
+mod arm;
+/// The AVX2 form of the tabulated output row.
+#[cfg(target_arch = "x86_64")]
+mod avx2;
 
 use super::{Guards, Variant};
 use crate::filters::{erode, gauss};
@@ -339,7 +348,7 @@ pub(crate) fn output_pass(
             let avx2 = crate::cpu::has_avx2();
             for (((o, v), t), rr) in rows {
                 #[cfg(fusion_arm_dsp)]
-                if let Some(sat) = output_row_arm(o, v, t, rr, table) {
+                if let Some(sat) = arm::output_row_arm(o, v, t, rr, table) {
                     rows_saturated |= sat;
                     continue;
                 }
@@ -348,7 +357,7 @@ pub(crate) fn output_pass(
                 let (o, v, t, rr) = {
                     let done = if avx2 {
                         // SAFETY: the CPU has AVX2 (checked at run time).
-                        let (done, sat) = unsafe { output_avx2::blocks(o, v, t, rr, table) };
+                        let (done, sat) = unsafe { avx2::blocks(o, v, t, rr, table) };
                         rows_saturated |= sat;
                         done
                     } else {
@@ -428,190 +437,6 @@ impl GainTables {
         }
         // Sums are below 767: one exceeded 255 exactly when bit 8 or 9 is set in some sum.
         any & 0x300 != 0
-    }
-}
-
-#[cfg(fusion_arm_dsp)]
-impl GainTables {
-    /// [`GainTables::row_in_place`] on the Cortex-M4/M7 in assembly, 17 instructions per pixel
-    /// (LLVM unrolled the loop and spilled): the two table entries by `ldrd`, the 64-bit sum by
-    /// `adds`/`adc`, `val >> 40` as the high word `asr #8` (the low word cannot carry into the
-    /// floor), `usat #9` for the clamp to 0..=511, the saturation flag as the OR of the sums
-    /// (bit 8 or 9). The same bytes as the portable loop. `None` when the rows differ in length.
-    fn row_in_place_arm(&self, out: &mut [u8], vis: &[u8], tir: &[u8]) -> Option<bool> {
-        let w = out.len();
-        if w == 0 || vis.len() != w || tir.len() != w {
-            return None;
-        }
-        let end = out.as_mut_ptr().wrapping_add(w);
-        let d_base = self.d_term.as_ptr().wrapping_add(255);
-        let mut flag: u32 = 0;
-        // SAFETY: pixel i reads out[i], vis[i], tir[i], r_term[R] (R ≤ 255 < 256) and
-        // d_term[255 + IR − VIS] (0..=510 < 511); it writes out[i]; i < w, the length of every
-        // slice (checked above), w ≥ 1. Every register written is declared.
-        unsafe {
-            core::arch::asm!(
-                "2:",
-                "ldrb r8, [r0]",
-                "ldrb r9, [r1], #1",
-                "ldrb r10, [r2], #1",
-                "add r8, r4, r8, lsl #3",
-                "sub r10, r10, r9",
-                "add r10, r5, r10, lsl #3",
-                "ldrd r11, r12, [r8]",
-                "ldrd r8, r10, [r10]",
-                "adds r11, r11, r8",
-                "adc r12, r12, r10",
-                "usat r12, #9, r12, asr #8",
-                "add r12, r12, r9",
-                "orr lr, lr, r12",
-                "usat r12, #8, r12",
-                "strb r12, [r0], #1",
-                "cmp r0, r3",
-                "bne 2b",
-                inout("r0") out.as_mut_ptr() => _,
-                inout("r1") vis.as_ptr() => _,
-                inout("r2") tir.as_ptr() => _,
-                in("r3") end,
-                in("r4") self.r_term.as_ptr(),
-                in("r5") d_base,
-                out("r8") _,
-                out("r9") _,
-                out("r10") _,
-                out("r11") _,
-                out("r12") _,
-                inout("lr") flag,
-                options(nostack),
-            );
-        }
-        Some(flag & 0x300 != 0)
-    }
-}
-
-/// One row of the tabulated step 12 on the Cortex-M4/M7, in assembly (12 instructions per
-/// pixel; LLVM's loop took ≈ 22): the table index `R·511 + IR − VIS` by one `mla` and a `sub`
-/// from a base 255 entries in, `usat` for the clamp, and the saturation flag as the OR of
-/// every sum (sums are below 512, so bit 8 is set exactly when one exceeded 255). The same
-/// values as the portable loop. `None` when the rows are not all `w` long (the portable loop
-/// then runs).
-#[cfg(fusion_arm_dsp)]
-fn output_row_arm(
-    out: &mut [u8],
-    vis: &[u8],
-    tir: &[u8],
-    r: &[i32],
-    table: &[i32; ADD_TABLE_LEN],
-) -> Option<bool> {
-    let w = out.len();
-    if w == 0 || vis.len() != w || tir.len() != w || r.len() < w {
-        return None;
-    }
-    let end = out.as_mut_ptr().wrapping_add(w);
-    let base = table.as_ptr().wrapping_add(255);
-    let mut flag: u32 = 0;
-    // SAFETY: pixel i reads vis[i], tir[i], the low byte of r[i] (little-endian) and
-    // table[R·511 + IR − VIS + 255] with R, IR, VIS in 0..=255, i.e. inside 0..=130 815 <
-    // ADD_TABLE_LEN; it writes out[i]; i < w, the length of every slice (checked above);
-    // w ≥ 1. Every register written is declared.
-    unsafe {
-        core::arch::asm!(
-            "2:",
-            "ldrb r8, [r1], #1",
-            "ldrb r9, [r2], #1",
-            "ldrb r10, [r3], #4",
-            "mla r10, r10, r5, r9",
-            "sub r10, r10, r8",
-            "ldr r10, [r4, r10, lsl #2]",
-            "add r8, r8, r10",
-            "orr r11, r11, r8",
-            "usat r8, #8, r8",
-            "strb r8, [r0], #1",
-            "cmp r0, r12",
-            "bne 2b",
-            inout("r0") out.as_mut_ptr() => _,
-            inout("r1") vis.as_ptr() => _,
-            inout("r2") tir.as_ptr() => _,
-            inout("r3") r.as_ptr() => _,
-            in("r4") base,
-            in("r5") 511u32,
-            out("r8") _,
-            out("r9") _,
-            out("r10") _,
-            inout("r11") flag,
-            in("r12") end,
-            options(nostack),
-        );
-    }
-    Some(flag & 0x100 != 0)
-}
-
-/// The tabulated step 12 on x86-64 with AVX2, eight pixels at a time: the index
-/// `(R as u8)·511 + IR − VIS + 255` in 32-bit lanes, the added value by `vpgatherdd`, the
-/// clamp a `min`, the saturation flag the OR of the sums (bit 8, as on the Cortex-M). The same
-/// values as the portable loop (test `tabulated_output_equals_direct_output`).
-#[cfg(target_arch = "x86_64")]
-mod output_avx2 {
-    use super::ADD_TABLE_LEN;
-    use core::arch::x86_64::*;
-
-    /// Whole blocks of eight pixels of one row from the start; returns the pixels done and
-    /// whether a sum exceeded 255.
-    ///
-    /// # Safety
-    /// The CPU must support AVX2.
-    #[target_feature(enable = "avx2")]
-    pub(super) unsafe fn blocks(
-        out: &mut [u8],
-        vis: &[u8],
-        tir: &[u8],
-        r: &[i32],
-        table: &[i32; ADD_TABLE_LEN],
-    ) -> (usize, bool) {
-        let n = out.len().min(vis.len()).min(tir.len()).min(r.len());
-        let (k511, k255, low8) = (_mm256_set1_epi32(511), _mm256_set1_epi32(255), _mm256_set1_epi32(0xFF));
-        // Bytes 0, 4, 8, 12 of each 128-bit lane to its low dword, then lanes' dwords 0 and 4 together.
-        let pick = _mm256_setr_epi8(
-            0, 4, 8, 12, -1, -1, -1, -1, -1, -1, -1, -1, -1, -1, -1, -1, 0, 4, 8, 12, -1, -1, -1, -1, -1, -1,
-            -1, -1, -1, -1, -1, -1,
-        );
-        let join = _mm256_setr_epi32(0, 4, 1, 1, 1, 1, 1, 1);
-        let mut any = _mm256_setzero_si256();
-        let mut x = 0;
-        while x + 8 <= n {
-            let (Some(o), Some(v), Some(t), Some(rr)) = (
-                out.get_mut(x..x + 8),
-                vis.get(x..x + 8).and_then(|s| <&[u8; 8]>::try_from(s).ok()),
-                tir.get(x..x + 8).and_then(|s| <&[u8; 8]>::try_from(s).ok()),
-                r.get(x..x + 8).and_then(|s| <&[i32; 8]>::try_from(s).ok()),
-            ) else {
-                break;
-            };
-            // SAFETY: 8-byte and 32-byte reads of the arrays above (unaligned loads).
-            let (v8, t8, r8) = unsafe {
-                (
-                    _mm256_cvtepu8_epi32(_mm_loadl_epi64(v.as_ptr().cast())),
-                    _mm256_cvtepu8_epi32(_mm_loadl_epi64(t.as_ptr().cast())),
-                    _mm256_and_si256(_mm256_loadu_si256(rr.as_ptr().cast()), low8),
-                )
-            };
-            let idx = _mm256_add_epi32(
-                _mm256_mullo_epi32(r8, k511),
-                _mm256_add_epi32(_mm256_sub_epi32(t8, v8), k255),
-            );
-            // SAFETY: every index is (R as u8)·511 + IR − VIS + 255 ≤ 130 815 < ADD_TABLE_LEN.
-            let add = unsafe { _mm256_i32gather_epi32::<4>(table.as_ptr(), idx) };
-            let sum = _mm256_add_epi32(v8, add);
-            any = _mm256_or_si256(any, sum);
-            let bytes =
-                _mm256_permutevar8x32_epi32(_mm256_shuffle_epi8(_mm256_min_epu32(sum, k255), pick), join);
-            let packed = (_mm256_extract_epi64::<0>(bytes) as u64).to_le_bytes();
-            o.copy_from_slice(&packed);
-            x += 8;
-        }
-        let mut lanes = [0u32; 8];
-        // SAFETY: writes the 32 bytes of `lanes`.
-        unsafe { _mm256_storeu_si256(lanes.as_mut_ptr().cast(), any) };
-        (x, lanes.iter().any(|&l| l & 0x100 != 0))
     }
 }
 

@@ -270,23 +270,7 @@ pub(super) const LANE_WEIGHTS: [i32; 2] = [0x0001_FFFF, 0xFFFF_0001u32 as i32];
 pub(super) fn column_step(col: i32, enter: i32, leave: i32, [up, down]: [i32; 2]) -> i32 {
     #[cfg(fusion_arm_dsp)]
     {
-        let out: i32;
-        // SAFETY: register-only Armv7E-M DSP instructions (no memory, no stack, no flags but
-        // the sticky Q, which cannot be set here: |products| ≤ 255 and |col| < 2³⁰).
-        unsafe {
-            core::arch::asm!(
-                "smlad {o}, {e}, {up}, {c}",
-                "smlad {o}, {l}, {down}, {o}",
-                o = out(reg) out,
-                e = in(reg) enter,
-                l = in(reg) leave,
-                c = in(reg) col,
-                up = in(reg) up,
-                down = in(reg) down,
-                options(pure, nomem, nostack, preserves_flags),
-            );
-        }
-        out
+        crate::arch::smlad(leave, down, crate::arch::smlad(enter, up, col))
     }
     #[cfg(not(fusion_arm_dsp))]
     {

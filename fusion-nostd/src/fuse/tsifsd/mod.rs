@@ -344,5 +344,7 @@ use flight::*;
 use general::*;
 use wide::*;
 
+/// The strip form ([`crate::strips::StripForm`]).
+mod strips;
 #[cfg(test)]
 mod tests;

@@ -99,7 +99,7 @@ pub(super) unsafe fn i32_to_same(src: *const i32, step: usize, ws: &[i32; 8], ou
 /// for [`super::Output::Same`] (`CLAMP` false), or that value through `usat #8` for
 /// [`super::Output::U8`] (`CLAMP` true; equal to `finish` when the rounded sum fits `i32`,
 /// which the callers guarantee) — ≈ 26 instructions per output where the Rust loop around
-/// [`super::dot8_arm`] took ≈ 36.
+/// [`dot8_arm`] took ≈ 36.
 ///
 /// # Safety
 /// `table` holds `outputs` rows of 10 words `[start, count, w₀ … w₇]`, each with
@@ -229,4 +229,44 @@ pub(super) fn cols8<T: Copy + Into<i64>, const U8: bool>(
             *o = finish::<U8>(acc);
         }
     }
+}
+
+/// The 8-tap dot product of `i32` samples on the Cortex-M4/M7: four `ldrd` pairs and eight
+/// `smull`/`smlal` (LLVM's schedule of the portable `dot` spills to the stack). The same
+/// exact `i64` sum.
+#[inline(always)]
+pub(super) fn dot8_arm(seg: &[i32; 8], ws: &[i32; 8]) -> i64 {
+    let (lo, hi): (u32, u32);
+    // SAFETY: reads the 32 bytes of each array (word-aligned `i32` arrays, as `ldrd` needs on
+    // the Cortex-M); registers only otherwise, no stack, flags untouched.
+    unsafe {
+        core::arch::asm!(
+            "ldrd {a}, {b}, [{s}]",
+            "ldrd {c}, {d}, [{w}]",
+            "smull {lo}, {hi}, {a}, {c}",
+            "smlal {lo}, {hi}, {b}, {d}",
+            "ldrd {a}, {b}, [{s}, #8]",
+            "ldrd {c}, {d}, [{w}, #8]",
+            "smlal {lo}, {hi}, {a}, {c}",
+            "smlal {lo}, {hi}, {b}, {d}",
+            "ldrd {a}, {b}, [{s}, #16]",
+            "ldrd {c}, {d}, [{w}, #16]",
+            "smlal {lo}, {hi}, {a}, {c}",
+            "smlal {lo}, {hi}, {b}, {d}",
+            "ldrd {a}, {b}, [{s}, #24]",
+            "ldrd {c}, {d}, [{w}, #24]",
+            "smlal {lo}, {hi}, {a}, {c}",
+            "smlal {lo}, {hi}, {b}, {d}",
+            s = in(reg) seg.as_ptr(),
+            w = in(reg) ws.as_ptr(),
+            a = out(reg) _,
+            b = out(reg) _,
+            c = out(reg) _,
+            d = out(reg) _,
+            lo = out(reg) lo,
+            hi = out(reg) hi,
+            options(pure, readonly, nostack, preserves_flags),
+        );
+    }
+    ((u64::from(hi) << 32) | u64::from(lo)) as i64
 }

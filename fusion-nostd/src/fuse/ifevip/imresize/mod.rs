@@ -432,47 +432,6 @@ fn rows_with<T: Copy + Into<i64>, const N: usize, const U8: bool>(
     }
 }
 
-/// The 8-tap dot product of `i32` samples on the Cortex-M4/M7: four `ldrd` pairs and eight
-/// `smull`/`smlal` (LLVM's schedule of the portable [`dot`] spills to the stack). The same
-/// exact `i64` sum.
-#[cfg(fusion_arm_dsp)]
-#[inline(always)]
-fn dot8_arm(seg: &[i32; 8], ws: &[i32; 8]) -> i64 {
-    let (lo, hi): (u32, u32);
-    // SAFETY: reads the 32 bytes of each array (word-aligned `i32` arrays, as `ldrd` needs on
-    // the Cortex-M); registers only otherwise, no stack, flags untouched.
-    unsafe {
-        core::arch::asm!(
-            "ldrd {a}, {b}, [{s}]",
-            "ldrd {c}, {d}, [{w}]",
-            "smull {lo}, {hi}, {a}, {c}",
-            "smlal {lo}, {hi}, {b}, {d}",
-            "ldrd {a}, {b}, [{s}, #8]",
-            "ldrd {c}, {d}, [{w}, #8]",
-            "smlal {lo}, {hi}, {a}, {c}",
-            "smlal {lo}, {hi}, {b}, {d}",
-            "ldrd {a}, {b}, [{s}, #16]",
-            "ldrd {c}, {d}, [{w}, #16]",
-            "smlal {lo}, {hi}, {a}, {c}",
-            "smlal {lo}, {hi}, {b}, {d}",
-            "ldrd {a}, {b}, [{s}, #24]",
-            "ldrd {c}, {d}, [{w}, #24]",
-            "smlal {lo}, {hi}, {a}, {c}",
-            "smlal {lo}, {hi}, {b}, {d}",
-            s = in(reg) seg.as_ptr(),
-            w = in(reg) ws.as_ptr(),
-            a = out(reg) _,
-            b = out(reg) _,
-            c = out(reg) _,
-            d = out(reg) _,
-            lo = out(reg) lo,
-            hi = out(reg) hi,
-            options(pure, readonly, nostack, preserves_flags),
-        );
-    }
-    ((u64::from(hi) << 32) | u64::from(lo)) as i64
-}
-
 #[inline(always)]
 fn rows_any<T: Copy + Into<i64>, const U8: bool>(
     src: FrameRef<'_, T>,
@@ -570,10 +529,10 @@ impl Sample for i32 {
         #[cfg(fusion_arm_dsp)]
         if taps.stride == 8 + 2 {
             match out {
-                Output::U8 => rows_with::<i32, 8, true>(src, taps, dst, dot8_arm),
+                Output::U8 => rows_with::<i32, 8, true>(src, taps, dst, arm::dot8_arm),
                 Output::Same => {
                     if !arm::rows8::<false>(src, taps, dst.reborrow()) {
-                        rows_with::<i32, 8, false>(src, taps, dst, dot8_arm);
+                        rows_with::<i32, 8, false>(src, taps, dst, arm::dot8_arm);
                     }
                 }
             }

@@ -66,6 +66,8 @@
 //! (`max(n/2, 1)` above and below, cut at the frame's edges), which is the strip form
 //! ([`crate::strips`]); the whole frame is the window of one strip.
 
+/// The strip form ([`crate::strips::StripForm`]).
+mod strips;
 use super::Guards;
 use crate::scene::{BandStats, SceneParams, band_stats};
 use crate::{Error, FrameMut, FrameRef};

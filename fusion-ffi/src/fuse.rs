@@ -5,7 +5,7 @@ use crate::status::{FusionError, FusionStatus, run};
 use fusion_nostd::pipeline::{FuseReport, Method, Pipeline, RescalePolicy, SkipPolicy, fusion_grid};
 use fusion_nostd::scene::{Decline, Illumination};
 use fusion_nostd::strips::{StripReport, StripScratchMut};
-use fusion_nostd::{AdaptiveParams, AdfParams, IfevipParams, ScratchMut, TsifsdParams, Variant};
+use fusion_nostd::{ScratchMut, Variant};
 
 /// The size of the strip working set the budgets measure (512 KiB: 256 KiB of work words, 256
 /// KiB of band rows). [`fusion_fuse_strips`] takes any size it can fit one strip into.
@@ -127,17 +127,11 @@ impl FusionConfig {
             v if v == FusionVariant::Classic as u32 => Variant::Classic,
             _ => return Err(FusionError::invalid("variant")),
         };
-        let method = match self.method {
-            m if m == FusionMethod::Adf as u32 => Method::Adf(AdfParams { variant, ..AdfParams::default() }),
-            m if m == FusionMethod::Tsifsd as u32 => {
-                Method::Tsifsd(TsifsdParams { variant, ..TsifsdParams::default() })
-            }
-            m if m == FusionMethod::Ifevip as u32 => {
-                Method::Ifevip(IfevipParams { variant, ..IfevipParams::default() })
-            }
-            m if m == FusionMethod::Adaptive as u32 => Method::Adaptive(AdaptiveParams::default()),
-            _ => return Err(FusionError::invalid("method")),
-        };
+        // `FusionMethod` numbers the core's `Method::KINDS`.
+        let method = Method::KINDS
+            .get(self.method as usize)
+            .and_then(|kind| Method::named(kind, variant))
+            .ok_or(FusionError::invalid("method"))?;
         let rescale = match self.rescale {
             r if r == FusionRescale::TirUp as u32 => RescalePolicy::TirUp,
             r if r == FusionRescale::VisDown as u32 => RescalePolicy::VisDown,

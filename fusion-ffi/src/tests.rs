@@ -466,6 +466,11 @@ fn constants_and_texts_match_the_core() {
         assert_eq!(c, g.0);
     }
     assert_eq!(FUSION_STRIP_SCRATCH_BYTES, fusion_nostd::strips::STRIP_SCRATCH_BYTES);
+    // The method numbers are the core's `Method::KINDS` positions.
+    let kinds = [FusionMethod::Adf, FusionMethod::Tsifsd, FusionMethod::Ifevip, FusionMethod::Adaptive];
+    for (kind, m) in fusion_nostd::pipeline::Method::KINDS.iter().zip(kinds) {
+        assert_eq!(fusion_nostd::pipeline::Method::KINDS[m as usize], *kind);
+    }
     let mut texts = std::collections::BTreeSet::new();
     for code in (0..=12).chain([255]) {
         let status = FusionStatus::from_code(code);

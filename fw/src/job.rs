@@ -21,8 +21,8 @@
 //! Method parameters are the core's defaults for the variant, the scene analysis thresholds
 //! `SceneParams::default()` (the host builds the same [`Pipeline`] for its comparison run).
 
+use fusion_nostd::Variant;
 use fusion_nostd::pipeline::{Method, Pipeline, RescalePolicy, SkipPolicy};
-use fusion_nostd::{AdaptiveParams, AdfParams, IfevipParams, TsifsdParams, Variant};
 
 /// Most runs in one job.
 pub const MAX_RUNS: usize = 32;
@@ -143,13 +143,9 @@ impl Run {
 
     /// The core configuration of this run.
     pub fn pipeline(&self) -> Pipeline {
-        let v = self.variant;
-        let method = match self.method {
-            0 => Method::Adf(AdfParams { variant: v, ..AdfParams::default() }),
-            2 => Method::Ifevip(IfevipParams { variant: v, ..IfevipParams::default() }),
-            3 => Method::Adaptive(AdaptiveParams::default()),
-            _ => Method::Tsifsd(TsifsdParams { variant: v, ..TsifsdParams::default() }),
-        };
+        // `method` numbers the core's `Method::KINDS` (TSIFSD for a number past them).
+        let kind = Method::KINDS.get(usize::from(self.method)).copied().unwrap_or("tsifsd");
+        let method = Method::named(kind, self.variant).unwrap_or_default();
         Pipeline { rescale: self.policy, method, skip: self.skip, ..Default::default() }
     }
 
@@ -169,7 +165,7 @@ impl Run {
 
     /// Method name as printed.
     pub fn method_name(&self) -> &'static str {
-        name_of(&self.pipeline().method)
+        self.pipeline().method.kind()
     }
 
     /// Region label of the method's own call in a staged run (`adf.fuse`, …).
@@ -198,26 +194,6 @@ impl Run {
             RescalePolicy::None => "none",
         }
     }
-}
-
-/// Lower-case name of a method.
-pub fn name_of(method: &Method) -> &'static str {
-    match method {
-        Method::Adf(_) => "adf",
-        Method::Tsifsd(_) => "tsifsd",
-        Method::Ifevip(_) => "ifevip",
-        Method::Adaptive(_) => "adaptive",
-    }
-}
-
-/// The four methods with default (flight) parameters.
-pub fn default_methods() -> [Method; 4] {
-    [
-        Method::Adf(AdfParams::default()),
-        Method::Tsifsd(TsifsdParams::default()),
-        Method::Ifevip(IfevipParams::default()),
-        Method::Adaptive(AdaptiveParams::default()),
-    ]
 }
 
 /// `out<i>.gray` written into `buf`.

@@ -291,14 +291,9 @@ fn exercise_entry_points() {
     // The pipeline entry (and the pre-cast entry) with every method and rescale policy.
     #[cfg(not(feature = "rescale-only"))]
     {
+        use fusion_nostd::ScratchMut;
         use fusion_nostd::pipeline::{Method, Pipeline, RescalePolicy, fuse, fuse_raw};
-        use fusion_nostd::{AdaptiveParams, AdfParams, IfevipParams, ScratchMut, TsifsdParams};
-        let methods = [
-            Method::Adf(AdfParams::default()),
-            Method::Tsifsd(TsifsdParams::default()),
-            Method::Ifevip(IfevipParams::default()),
-            Method::Adaptive(AdaptiveParams::default()),
-        ];
+        let methods = Method::defaults();
         let policies = [RescalePolicy::TirUp, RescalePolicy::VisDown, RescalePolicy::None];
         let (vw, vh, tw, th, ow, oh) =
             (black_box(40usize), black_box(30usize), black_box(20usize), black_box(15usize), dw, dh);
@@ -346,6 +341,7 @@ fn exercise_entry_points() {
             use fusion_nostd::filters::box_sum::box_sum_u8;
             use fusion_nostd::fuse::{adf, ifevip, tsifsd};
             use fusion_nostd::pipeline::fuse_method;
+            use fusion_nostd::{AdfParams, IfevipParams, TsifsdParams};
             let variant = black_box(fusion_nostd::Variant::Classic);
             let (adf_p, ts_p, ife_p) = black_box((
                 AdfParams { variant, ..AdfParams::default() },

@@ -282,13 +282,13 @@ pub fn self_test(m: &mut Meter) -> Result<(), FwError> {
         *p = (i.wrapping_mul(2_654_435_761) >> 13) as u8 / 4 + 60;
     }
     let (vis, tir) = (FrameRef::new(&vis[..], 256, 256)?, FrameRef::new(&tir[..], 128, 128)?);
-    for method in job::default_methods() {
+    for method in Method::defaults() {
         let pipeline = Pipeline { rescale: RescalePolicy::TirUp, method, ..Default::default() };
         let report = fuse(vis, tir, FrameMut::new(&mut *out, 256, 256)?, &mut scratch.view_mut(), &pipeline)?;
         say!(
             m.con,
             "@fw selftest {} guards 0x{:02x} fnv1a {:08x}",
-            job::name_of(&method),
+            method.kind(),
             report.guards.0,
             fnv1a(out)
         );

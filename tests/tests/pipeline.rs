@@ -3,7 +3,7 @@
 
 use fusion_nostd::fuse::{Guards, round_away_sat_u8};
 use fusion_nostd::pipeline::{Method, Pipeline, RescalePolicy, fuse, fuse_raw, fusion_grid};
-use fusion_nostd::{Error, Filter, rescale};
+use fusion_nostd::{AdaptiveParams, AdfParams, Error, Filter, IfevipParams, TsifsdParams, Variant, rescale};
 use fusion_tests::{assert_same, scene};
 use host_harness::CoreScratch;
 use host_harness::io::Gray;
@@ -167,5 +167,19 @@ fn every_method_and_variant_is_listed_once_by_name() {
         m.validate().unwrap();
         assert!(m.name().starts_with(m.kind()));
         assert_eq!(m.variant().is_none(), m.kind() == "adaptive");
+        // `named` finds each entry of `all` from its kind and variant.
+        assert_eq!(Method::named(m.kind(), m.variant().unwrap_or(Variant::Flight)), Some(*m));
     }
+    // `KINDS` in the order of `defaults`, each the flight variant with default parameters.
+    assert_eq!(Method::defaults().map(|m| m.kind()), Method::KINDS);
+    assert_eq!(
+        Method::defaults(),
+        [
+            Method::Adf(AdfParams::default()),
+            Method::Tsifsd(TsifsdParams::default()),
+            Method::Ifevip(IfevipParams::default()),
+            Method::Adaptive(AdaptiveParams::default()),
+        ]
+    );
+    assert_eq!(Method::named("gff", Variant::Flight), None);
 }

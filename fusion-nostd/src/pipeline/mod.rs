@@ -402,6 +402,22 @@ impl Method {
         ]
     }
 
+    /// The methods' short names, in the order of [`Method::defaults`] (the CLI's, the C
+    /// interface's and the firmware's numbering).
+    pub const KINDS: [&'static str; 4] = ["adf", "tsifsd", "ifevip", "adaptive"];
+
+    /// Each method with its default parameters (the flight variants), in the order of
+    /// [`Method::KINDS`].
+    pub fn defaults() -> [Method; 4] {
+        Self::KINDS.map(|kind| Self::named(kind, Variant::Flight).unwrap_or_default())
+    }
+
+    /// The method called `kind` (one of [`Method::KINDS`]) with its default parameters in
+    /// `variant` (the adaptive method has one); `None` for another name.
+    pub fn named(kind: &str, variant: Variant) -> Option<Method> {
+        Self::all().into_iter().find(|m| m.kind() == kind && m.variant().is_none_or(|v| v == variant))
+    }
+
     /// The method's short name: `adf`, `tsifsd`, `ifevip`, `adaptive` (the CLI's and the C
     /// interface's).
     pub fn kind(&self) -> &'static str {

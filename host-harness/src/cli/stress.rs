@@ -28,7 +28,7 @@ use crate::reference;
 use anyhow::{Result, bail};
 use clap::Args;
 use fusion_nostd::pipeline::{Method, Pipeline, RescalePolicy, fusion_grid};
-use fusion_nostd::{AdfParams, Filter, Guards, IfevipParams, ScratchMut, TsifsdParams, Variant};
+use fusion_nostd::{AdfParams, Filter, Guards, IfevipParams, ScratchMut, Variant};
 use rayon::prelude::*;
 use std::fmt::Write as _;
 use std::panic::AssertUnwindSafe;
@@ -234,19 +234,17 @@ pub fn geometries(quick: bool) -> Vec<Geometry> {
 
 /// The six method configurations (both variants of each method), with table names.
 pub fn methods(quick: bool) -> Vec<(&'static str, Method)> {
-    let (c, f) = (Variant::Classic, Variant::Flight);
-    let ifevip = |variant| {
-        let p = IfevipParams { variant, ..IfevipParams::default() };
-        if quick { IfevipParams { quad_norm_dim: 128, quad_min_dim: 8, ..p } } else { p }
+    let quick_ifevip = |m: Method| match m {
+        Method::Ifevip(p) if quick => {
+            Method::Ifevip(IfevipParams { quad_norm_dim: 128, quad_min_dim: 8, ..p })
+        }
+        m => m,
     };
-    vec![
-        ("adf-classic", Method::Adf(AdfParams { variant: c, ..AdfParams::default() })),
-        ("adf", Method::Adf(AdfParams { variant: f, ..AdfParams::default() })),
-        ("tsifsd-classic", Method::Tsifsd(TsifsdParams { variant: c, ..TsifsdParams::default() })),
-        ("tsifsd", Method::Tsifsd(TsifsdParams { variant: f, ..TsifsdParams::default() })),
-        ("ifevip-classic", Method::Ifevip(ifevip(c))),
-        ("ifevip", Method::Ifevip(ifevip(f))),
-    ]
+    Method::all()
+        .into_iter()
+        .filter(|m| m.variant().is_some())
+        .map(|m| (m.name().strip_suffix("-flight").unwrap_or(m.name()), quick_ifevip(m)))
+        .collect()
 }
 
 /// The largest max abs error (grey levels) between the core's 8-bit output and the MATLAB

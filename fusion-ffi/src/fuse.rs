@@ -2,7 +2,7 @@
 
 use crate::image::{FusionImage, FusionImageMut, Span, deref, disjoint};
 use crate::status::{FusionError, FusionStatus, run};
-use fusion_nostd::pipeline::{FuseReport, Method, Pipeline, RescalePolicy, SkipPolicy, fusion_grid};
+use fusion_nostd::pipeline::{FuseConfig, FuseReport, Method, RescalePolicy, SkipPolicy, fusion_grid};
 use fusion_nostd::scene::{Decline, Illumination};
 use fusion_nostd::strips::{StripReport, StripScratchMut};
 use fusion_nostd::{ScratchMut, Variant};
@@ -121,7 +121,7 @@ pub extern "C" fn fusion_config_default() -> FusionConfig {
 
 impl FusionConfig {
     /// The core configuration, or `InvalidParameter` naming the field that holds no value.
-    fn pipeline(&self) -> Result<Pipeline, FusionError> {
+    fn pipeline(&self) -> Result<FuseConfig, FusionError> {
         let variant = match self.variant {
             v if v == FusionVariant::Flight as u32 => Variant::Flight,
             v if v == FusionVariant::Classic as u32 => Variant::Classic,
@@ -144,7 +144,7 @@ impl FusionConfig {
             s if s == FusionSkip::All as u32 => SkipPolicy::All,
             _ => return Err(FusionError::invalid("skip")),
         };
-        Ok(Pipeline { rescale, method, skip, ..Pipeline::default() })
+        Ok(FuseConfig { rescale, method, skip, ..FuseConfig::default() })
     }
 }
 

@@ -2,7 +2,7 @@
 //! refusals the C side adds (NULL, alignment, overlap, unknown enum values).
 
 use crate::*;
-use fusion_nostd::pipeline::{Method, Pipeline, RescalePolicy, SkipPolicy};
+use fusion_nostd::pipeline::{FuseConfig, Method, RescalePolicy, SkipPolicy};
 use fusion_nostd::{AdaptiveParams, AdfParams, FrameMut, FrameRef, IfevipParams, TsifsdParams, Variant};
 use std::vec;
 use std::vec::Vec;
@@ -52,7 +52,7 @@ fn config(method: u32, variant: u32, rescale: u32, skip: u32) -> FusionConfig {
 
 /// The core configuration the same numbers stand for (written out independently of
 /// `FusionConfig::pipeline`).
-fn core_pipeline(method: u32, variant: u32, rescale: u32, skip: u32) -> Pipeline {
+fn core_pipeline(method: u32, variant: u32, rescale: u32, skip: u32) -> FuseConfig {
     let variant = [Variant::Flight, Variant::Classic][variant as usize];
     let method = match method {
         0 => Method::Adf(AdfParams { variant, ..Default::default() }),
@@ -62,7 +62,7 @@ fn core_pipeline(method: u32, variant: u32, rescale: u32, skip: u32) -> Pipeline
     };
     let rescale = [RescalePolicy::TirUp, RescalePolicy::VisDown, RescalePolicy::None][rescale as usize];
     let skip = [SkipPolicy::None, SkipPolicy::Roi, SkipPolicy::All][skip as usize];
-    Pipeline { rescale, method, skip, ..Default::default() }
+    FuseConfig { rescale, method, skip, ..Default::default() }
 }
 
 fn core_fuse(
@@ -70,7 +70,7 @@ fn core_fuse(
     vs: (usize, usize),
     tir: &[u8],
     ts: (usize, usize),
-    p: &Pipeline,
+    p: &FuseConfig,
 ) -> (Vec<u8>, (usize, usize)) {
     let grid = fusion_nostd::pipeline::fusion_grid(vs, ts, p.rescale).unwrap();
     let pixels = p.scratch_pixels(vs, ts).unwrap();

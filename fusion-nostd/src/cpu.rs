@@ -2,7 +2,7 @@
 //! the switch that caps it ([`limit_isa`]).
 //!
 //! The hot kernels are plain portable Rust marked `#[inline(always)]`. On x86-64,
-//! [`dispatch!`] compiles two more copies of a kernel, with AVX-512 (F, BW, VL) and with AVX2
+//! `dispatch!` compiles two more copies of a kernel, with AVX-512 (F, BW, VL) and with AVX2
 //! enabled, and calls the best one the CPU has; a few kernels have hand-written AVX2 and
 //! AVX-512 forms (`*/avx2.rs`, `*/avx512.rs`) chosen the same way. The arithmetic is integer
 //! (or IEEE operations proven exact), so every copy gives the same bits. On every other target

@@ -50,7 +50,7 @@ pub enum Error {
     /// A NaN or infinite value in a floating-point input.
     NonFinite,
     /// A sample outside the range the operation accepts: an `f32` magnitude above
-    /// [`crate::rescale::F32_MAX_MAGNITUDE`] (where a filter's overshoot could overflow to ±∞),
+    /// [`crate::rescalers::F32_MAX_MAGNITUDE`] (where a filter's overshoot could overflow to ±∞),
     /// or a sample above a declared bit depth.
     ValueOutOfRange,
     /// A parameter outside its documented range.

@@ -5,19 +5,29 @@
 //!
 //! * [`frame`] — owned const-generic [`Frame`] storage and validated views
 //!   [`FrameRef`] / [`FrameMut`].
-//! * [`rescale`](mod@rescale) — bicubic and area rescalers with OpenCV conventions
+//! * [`rescalers`] — bicubic and area rescalers ([`rescale`]) with OpenCV conventions
 //!   (bit-exact with `cv2.resize` on u8 at factor 2).
 //! * [`scratch`] — caller-owned work planes ([`Scratch`], [`ScratchMut`]).
-//! * [`fuse`](mod@fuse) — the fusion methods.
-//! * [`filters`] — integer filters shared by the methods.
+//! * [`methods`] — the fusion methods, one folder each.
 //! * [`pipeline`] — the per-frame entry point: rescale one band onto the other's grid, fuse.
 //! * [`strips`] — the same pipeline strip by strip in a fixed 512 KiB working set
-//!   ([`strips::fuse_strips`]), bit-identical to the whole-frame run.
+//!   ([`fuse_strips`]), bit-identical to the whole-frame run.
 //! * [`scene`] — scene analysis (background, noise, target box, illumination) that lets the
 //!   pipeline skip what the scene does not need ([`pipeline::SkipPolicy`]).
 //! * [`agc`] — thermal automatic gain control: 14/16-bit counts to 8 bits (plateau histogram
 //!   equalisation or a percentile stretch), by frame, strip or row, with temporal smoothing.
 //! * [`Error`] — the one small `Copy` error type; bad input is an `Err`, never a panic.
+//! * [`cpu`] — which instruction set the host kernels run (AVX-512, AVX2 or portable, chosen at
+//!   run time on x86-64; [`cpu::limit_isa`] caps it for tests and benchmarks).
+//!
+//! Everything a firmware or host user calls is re-exported here at the root: the frames and
+//! scratch, [`FuseConfig`] (method, rescale policy, skip policy, scene thresholds), [`fuse`]
+//! and [`fuse_strips`], [`FuseReport`] and [`StripReport`], [`Guards`], [`Error`], the
+//! rescaler and the AGC. The modules hold each part's documentation; the firmware's
+//! per-step hooks sit in a hidden `stages` module. The source tree: one folder per method
+//! under `methods/` (its whole-frame code, its strip form `strips.rs`, its tests), and one file
+//! per instruction set beside a kernel's portable code (`arm.rs` for the Armv7E-M DSP
+//! assembly, `avx2.rs`, `avx512.rs`; the short DSP sequences in `arch.rs`).
 //!
 //! # Quick start
 //!
@@ -26,7 +36,7 @@
 //! default configuration (TIR upscaled to the VIS grid with bicubic, TSIFSD flight variant):
 //!
 //! ```
-//! use fusion_nostd::{Error, FrameMut, Frame512, Frame1024, Pipeline, Scratch1024, fuse};
+//! use fusion_nostd::{Error, FrameMut, Frame512, Frame1024, FuseConfig, Scratch1024, fuse};
 //!
 //! static mut VIS: Frame1024 = Frame1024::filled(0); // visible camera, 1024²
 //! static mut TIR: Frame512 = Frame512::filled(0); // microbolometer, 512²
@@ -41,7 +51,7 @@
 //!         (&*(&raw const VIS), &*(&raw const TIR), &mut *(&raw mut FUSED), &mut *(&raw mut SCRATCH))
 //!     };
 //!     let out = out.unwrap_or_else(|| fused.view_mut());
-//!     fuse(vis.view(), tir.view(), out, &mut scratch.view_mut(), &Pipeline::default())
+//!     fuse(vis.view(), tir.view(), out, &mut scratch.view_mut(), &FuseConfig::default())
 //! }
 //!
 //! // The cameras' drivers fill VIS and TIR; then:
@@ -64,7 +74,7 @@
 //!
 //! ```
 //! use fusion_nostd::strips::{STRIP_SCRATCH_BYTES, StripScratch512K, fuse_strips};
-//! use fusion_nostd::{Frame512, Frame1024, Pipeline, Scratch1024, fuse};
+//! use fusion_nostd::{Frame512, Frame1024, FuseConfig, Scratch1024, fuse};
 //!
 //! static mut STRIPS: StripScratch512K = StripScratch512K::new();
 //! # static mut SCRATCH: Scratch1024 = Scratch1024::new();
@@ -77,7 +87,7 @@
 //! for (i, p) in vis.pixels_mut().iter_mut().enumerate() { *p = (i % 251) as u8; }
 //! for (i, p) in tir.pixels_mut().iter_mut().enumerate() { *p = (i / 512 % 256) as u8; }
 //!
-//! let config = Pipeline::default();
+//! let config = FuseConfig::default();
 //! let mut out = Box::new(Frame1024::filled(0));
 //! let (report, layout) =
 //!     fuse_strips(vis.view(), tir.view(), out.view_mut(), &mut strips.view_mut(), &config, usize::MAX)?;
@@ -100,16 +110,16 @@
 //!
 //! | input | outcome |
 //! |---|---|
-//! | a width or height of 0 | [`Error::ZeroDimension`] when the view is built (and from [`Pipeline::scratch_pixels`]) |
-//! | a side above [`MAX_DIMENSION`] (2¹⁴) | [`Error::DimensionTooLarge`] (views, [`Pipeline::scratch_pixels`]) |
+//! | a width or height of 0 | [`Error::ZeroDimension`] when the view is built (and from [`FuseConfig::scratch_pixels`]) |
+//! | a side above [`MAX_DIMENSION`] (2¹⁴) | [`Error::DimensionTooLarge`] (views, [`FuseConfig::scratch_pixels`]) |
 //! | a stride below the width | [`Error::StrideTooSmall`] |
 //! | a buffer shorter than `(h − 1)·stride + w`, or a geometry whose length overflows `usize` | [`Error::BufferTooSmall`] |
 //! | VIS, TIR and output sizes that do not fit the rescale policy (policy `None` with different sizes, an output that is not the fusion grid, a method called with frames of different sizes) | [`Error::SizeMismatch`] |
-//! | scratch planes (or the band plane, when the pipeline rescales) shorter than [`Pipeline::scratch_pixels`] | [`Error::ScratchTooSmall`] with both numbers |
+//! | scratch planes (or the band plane, when the pipeline rescales) shorter than [`FuseConfig::scratch_pixels`] | [`Error::ScratchTooSmall`] with both numbers |
 //! | a parameter outside its documented range | [`Error::InvalidParameter`] naming the field; [`pipeline::fuse_raw`] with IFEVIP (no pre-cast value): `name: "method"` |
 //! | [`strips::fuse_strips`] with what strips do not run (scene skipping, `max_rows` 0; a rescale that is not an exact 2× of the policy's filter; a strip scratch too small for one row and its halos, or for IFEVIP's passes) | [`Error::InvalidParameter`] naming it, [`Error::UnsupportedRatio`], [`Error::ScratchTooSmall`]; the output is untouched |
 //! | `f32` NaN, +∞, −∞ | [`Error::NonFinite`] (destination untouched) |
-//! | `f32` magnitude above [`rescale::F32_MAX_MAGNITUDE`] (2¹²⁰) | [`Error::ValueOutOfRange`]: the filter's overshoot could overflow to ±∞ |
+//! | `f32` magnitude above [`rescalers::F32_MAX_MAGNITUDE`] (2¹²⁰) | [`Error::ValueOutOfRange`]: the filter's overshoot could overflow to ±∞ |
 //! | `f32` denormals, ±0, the largest accepted magnitude | ordinary values; the output is finite |
 //! | one pixel, one row, one column, odd sizes, 2¹⁴ × 1, 1 × 2¹⁴, any non-2× rescale ratio, TIR larger than VIS | valid: `Ok`, every method and variant |
 //! | constant, black, saturated, checkerboard, anti-correlated bands | valid: `Ok`; where the published arithmetic is undefined (0/0, a degenerate eigenvector, zero entropy, …) a documented guard rule applies and [`Guards`] says which |
@@ -159,29 +169,50 @@
 #[doc = include_str!("../../README.md")]
 struct ReadmeDoctests;
 
-#[macro_use]
+pub mod agc;
 #[cfg(fusion_arm_dsp)]
 mod arch;
-pub mod agc;
 pub mod cpu;
 pub mod error;
-pub mod filters;
+pub(crate) mod filters;
 pub mod frame;
-pub mod fuse;
+pub mod methods;
 pub mod pipeline;
-pub mod rescale;
+pub mod rescalers;
 pub mod scene;
 pub mod scratch;
 pub mod strips;
 
-pub use agc::{Agc, AgcMode, AgcParams, AgcReport, agc_frame};
+// The front door: what firmware and host code call, by name, at the root.
+pub use agc::{AGC_MAX_SMOOTHING, Agc, AgcMode, AgcParams, AgcReport, agc_frame};
 pub use error::Error;
 pub use frame::{Frame, Frame512, Frame1024, FrameMut, FrameRef, MAX_DIMENSION};
-pub use fuse::adaptive::AdaptiveParams;
-pub use fuse::adf::AdfParams;
-pub use fuse::ifevip::IfevipParams;
-pub use fuse::tsifsd::TsifsdParams;
-pub use fuse::{Guards, Variant};
-pub use pipeline::{FuseReport, Method, Pipeline, RescalePolicy, fuse};
-pub use rescale::{Filter, Sample, rescale};
+pub use methods::adaptive::AdaptiveParams;
+pub use methods::adf::AdfParams;
+pub use methods::ifevip::IfevipParams;
+pub use methods::tsifsd::TsifsdParams;
+pub use methods::{Guards, Variant};
+pub use pipeline::{
+    FuseConfig, FuseReport, Method, RescalePolicy, SkipPolicy, SkipReport, Skips, fuse, fusion_grid,
+};
+pub use rescalers::{Filter, Sample, rescale};
+pub use scene::{Decline, Illumination, Rect, SceneParams};
 pub use scratch::{SCRATCH_PLANES, Scratch, Scratch512, Scratch1024, ScratchMut};
+pub use strips::{
+    STRIP_SCRATCH_BYTES, StripReport, StripScratch, StripScratch512K, StripScratchMut, fuse_strips,
+};
+
+/// The firmware's stage hooks: the pipeline's steps one at a time (a method on frames already
+/// on one grid, the pre-cast output, the adaptive decision, the scene-skip plan's parts) and
+/// the kernels the budget measures alone. Public for `fw/`, the tests and the fuzz targets,
+/// which time or check each step; not the interface a user calls (use [`fuse`] and
+/// [`fuse_strips`]), and free to change with the pipeline.
+#[doc(hidden)]
+pub mod stages {
+    pub use crate::filters::box_sum::box_sum_u8;
+    pub use crate::methods::round_away_sat_u8;
+    pub use crate::pipeline::{
+        adaptive_decision, background_value, fuse_method, fuse_method_decided, fuse_raw,
+    };
+    pub use crate::rescalers::rescale_general_u8;
+}

@@ -17,8 +17,8 @@
 //! | TSIFSD flight | the flight kernel started at the strip's first row: column sums of the 35×35 window and a ring of `2r + 3` rows of lane words | `max(r, 1)` = 17 (the mean's radius; the Scharr rows `y ± 1` lie inside it) | 1 | `(W + 2r + 1) + (2r + 3)·W` words (152.1 KiB at W = 1024) |
 //! | TSIFSD classic | the column sums of the circular 35×35 window slid down the strip, the box row by the circular horizontal pass, the zero-padded median's rows | `max(r, 1)` = 17, plus up to `r` rows from the frame's other edge for the strips near the top and bottom (the circular window wraps; the band keeps a tail for them) | 1 | `4·W` words: column sums and box row of both bands (16 KiB at W = 1024) |
 //! | ADF (both variants) | the diffusion's row pipeline of both bands (all iterations in one group) | `iterations` = 10 | 2: the covariance (global KL weights), then the output | `32 768 + iterations·3·(W + 2) + W` words: the flux table, the pipeline and its output row (252.2 KiB at W = 1024, 10 iterations) |
-//! | adaptive | `fuse::adaptive::fuse_adaptive_rows`: column sums of the box slid down the strip, the binomial's rows read in place | `max(n/2, 1)` = 17 | 1 | `2·W` words (8 KiB at W = 1024) |
-//! | IFEVIP (both variants) | `fuse::ifevip::stream` (crate-private): the IR onto the quadtree grid a few rows at a time (quadtree block ranges, erosion at every candidate crossing from a ring of rows); the background rows from the leaves' Bézier rows; `R` and the top-`k` keys; the output | pass 1: the vertical taps of the IR onto the `D` grid, less one (9 at 1024 → 512); passes 2 and 3: none | 3: analysis, keys (`R` kept in the output frame), output | the crossings' minima, then per pass its tables and row buffers, up to 32 rows a chunk, and the top-`k` buffer (250.8 KiB at W = 1024, `D` = 512) |
+//! | adaptive | `methods::adaptive::fuse_adaptive_rows`: column sums of the box slid down the strip, the binomial's rows read in place | `max(n/2, 1)` = 17 | 1 | `2·W` words (8 KiB at W = 1024) |
+//! | IFEVIP (both variants) | `methods::ifevip::stream` (crate-private): the IR onto the quadtree grid a few rows at a time (quadtree block ranges, erosion at every candidate crossing from a ring of rows); the background rows from the leaves' Bézier rows; `R` and the top-`k` keys; the output | pass 1: the vertical taps of the IR onto the `D` grid, less one (9 at 1024 → 512); passes 2 and 3: none | 3: analysis, keys (`R` kept in the output frame), output | the crossings' minima, then per pass its tables and row buffers, up to 32 rows a chunk, and the top-`k` buffer (250.8 KiB at W = 1024, `D` = 512) |
 //!
 //! ADF's weights come from the covariance of the whole frame's detail layers, which no strip
 //! knows alone: the first pass diffuses every strip and adds its rows to the exact integer sums
@@ -47,10 +47,10 @@
 //! 246), five strips per frame; 185 rows, six strips, for TSIFSD classic (the band's tail holds
 //! the wrapped rows).
 
-use crate::fuse::Guards;
+use crate::methods::Guards;
 use crate::pipeline::{
-    BandRatio, FuseReport, Method, Pipeline, RescalePolicy, SkipPolicy, SkipReport, band_ratio, band_window,
-    fusion_grid,
+    BandRatio, FuseConfig, FuseReport, Method, RescalePolicy, SkipPolicy, SkipReport, band_ratio,
+    band_window, fusion_grid,
 };
 use crate::scene::{Rect, SceneParams};
 use crate::{Error, Filter, FrameMut, FrameRef};
@@ -334,7 +334,7 @@ pub(crate) struct StripPlan {
 }
 
 /// A method's strip form: what it needs ([`StripPlan`]) and its passes over the strips. Each
-/// method implements it in its own folder (`fuse/<method>/strips.rs`); [`fuse_strips`] only
+/// method implements it in its own folder (`methods/<method>/strips.rs`); [`fuse_strips`] only
 /// walks.
 pub(crate) trait StripForm {
     /// The method's needs on a grid.
@@ -376,7 +376,7 @@ pub fn fuse_strips(
     tir: FrameRef<'_, u8>,
     out: FrameMut<'_, u8>,
     scratch: &mut StripScratchMut<'_>,
-    pipeline: &Pipeline,
+    pipeline: &FuseConfig,
     max_rows: usize,
 ) -> Result<(FuseReport, StripReport), Error> {
     if pipeline.skip != SkipPolicy::None {
@@ -406,7 +406,7 @@ fn strips_with<F: StripForm>(
     tir: FrameRef<'_, u8>,
     mut out: FrameMut<'_, u8>,
     scratch: &mut StripScratchMut<'_>,
-    pipeline: &Pipeline,
+    pipeline: &FuseConfig,
     grid: (usize, usize),
     max_rows: usize,
 ) -> Result<(FuseReport, StripReport), Error> {

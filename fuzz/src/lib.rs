@@ -20,13 +20,13 @@
 //!   [`F32_MAX_MAGNITUDE`] ([`Error::ValueOutOfRange`]), gives finite output otherwise, and on
 //!   integer samples stays within 1.5 levels (cubic) / 0.5 levels (area) of the u16 rescaler.
 
-use fusion_nostd::fuse::round_away_sat_u8;
-use fusion_nostd::pipeline::{Method, Pipeline, RescalePolicy, fuse, fuse_raw};
-use fusion_nostd::rescale::{F32_MAX_MAGNITUDE, rescale_general_u8};
+use fusion_nostd::rescalers::{F32_MAX_MAGNITUDE, rescale_general_u8};
+use fusion_nostd::stages::{fuse_raw, round_away_sat_u8};
 use fusion_nostd::strips::{STRIP_BAND_BYTES, STRIP_WORK_WORDS, StripScratchMut, fuse_strips};
 use fusion_nostd::{
     AdfParams, Error, Filter, FrameMut, FrameRef, IfevipParams, ScratchMut, TsifsdParams, Variant, rescale,
 };
+use fusion_nostd::{FuseConfig, Method, RescalePolicy, fuse};
 
 /// Largest side of a fuzzed fusion input (keeps one execution in the millisecond range).
 pub const MAX_FUSE_SIDE: usize = 48;
@@ -394,7 +394,7 @@ pub fn pipeline(data: &[u8]) {
         return;
     }
 
-    let p = Pipeline { rescale: policy, method, ..Default::default() };
+    let p = FuseConfig { rescale: policy, method, ..Default::default() };
     let needed = p.scratch_pixels(v.size(), t.size());
     let needed = match (needed, fault) {
         (Ok(n), _) => n,

@@ -19,10 +19,10 @@
 //! fresh state) in one `agc` region and writes that frame; its policy byte must be 2 and its
 //! flags 0 or the fault bit.
 //! Method parameters are the core's defaults for the variant, the scene analysis thresholds
-//! `SceneParams::default()` (the host builds the same [`Pipeline`] for its comparison run).
+//! `SceneParams::default()` (the host builds the same [`FuseConfig`] for its comparison run).
 
 use fusion_nostd::Variant;
-use fusion_nostd::pipeline::{Method, Pipeline, RescalePolicy, SkipPolicy};
+use fusion_nostd::pipeline::{FuseConfig, Method, RescalePolicy, SkipPolicy};
 
 /// Most runs in one job.
 pub const MAX_RUNS: usize = 32;
@@ -142,11 +142,11 @@ impl Run {
     };
 
     /// The core configuration of this run.
-    pub fn pipeline(&self) -> Pipeline {
+    pub fn pipeline(&self) -> FuseConfig {
         // `method` numbers the core's `Method::KINDS` (TSIFSD for a number past them).
         let kind = Method::KINDS.get(usize::from(self.method)).copied().unwrap_or("tsifsd");
         let method = Method::named(kind, self.variant).unwrap_or_default();
-        Pipeline { rescale: self.policy, method, skip: self.skip, ..Default::default() }
+        FuseConfig { rescale: self.policy, method, skip: self.skip, ..Default::default() }
     }
 
     /// An AGC run: `Some(true)` for the linear stretch, `Some(false)` for plateau equalisation.

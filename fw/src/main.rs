@@ -292,15 +292,19 @@ fn exercise_entry_points() {
     #[cfg(not(feature = "rescale-only"))]
     {
         use fusion_nostd::ScratchMut;
-        use fusion_nostd::pipeline::{Method, Pipeline, RescalePolicy, fuse, fuse_raw};
+        use fusion_nostd::stages::fuse_raw;
+        use fusion_nostd::{FuseConfig, Method, RescalePolicy, fuse};
         let methods = Method::defaults();
         let policies = [RescalePolicy::TirUp, RescalePolicy::VisDown, RescalePolicy::None];
         let (vw, vh, tw, th, ow, oh) =
             (black_box(40usize), black_box(30usize), black_box(20usize), black_box(15usize), dw, dh);
         for method in methods {
             for policy in policies {
-                let pipeline =
-                    black_box(Pipeline { rescale: policy, method: black_box(method), ..Default::default() });
+                let pipeline = black_box(FuseConfig {
+                    rescale: policy,
+                    method: black_box(method),
+                    ..Default::default()
+                });
                 let [p0, p1, p2] = &mut *planes;
                 let mut scratch = ScratchMut::with_band([p0, p1, p2], &mut *band);
                 if let (Ok(v), Ok(t), Ok(o)) =
@@ -338,9 +342,9 @@ fn exercise_entry_points() {
         // Each method's own entries (u8 and pre-cast), strided views, work planes without a band
         // plane, and the public stage functions the firmware runner measures.
         {
-            use fusion_nostd::filters::box_sum::box_sum_u8;
-            use fusion_nostd::fuse::{adf, ifevip, tsifsd};
-            use fusion_nostd::pipeline::fuse_method;
+            use fusion_nostd::methods::{adf, ifevip, tsifsd};
+            use fusion_nostd::stages::box_sum_u8;
+            use fusion_nostd::stages::fuse_method;
             use fusion_nostd::{AdfParams, IfevipParams, TsifsdParams};
             let variant = black_box(fusion_nostd::Variant::Classic);
             let (adf_p, ts_p, ife_p) = black_box((
@@ -382,7 +386,7 @@ fn exercise_entry_points() {
                 }
             }
             if let (Ok(src), Ok(dst)) = (FrameRef::new(a, sw, sh), FrameMut::new(&mut *b, dw, dh)) {
-                fusion_nostd::rescale::rescale_general_u8(src, dst, black_box(Filter::Cubic));
+                fusion_nostd::rescalers::rescale_general_u8(src, dst, black_box(Filter::Cubic));
             }
         }
     }

@@ -4,14 +4,13 @@
 use crate::semihosting;
 use crate::{AGC, Meter, OUT, SCRATCH, STRIP_SCRATCH, TIR, TIR16, VIS, fnv1a, job, say, sizes};
 use core::fmt::Write;
-use fusion_nostd::fuse::adf::{Band, diffuse_pair};
-use fusion_nostd::fuse::ifevip::background;
-use fusion_nostd::pipeline::{
-    FuseReport, Method, Pipeline, RescalePolicy, adaptive_decision, fuse, fuse_method_decided, fusion_grid,
+use fusion_nostd::methods::adf::{Band, diffuse_pair};
+use fusion_nostd::methods::ifevip::background;
+use fusion_nostd::stages::{adaptive_decision, fuse_method_decided};
+use fusion_nostd::{
+    AgcParams, Decline, Filter, FrameMut, FrameRef, FuseConfig, FuseReport, Guards, Method, RescalePolicy,
+    ScratchMut, agc_frame, fuse, fuse_strips, fusion_grid, rescale,
 };
-use fusion_nostd::scene::Decline;
-use fusion_nostd::strips::fuse_strips;
-use fusion_nostd::{AgcParams, Filter, FrameMut, FrameRef, Guards, ScratchMut, agc_frame, rescale};
 
 /// What can stop a job.
 pub enum FwError {
@@ -51,7 +50,7 @@ fn staged(
     tir: FrameRef<'_, u8>,
     out: &mut [u8],
     scratch: &mut ScratchMut<'_>,
-    pipeline: &Pipeline,
+    pipeline: &FuseConfig,
     tag: &str,
 ) -> Result<Guards, FwError> {
     let (w, h) = fusion_grid(vis.size(), tir.size(), pipeline.rescale)?;
@@ -283,7 +282,7 @@ pub fn self_test(m: &mut Meter) -> Result<(), FwError> {
     }
     let (vis, tir) = (FrameRef::new(&vis[..], 256, 256)?, FrameRef::new(&tir[..], 128, 128)?);
     for method in Method::defaults() {
-        let pipeline = Pipeline { rescale: RescalePolicy::TirUp, method, ..Default::default() };
+        let pipeline = FuseConfig { rescale: RescalePolicy::TirUp, method, ..Default::default() };
         let report = fuse(vis, tir, FrameMut::new(&mut *out, 256, 256)?, &mut scratch.view_mut(), &pipeline)?;
         say!(
             m.con,

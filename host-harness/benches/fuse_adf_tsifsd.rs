@@ -5,9 +5,9 @@
 //! `cargo bench -p host-harness --bench fuse_adf_tsifsd -- core/` for the core only.
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use fusion_nostd::fuse::Variant;
-use fusion_nostd::fuse::adf::{AdfParams, fuse_adf};
-use fusion_nostd::fuse::tsifsd::{TsifsdParams, fuse_tsifsd};
+use fusion_nostd::methods::Variant;
+use fusion_nostd::methods::adf::{AdfParams, fuse_adf};
+use fusion_nostd::methods::tsifsd::{TsifsdParams, fuse_tsifsd};
 use fusion_nostd::{FrameMut, FrameRef};
 use host_harness::CoreScratch;
 use host_harness::io::Gray;

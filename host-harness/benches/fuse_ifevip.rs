@@ -6,8 +6,8 @@
 //! `cargo bench -p host-harness --bench fuse_ifevip -- core/` for the core only.
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use fusion_nostd::fuse::Variant;
-use fusion_nostd::fuse::ifevip::{IfevipParams, fuse_ifevip, scratch_pixels};
+use fusion_nostd::methods::Variant;
+use fusion_nostd::methods::ifevip::{IfevipParams, fuse_ifevip, scratch_pixels};
 use fusion_nostd::{FrameMut, FrameRef};
 use host_harness::CoreScratch;
 use host_harness::io::Gray;

@@ -17,12 +17,12 @@
 //! the ones of the criterion benches (`benches/fuse_adf_tsifsd.rs`).
 
 use anyhow::{Context, Result, bail};
-use fusion_nostd::fuse::Variant;
-use fusion_nostd::fuse::adf::AdfParams;
-use fusion_nostd::fuse::ifevip::{IfevipParams, scratch_pixels};
-use fusion_nostd::fuse::tsifsd::TsifsdParams;
-use fusion_nostd::pipeline::{Method, Pipeline, RescalePolicy, fuse_method};
-use fusion_nostd::rescale::{Filter, rescale};
+use fusion_nostd::methods::Variant;
+use fusion_nostd::methods::adf::AdfParams;
+use fusion_nostd::methods::ifevip::{IfevipParams, scratch_pixels};
+use fusion_nostd::methods::tsifsd::TsifsdParams;
+use fusion_nostd::pipeline::{FuseConfig, Method, RescalePolicy, fuse_method};
+use fusion_nostd::rescalers::{Filter, rescale};
 use fusion_nostd::strips::fuse_strips;
 use fusion_nostd::{FrameMut, FrameRef, Guards};
 use host_harness::CoreScratch;
@@ -50,7 +50,7 @@ fn fuse_region(
         let o = FrameMut::new(out, n, n)?;
         Ok(match strips {
             Some(s) => {
-                let p = Pipeline { method: *method, rescale: RescalePolicy::None, ..Pipeline::default() };
+                let p = FuseConfig { method: *method, rescale: RescalePolicy::None, ..FuseConfig::default() };
                 fuse_strips(v, t, o, &mut s.view_mut(), &p, usize::MAX)?.0.guards
             }
             None => fuse_method(v, t, o, method, &mut scratch.view_mut())?,

@@ -9,8 +9,8 @@ use crate::io::Gray;
 use crate::reference;
 use anyhow::Result;
 use clap::ValueEnum;
-use fusion_nostd::fuse::{Guards, Variant};
-use fusion_nostd::pipeline::{Method, Pipeline, RescalePolicy, fusion_grid};
+use fusion_nostd::methods::{Guards, Variant};
+use fusion_nostd::pipeline::{FuseConfig, Method, RescalePolicy, fusion_grid};
 use fusion_nostd::{AdaptiveParams, AdfParams, IfevipParams, TsifsdParams};
 
 /// The core's fusion methods (also the method names of `fusion budget`).
@@ -114,7 +114,7 @@ pub struct Fused {
 /// Fuses `vis` and `tir` with the core pipeline; with `with_raw`, through the core's pre-cast
 /// entry ([`fusion_nostd::pipeline::fuse_raw`]) so the Q16 value comes back too (IFEVIP saturates
 /// to 8 bits at every step, so its raw value is its output).
-pub fn fuse_core(vis: &Gray<u8>, tir: &Gray<u8>, pipeline: &Pipeline, with_raw: bool) -> Result<Fused> {
+pub fn fuse_core(vis: &Gray<u8>, tir: &Gray<u8>, pipeline: &FuseConfig, with_raw: bool) -> Result<Fused> {
     let run = crate::study::fuse_timed(vis, tir, pipeline, 1)?;
     let (out, (w, h)) = (run.fused, run.report.grid);
     let raw = match (with_raw, &pipeline.method) {
@@ -131,7 +131,7 @@ pub fn fuse_core(vis: &Gray<u8>, tir: &Gray<u8>, pipeline: &Pipeline, with_raw: 
                 &mut scratch.view_mut(),
                 pipeline,
             )?;
-            let scale = f64::from(1u32 << fusion_nostd::fuse::adf::RAW_FRAC_BITS);
+            let scale = f64::from(1u32 << fusion_nostd::methods::adf::RAW_FRAC_BITS);
             Some(Gray { width: w, height: h, data: raw.data.iter().map(|&v| f64::from(v) / scale).collect() })
         }
     };
@@ -139,7 +139,7 @@ pub fn fuse_core(vis: &Gray<u8>, tir: &Gray<u8>, pipeline: &Pipeline, with_raw: 
 }
 
 /// Fuses `vis` and `tir` with the f64 references (rescale and method).
-pub fn fuse_reference(vis: &Gray<u8>, tir: &Gray<u8>, pipeline: &Pipeline) -> Result<Fused> {
+pub fn fuse_reference(vis: &Gray<u8>, tir: &Gray<u8>, pipeline: &FuseConfig) -> Result<Fused> {
     // The adaptive method decides on the input VIS frame, before the rescale (as the core).
     let decision = fusion_nostd::pipeline::adaptive_decision(vis.view()?, pipeline)?;
     let (w, h) = fusion_grid((vis.width, vis.height), (tir.width, tir.height), pipeline.rescale)?;

@@ -4,12 +4,16 @@
 
 use crate::io::Gray;
 use anyhow::Result;
-use fusion_nostd::pipeline::{FuseReport, Pipeline};
+use fusion_nostd::pipeline::{FuseConfig, FuseReport};
 use fusion_nostd::scene::Rect;
 
 /// One core fusion: the fused frame, the report and the wall time (seconds, scratch allocated
 /// outside the timed part).
-pub fn fuse_once(vis: &Gray<u8>, tir: &Gray<u8>, pipeline: &Pipeline) -> Result<(Gray<u8>, FuseReport, f64)> {
+pub fn fuse_once(
+    vis: &Gray<u8>,
+    tir: &Gray<u8>,
+    pipeline: &FuseConfig,
+) -> Result<(Gray<u8>, FuseReport, f64)> {
     let run = crate::study::fuse_timed(vis, tir, pipeline, 1)?;
     Ok((run.fused, run.report, run.seconds))
 }

@@ -3,7 +3,7 @@
 
 use crate::io::Gray;
 use anyhow::Result;
-use fusion_nostd::pipeline::{FuseReport, Pipeline, fusion_grid};
+use fusion_nostd::pipeline::{FuseConfig, FuseReport, fusion_grid};
 use fusion_nostd::strips::{STRIP_BAND_BYTES, STRIP_WORK_WORDS, StripReport, StripScratchMut, fuse_strips};
 use std::time::Instant;
 
@@ -32,7 +32,7 @@ impl HostStripScratch {
 pub fn fuse_strips_once(
     vis: &Gray<u8>,
     tir: &Gray<u8>,
-    pipeline: &Pipeline,
+    pipeline: &FuseConfig,
     max_rows: usize,
     scratch: &mut HostStripScratch,
 ) -> Result<(Gray<u8>, FuseReport, StripReport, f64)> {

@@ -5,7 +5,7 @@
 use crate::CoreScratch;
 use crate::io::{ColorPolicy, Gray, load_gray_u8};
 use anyhow::{Context, Result, anyhow};
-use fusion_nostd::pipeline::{FuseReport, Method, Pipeline, RescalePolicy, fusion_grid};
+use fusion_nostd::pipeline::{FuseConfig, FuseReport, Method, RescalePolicy, fusion_grid};
 use fusion_nostd::{AdfParams, Filter, Guards, IfevipParams, TsifsdParams, Variant, rescale};
 use render_host::Manifest;
 use std::path::{Path, PathBuf};
@@ -93,7 +93,7 @@ pub struct TimedFusion {
 pub fn fuse_timed(
     vis: &Gray<u8>,
     tir: &Gray<u8>,
-    pipeline: &Pipeline,
+    pipeline: &FuseConfig,
     repeats: usize,
 ) -> Result<TimedFusion> {
     let (vs, ts) = ((vis.width, vis.height), (tir.width, tir.height));

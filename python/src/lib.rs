@@ -8,7 +8,7 @@
 
 use anyhow::{Context, bail};
 use clap::ValueEnum;
-use fusion_nostd::pipeline::{FuseReport, Pipeline};
+use fusion_nostd::pipeline::{FuseConfig, FuseReport};
 use fusion_nostd::{AgcParams, FrameMut, FrameRef};
 use host_harness::cli::eval::Suite;
 use host_harness::cli::rescale::FilterArg;
@@ -127,12 +127,12 @@ impl<'py> Image<'py> {
 }
 
 /// The core configuration the CLI builds from these names.
-fn pipeline(method: &str, variant: &str, rescale: &str, skip: &str) -> PyResult<Pipeline> {
-    Ok(Pipeline {
+fn pipeline(method: &str, variant: &str, rescale: &str, skip: &str) -> PyResult<FuseConfig> {
+    Ok(FuseConfig {
         method: method_for(named::<MethodArg>("method", method)?, named::<VariantArg>("variant", variant)?),
         rescale: named::<RescaleArg>("rescale", rescale)?.into(),
         skip: named::<SkipArg>("skip", skip)?.into(),
-        ..Pipeline::default()
+        ..FuseConfig::default()
     })
 }
 
@@ -150,7 +150,7 @@ fn agc_params(agc: &str, plateau: Option<u32>, pixels: usize) -> PyResult<AgcPar
 fn fuse_gray(
     vis: &Plane<'_, u8>,
     tir: &Plane<'_, u8>,
-    pipeline: &Pipeline,
+    pipeline: &FuseConfig,
     strips: Option<usize>,
     out: &mut [u8],
     grid: (usize, usize),

@@ -1,11 +1,11 @@
-//! The adaptive fusion (`fusion_nostd::fuse::adaptive`): the integer core against the f64
+//! The adaptive fusion (`fusion_nostd::methods::adaptive`): the integer core against the f64
 //! reference written from the rule, the thermal frame passed through bit for bit when VIS has
 //! no signal (eclipse), clipped VIS replaced by TIR (glare), the target never darkened by a
 //! black band, and the pipeline's decision taken from the input frames.
 
 use anyhow::Result;
-use fusion_nostd::fuse::adaptive::{AdaptiveParams, Decision, decide_frame};
-use fusion_nostd::pipeline::{Method, Pipeline, RescalePolicy, adaptive_decision, fuse_method_decided};
+use fusion_nostd::methods::adaptive::{AdaptiveParams, Decision, decide_frame};
+use fusion_nostd::pipeline::{FuseConfig, Method, RescalePolicy, adaptive_decision, fuse_method_decided};
 use fusion_nostd::scene::SceneParams;
 use fusion_nostd::{Filter, Guards, rescale};
 use host_harness::CoreScratch;
@@ -14,11 +14,11 @@ use host_harness::methods::{fuse_core, fuse_reference};
 use host_harness::study::Dataset;
 use render_host::{DatasetConfig, render_dataset};
 
-fn adaptive() -> Pipeline {
-    Pipeline {
+fn adaptive() -> FuseConfig {
+    FuseConfig {
         rescale: RescalePolicy::TirUp,
         method: Method::Adaptive(AdaptiveParams::default()),
-        ..Pipeline::default()
+        ..FuseConfig::default()
     }
 }
 

@@ -3,9 +3,9 @@
 //!
 //! Run with `cargo test -p fusion-tests --test adf_tsifsd -- --nocapture` to see the numbers.
 
-use fusion_nostd::fuse::adf::{AdfParams, fuse_adf, fuse_adf_raw};
-use fusion_nostd::fuse::tsifsd::{TsifsdParams, fuse_tsifsd, fuse_tsifsd_raw};
-use fusion_nostd::fuse::{Guards, Variant};
+use fusion_nostd::methods::adf::{AdfParams, fuse_adf, fuse_adf_raw};
+use fusion_nostd::methods::tsifsd::{TsifsdParams, fuse_tsifsd, fuse_tsifsd_raw};
+use fusion_nostd::methods::{Guards, Variant};
 use fusion_nostd::{Error, FrameMut, FrameRef};
 use fusion_tests::{TestRng, scene};
 use host_harness::io::{ColorPolicy, Gray, load_gray_u8, read_npy_2d};
@@ -78,7 +78,7 @@ fn core(
     };
     // One code path: the u8 output is the MATLAB cast of the raw value.
     for (o, r) in out.data.iter().zip(&raw.data) {
-        assert_eq!(*o, fusion_nostd::fuse::round_away_sat_u8(i64::from(*r), 16));
+        assert_eq!(*o, fusion_nostd::methods::round_away_sat_u8(i64::from(*r), 16));
     }
     assert_eq!(g1.0 & !Guards::OUTPUT_SATURATED.0, g2.0, "same guards from both entry points");
     Ok((out, raw, g1))
@@ -287,7 +287,7 @@ fn classic_weight_sum(vis: &Gray<u8>, tir: &Gray<u8>) -> f64 {
 
 /// Per pixel, how far classic ADF's published KL weights carry the core's diffusion error:
 /// `|Δp_IR·D_IR| + |Δp_VIS·D_VIS|`, with `Δp` the weights of the core's detail layers (from its
-/// own base layers, [`fusion_nostd::fuse::adf::diffuse_pair`]) less the reference's. Near a
+/// own base layers, [`fusion_nostd::methods::adf::diffuse_pair`]) less the reference's. Near a
 /// degenerate eigenvector (`v₁ + v₂ ≈ 0`) the weights are ill-conditioned: a base-layer error of
 /// a hundredth of a level moves them by more than the fixed-point bound allows for.
 fn classic_weight_error(vis: &Gray<u8>, tir: &Gray<u8>) -> Vec<f64> {
@@ -296,8 +296,8 @@ fn classic_weight_error(vis: &Gray<u8>, tir: &Gray<u8>) -> Vec<f64> {
     let mut state = vec![0i32; w * h];
     let mut work = vec![0i32; 32_768 + 3 * (w + 2) * usize::from(p.iterations) + w * h];
     let (bv, bt) = (FrameRef::new(&vis.data, w, h).unwrap(), FrameRef::new(&tir.data, w, h).unwrap());
-    let band = fusion_nostd::fuse::adf::Band::Frame;
-    fusion_nostd::fuse::adf::diffuse_pair(band(bv), band(bt), (w, h), &p, &mut state, &mut work).unwrap();
+    let band = fusion_nostd::methods::adf::Band::Frame;
+    fusion_nostd::methods::adf::diffuse_pair(band(bv), band(bt), (w, h), &p, &mut state, &mut work).unwrap();
     let q7 = 128.0;
     let core_detail = |g: &Gray<u8>, half: fn(i32) -> i32| -> Vec<f64> {
         g.data.iter().zip(&state).map(|(&x, &s)| f64::from(x) - f64::from(half(s)) / q7).collect()

@@ -9,7 +9,7 @@
 //! checksums the firmware self-test prints (release, fat LTO, Cortex-M7 and RV32 under QEMU)
 //! with this test build's (x86-64, debug assertions on) when the images and QEMU are there.
 
-use fusion_nostd::pipeline::{Method, Pipeline, RescalePolicy, fuse};
+use fusion_nostd::pipeline::{FuseConfig, Method, RescalePolicy, fuse};
 use fusion_nostd::{AdaptiveParams, AdfParams, FrameMut, FrameRef, IfevipParams, ScratchMut, TsifsdParams};
 use fusion_tests::{TestRng, scene};
 use host_harness::io::Gray;
@@ -37,7 +37,7 @@ impl Dirty {
     }
 }
 
-fn fuse_with(vis: &Gray<u8>, tir: &Gray<u8>, p: &Pipeline, scratch: &mut ScratchMut<'_>) -> Vec<u8> {
+fn fuse_with(vis: &Gray<u8>, tir: &Gray<u8>, p: &FuseConfig, scratch: &mut ScratchMut<'_>) -> Vec<u8> {
     let grid =
         if p.rescale == RescalePolicy::VisDown { (tir.width, tir.height) } else { (vis.width, vis.height) };
     let mut out = Gray::<u8>::new(grid.0, grid.1);
@@ -69,7 +69,7 @@ fn output_does_not_depend_on_scratch_contents() {
                 &[RescalePolicy::TirUp, RescalePolicy::VisDown]
             };
             for &rescale in policies {
-                let p = Pipeline { rescale, method, ..Default::default() };
+                let p = FuseConfig { rescale, method, ..Default::default() };
                 let pixels = p.scratch_pixels((vw, vh), (tw, th)).unwrap();
                 let want = fuse_with(&vis, &tir, &p, &mut Dirty::new(pixels, FILLS[0]).view());
                 for (k, fill) in FILLS.iter().enumerate().skip(1) {
@@ -97,7 +97,7 @@ fn scratch_reuse_across_sizes_and_methods() {
     for round in 0..2 {
         for (vis, tir) in &pairs {
             for method in methods() {
-                let p = Pipeline { rescale: RescalePolicy::TirUp, method, ..Default::default() };
+                let p = FuseConfig { rescale: RescalePolicy::TirUp, method, ..Default::default() };
                 let reused = fuse_with(vis, tir, &p, &mut shared.view());
                 let pixels = p.scratch_pixels((vis.width, vis.height), (tir.width, tir.height)).unwrap();
                 let fresh = fuse_with(vis, tir, &p, &mut Dirty::new(pixels, FILLS[0]).view());
@@ -126,7 +126,7 @@ fn strided_views_give_the_packed_result() {
     };
     for method in methods() {
         for rescale in [RescalePolicy::TirUp, RescalePolicy::VisDown] {
-            let p = Pipeline { rescale, method, ..Default::default() };
+            let p = FuseConfig { rescale, method, ..Default::default() };
             let pixels = p.scratch_pixels((vw, vh), (tw, th)).unwrap();
             let want = fuse_with(&vis, &tir, &p, &mut Dirty::new(pixels, FILLS[0]).view());
             let (vs, ts) = (vw + 5, tw + 2);
@@ -192,7 +192,7 @@ fn fw_selftest_matches_the_host() {
         ("ifevip", Method::Ifevip(IfevipParams::default())),
         ("adaptive", Method::Adaptive(AdaptiveParams::default())),
     ] {
-        let p = Pipeline { rescale: RescalePolicy::TirUp, method, ..Default::default() };
+        let p = FuseConfig { rescale: RescalePolicy::TirUp, method, ..Default::default() };
         let fused = host_harness::methods::fuse_core(&vis, &tir, &p, false).unwrap();
         host.push(format!(
             "@fw selftest {name} guards 0x{:02x} fnv1a {:08x}",

@@ -1,7 +1,7 @@
 //! IFEVIP: the f64 reference against the published outputs, the integer core against both.
 
-use fusion_nostd::fuse::ifevip::{IfevipParams, fuse_ifevip, scratch_pixels};
-use fusion_nostd::fuse::{Guards, Variant};
+use fusion_nostd::methods::ifevip::{IfevipParams, fuse_ifevip, scratch_pixels};
+use fusion_nostd::methods::{Guards, Variant};
 use fusion_nostd::{Error, FrameMut, FrameRef};
 use fusion_tests::{TestRng, scene};
 use host_harness::CoreScratch;

@@ -10,7 +10,7 @@ use std::sync::Mutex;
 
 use anyhow::Result;
 use fusion_nostd::cpu::{Isa, isa, limit_isa};
-use fusion_nostd::pipeline::{Method, Pipeline, RescalePolicy, SkipPolicy};
+use fusion_nostd::pipeline::{FuseConfig, Method, RescalePolicy, SkipPolicy};
 use fusion_nostd::{Filter, rescale};
 use fusion_tests::scene;
 use host_harness::io::Gray;
@@ -42,14 +42,14 @@ fn outputs(vis: &Gray<u8>, tir: &Gray<u8>) -> Result<Vec<String>> {
     for method in Method::all() {
         for rescale in [RescalePolicy::TirUp, RescalePolicy::VisDown] {
             for skip in [SkipPolicy::None, SkipPolicy::Roi, SkipPolicy::All] {
-                let p = Pipeline { method, rescale, skip, ..Pipeline::default() };
+                let p = FuseConfig { method, rescale, skip, ..FuseConfig::default() };
                 let (fused, report, _) = fuse_once(vis, tir, &p)?;
                 all.push(format!("{}/{rescale:?}/{skip:?}: {:?} {report:?}", method.name(), fused.data));
             }
         }
         // Strips on the VIS grid (a grid far shorter than IFEVIP's quadtree grid needs more
         // than the 512 KiB, see `fusion_nostd::strips`).
-        let p = Pipeline { method, ..Pipeline::default() };
+        let p = FuseConfig { method, ..FuseConfig::default() };
         let (fused, report, layout, _) = fuse_strips_once(vis, tir, &p, 40, &mut strips)?;
         all.push(format!("{} strips: {:?} {report:?} {layout:?}", method.name(), fused.data));
     }

@@ -1,8 +1,8 @@
 //! The pipeline entry (`fusion_nostd::pipeline`): rescale policy + method, against the same
 //! steps composed by hand (core rescaler, then the method), and against the f64 references.
 
-use fusion_nostd::fuse::{Guards, round_away_sat_u8};
-use fusion_nostd::pipeline::{Method, Pipeline, RescalePolicy, fuse, fuse_raw, fusion_grid};
+use fusion_nostd::methods::{Guards, round_away_sat_u8};
+use fusion_nostd::pipeline::{FuseConfig, Method, RescalePolicy, fuse, fuse_raw, fusion_grid};
 use fusion_nostd::{AdaptiveParams, AdfParams, Error, Filter, IfevipParams, TsifsdParams, Variant, rescale};
 use fusion_tests::{assert_same, scene};
 use host_harness::CoreScratch;
@@ -13,7 +13,7 @@ fn methods() -> [Method; 7] {
     Method::all()
 }
 
-fn run(vis: &Gray<u8>, tir: &Gray<u8>, pipeline: &Pipeline) -> Result<(Gray<u8>, Guards, bool), Error> {
+fn run(vis: &Gray<u8>, tir: &Gray<u8>, pipeline: &FuseConfig) -> Result<(Gray<u8>, Guards, bool), Error> {
     let (w, h) = fusion_grid((vis.width, vis.height), (tir.width, tir.height), pipeline.rescale)?;
     let mut out = Gray::new(w, h);
     let need = pipeline.scratch_pixels((vis.width, vis.height), (tir.width, tir.height))?;
@@ -46,22 +46,25 @@ fn policies_equal_rescale_then_fuse() -> Result<(), Error> {
         let (vis, tir) = (scene(vw, vh, 1), scene(tw, th, 2));
         for method in methods().into_iter().filter(|m| !matches!(m, Method::Adaptive(_))) {
             let up =
-                run(&vis, &tir, &Pipeline { rescale: RescalePolicy::TirUp, method, ..Default::default() })?;
+                run(&vis, &tir, &FuseConfig { rescale: RescalePolicy::TirUp, method, ..Default::default() })?;
             let by_hand = run(
                 &vis,
                 &resized(&tir, vw, vh, Filter::Cubic),
-                &Pipeline { rescale: RescalePolicy::None, method, ..Default::default() },
+                &FuseConfig { rescale: RescalePolicy::None, method, ..Default::default() },
             )?;
             assert!(up.2 && !by_hand.2, "rescaled flags");
             assert_same(&up.0, &by_hand.0, &format!("tir-up {method:?} {vw}x{vh}"));
             assert_eq!(up.1, by_hand.1);
 
-            let down =
-                run(&vis, &tir, &Pipeline { rescale: RescalePolicy::VisDown, method, ..Default::default() })?;
+            let down = run(
+                &vis,
+                &tir,
+                &FuseConfig { rescale: RescalePolicy::VisDown, method, ..Default::default() },
+            )?;
             let by_hand = run(
                 &resized(&vis, tw, th, Filter::Area),
                 &tir,
-                &Pipeline { rescale: RescalePolicy::None, method, ..Default::default() },
+                &FuseConfig { rescale: RescalePolicy::None, method, ..Default::default() },
             )?;
             assert_eq!((down.0.width, down.0.height), (tw, th));
             assert_same(&down.0, &by_hand.0, &format!("vis-down {method:?} {vw}x{vh}"));
@@ -77,7 +80,7 @@ fn core_pipeline_matches_the_reference_pipeline() -> anyhow::Result<()> {
     let (vis, tir) = (scene(256, 256, 11), scene(128, 128, 12));
     for method in methods() {
         for rescale in [RescalePolicy::TirUp, RescalePolicy::VisDown] {
-            let p = Pipeline { rescale, method, ..Default::default() };
+            let p = FuseConfig { rescale, method, ..Default::default() };
             let core = fuse_core(&vis, &tir, &p, false)?;
             let refr = fuse_reference(&vis, &tir, &p)?;
             let max =
@@ -95,7 +98,7 @@ fn core_pipeline_matches_the_reference_pipeline() -> anyhow::Result<()> {
 fn raw_value_casts_to_the_output() -> Result<(), Error> {
     let (vis, tir) = (scene(80, 60, 3), scene(40, 30, 4));
     for method in methods() {
-        let p = Pipeline { rescale: RescalePolicy::TirUp, method, ..Default::default() };
+        let p = FuseConfig { rescale: RescalePolicy::TirUp, method, ..Default::default() };
         let (out, _, _) = run(&vis, &tir, &p)?;
         let mut raw = Gray::<i32>::new(80, 60);
         let mut scratch = CoreScratch::new(p.scratch_pixels((80, 60), (40, 30))?);
@@ -125,10 +128,10 @@ fn bad_geometry_is_an_error() {
     let method = Method::default();
     let (vis, tir) = (scene(64, 64, 1), scene(32, 32, 2));
     // policy none with different sizes
-    let p = Pipeline { rescale: RescalePolicy::None, method, ..Default::default() };
+    let p = FuseConfig { rescale: RescalePolicy::None, method, ..Default::default() };
     assert!(matches!(run(&vis, &tir, &p), Err(Error::SizeMismatch { .. })));
     // wrong output size
-    let p = Pipeline { rescale: RescalePolicy::TirUp, method, ..Default::default() };
+    let p = FuseConfig { rescale: RescalePolicy::TirUp, method, ..Default::default() };
     let mut out = Gray::<u8>::new(32, 32);
     let mut scratch = CoreScratch::new(64 * 64);
     let r =

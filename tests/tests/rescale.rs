@@ -15,7 +15,7 @@ fn core_u8(src: &Gray<u8>, dw: usize, dh: usize, filter: Filter) -> Gray<u8> {
 
 fn core_general_u8(src: &Gray<u8>, dw: usize, dh: usize, filter: Filter) -> Gray<u8> {
     let mut out = Gray::new(dw, dh);
-    fusion_nostd::rescale::rescale_general_u8(src.view().unwrap(), out.view_mut().unwrap(), filter);
+    fusion_nostd::rescalers::rescale_general_u8(src.view().unwrap(), out.view_mut().unwrap(), filter);
     out
 }
 

@@ -2,11 +2,11 @@
 //! documented `Err` (or, where the input is valid however unusual, a correct `Ok`), never a
 //! panic. The table of cases and outcomes is in `fusion-nostd`'s crate docs ("Robustness").
 
-use fusion_nostd::fuse::adf::{fuse_adf, fuse_adf_raw};
-use fusion_nostd::fuse::ifevip::{self, fuse_ifevip};
-use fusion_nostd::fuse::tsifsd::{fuse_tsifsd, fuse_tsifsd_raw};
-use fusion_nostd::pipeline::{Method, Pipeline, RescalePolicy, fuse, fuse_method, fuse_raw};
-use fusion_nostd::rescale::F32_MAX_MAGNITUDE;
+use fusion_nostd::methods::adf::{fuse_adf, fuse_adf_raw};
+use fusion_nostd::methods::ifevip::{self, fuse_ifevip};
+use fusion_nostd::methods::tsifsd::{fuse_tsifsd, fuse_tsifsd_raw};
+use fusion_nostd::pipeline::{FuseConfig, Method, RescalePolicy, fuse, fuse_method, fuse_raw};
+use fusion_nostd::rescalers::F32_MAX_MAGNITUDE;
 use fusion_nostd::{
     AdaptiveParams, AdfParams, Error, Filter, FrameMut, FrameRef, IfevipParams, MAX_DIMENSION, ScratchMut,
     TsifsdParams, Variant, rescale,
@@ -29,12 +29,12 @@ fn methods() -> [Method; 7] {
 }
 
 /// Scratch sized for `pipeline` on these input sizes.
-fn scratch_for(p: &Pipeline, vis: (usize, usize), tir: (usize, usize)) -> CoreScratch {
+fn scratch_for(p: &FuseConfig, vis: (usize, usize), tir: (usize, usize)) -> CoreScratch {
     CoreScratch::new(p.scratch_pixels(vis, tir).expect("scratch size"))
 }
 
 /// Runs the pipeline on packed frames (the grid is the output size given).
-fn run(vis: &Gray<u8>, tir: &Gray<u8>, out_size: (usize, usize), p: &Pipeline) -> Result<Gray<u8>, Error> {
+fn run(vis: &Gray<u8>, tir: &Gray<u8>, out_size: (usize, usize), p: &FuseConfig) -> Result<Gray<u8>, Error> {
     let pixels = p.scratch_pixels((vis.width, vis.height), (tir.width, tir.height)).unwrap_or(1);
     let mut scratch = CoreScratch::new(pixels);
     let mut out = Gray::new(out_size.0, out_size.1);
@@ -104,14 +104,14 @@ fn mismatched_sizes_are_size_mismatch() {
         );
         assert!(matches!(r, Err(Error::SizeMismatch { .. })), "{method:?} {r:?}");
 
-        let none = Pipeline { rescale: RescalePolicy::None, method, ..Default::default() };
+        let none = FuseConfig { rescale: RescalePolicy::None, method, ..Default::default() };
         assert_eq!(
             run(&a, &b, (24, 16), &none),
             Err(Error::SizeMismatch { expected: (24, 16), got: (24, 15) })
         );
         for (policy, wrong) in [(RescalePolicy::TirUp, (12, 8)), (RescalePolicy::VisDown, (24, 16))] {
             let tir = scene(12, 8, 3);
-            let p = Pipeline { rescale: policy, method, ..Default::default() };
+            let p = FuseConfig { rescale: policy, method, ..Default::default() };
             assert!(
                 matches!(run(&a, &tir, wrong, &p), Err(Error::SizeMismatch { got, .. }) if got == wrong),
                 "{policy:?} {method:?}"
@@ -148,7 +148,7 @@ fn scratch_too_small_is_reported_with_the_numbers() {
     let (w, h) = (31, 17);
     let (vis, tir) = (scene(w, h, 1), scene(w, h, 2));
     for method in methods() {
-        let p = Pipeline { rescale: RescalePolicy::None, method, ..Default::default() };
+        let p = FuseConfig { rescale: RescalePolicy::None, method, ..Default::default() };
         let needed = p.scratch_pixels((w, h), (w, h)).unwrap();
         let mut scratch = CoreScratch::new(needed - 1);
         let mut out = Gray::<u8>::new(w, h);
@@ -172,7 +172,7 @@ fn scratch_too_small_is_reported_with_the_numbers() {
     }
     // A rescaling pipeline without a band plane (work planes from `from_slices`).
     let small_tir = scene(16, 9, 3);
-    let p = Pipeline { rescale: RescalePolicy::TirUp, method: Method::default(), ..Default::default() };
+    let p = FuseConfig { rescale: RescalePolicy::TirUp, method: Method::default(), ..Default::default() };
     let (mut p0, mut p1, mut p2) = (vec![0i32; w * h], vec![0i32; w * h], vec![0i32; w * h]);
     let mut no_band = ScratchMut::from_slices([&mut p0, &mut p1, &mut p2]);
     let mut out = Gray::<u8>::new(w, h);
@@ -181,11 +181,11 @@ fn scratch_too_small_is_reported_with_the_numbers() {
 }
 
 /// Frames over the capacity of the core: a side above `MAX_DIMENSION` cannot even be viewed,
-/// and `Pipeline::scratch_pixels` refuses such sizes instead of overflowing.
+/// and `FuseConfig::scratch_pixels` refuses such sizes instead of overflowing.
 #[test]
 fn frames_over_the_capacity() {
     for method in methods() {
-        let p = Pipeline { rescale: RescalePolicy::TirUp, method, ..Default::default() };
+        let p = FuseConfig { rescale: RescalePolicy::TirUp, method, ..Default::default() };
         for (vis, tir) in [
             ((MAX_DIMENSION + 1, 1), (1, 1)),
             ((1, 1), (1, MAX_DIMENSION + 1)),
@@ -230,7 +230,7 @@ fn tiny_odd_wide_and_tall_frames_fuse() {
     for (w, h) in sizes {
         let (vis, tir) = (rng.image_u8(w, h), rng.image_u8(w, h));
         for method in methods() {
-            let p = Pipeline { rescale: RescalePolicy::None, method, ..Default::default() };
+            let p = FuseConfig { rescale: RescalePolicy::None, method, ..Default::default() };
             let packed = run(&vis, &tir, (w, h), &p).unwrap_or_else(|e| panic!("{w}x{h} {method:?}: {e}"));
             assert_eq!(run(&vis, &tir, (w, h), &p).unwrap(), packed, "{w}x{h} {method:?}: deterministic");
             // The same frames in strided buffers (stride = width + 3, garbage in the gaps).
@@ -283,7 +283,7 @@ fn rescaling_pipeline_on_odd_size_pairs() {
         let (vis, tir) = (rng.image_u8(vw, vh), rng.image_u8(tw, th));
         for method in methods() {
             for (policy, grid) in [(RescalePolicy::TirUp, (vw, vh)), (RescalePolicy::VisDown, (tw, th))] {
-                let p = Pipeline { rescale: policy, method, ..Default::default() };
+                let p = FuseConfig { rescale: policy, method, ..Default::default() };
                 let r = run(&vis, &tir, grid, &p);
                 assert!(r.is_ok(), "{vw}x{vh} / {tw}x{th} {policy:?} {method:?}: {r:?}");
             }
@@ -317,7 +317,7 @@ fn invalid_parameters_name_the_field() {
         (Method::Ifevip(IfevipParams { gain_cap_percent: 101, ..ife }), "gain_cap_percent"),
     ];
     for (method, name) in cases {
-        let p = Pipeline { rescale: RescalePolicy::None, method, ..Default::default() };
+        let p = FuseConfig { rescale: RescalePolicy::None, method, ..Default::default() };
         let mut scratch = CoreScratch::new(ifevip::scratch_pixels(16, 16, &ife));
         let mut out = Gray::<u8>::new(16, 16);
         let r = fuse(
@@ -330,7 +330,7 @@ fn invalid_parameters_name_the_field() {
         assert_eq!(r.err(), Some(Error::InvalidParameter { name }), "{method:?}");
     }
     // IFEVIP has no pre-cast value.
-    let p = Pipeline { rescale: RescalePolicy::None, method: Method::Ifevip(ife), ..Default::default() };
+    let p = FuseConfig { rescale: RescalePolicy::None, method: Method::Ifevip(ife), ..Default::default() };
     let mut scratch = CoreScratch::new(ifevip::scratch_pixels(16, 16, &ife));
     let mut raw = Gray::<i32>::new(16, 16);
     let r = fuse_raw(

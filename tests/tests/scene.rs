@@ -4,7 +4,7 @@
 //! eclipse; bad input is still an `Err`.
 
 use anyhow::Result;
-use fusion_nostd::pipeline::{Method, Pipeline, RescalePolicy, SkipPolicy, Skips};
+use fusion_nostd::pipeline::{FuseConfig, Method, RescalePolicy, SkipPolicy, Skips};
 use fusion_nostd::scene::{Decline, Illumination, Rect, SceneParams, analyze};
 use fusion_nostd::{AdaptiveParams, AdfParams, Error, IfevipParams, TsifsdParams, Variant};
 use host_harness::io::{Gray, vifb_pairs};
@@ -26,8 +26,8 @@ fn methods() -> Vec<(&'static str, Method)> {
     ]
 }
 
-fn pipeline(method: Method, rescale: RescalePolicy, skip: SkipPolicy) -> Pipeline {
-    Pipeline { rescale, method, skip, ..Pipeline::default() }
+fn pipeline(method: Method, rescale: RescalePolicy, skip: SkipPolicy) -> FuseConfig {
+    FuseConfig { rescale, method, skip, ..FuseConfig::default() }
 }
 
 /// What one comparison found.
@@ -291,7 +291,7 @@ fn bad_input_is_still_an_error() -> Result<()> {
         let target = Rect { x0: 70, y0: 70, x1: 90, y1: 90 };
         let (vis160, tir160) =
             (synthetic(160, 160, target, 80, 0, 9), synthetic(160, 160, target, 90, 0, 10));
-        let same = Pipeline { rescale: RescalePolicy::None, ..p };
+        let same = FuseConfig { rescale: RescalePolicy::None, ..p };
         let mut out160 = Gray::<u8>::new(160, 160);
         let n = 160 * 160;
         let mut short = host_harness::CoreScratch::new(n - 1);
@@ -329,7 +329,7 @@ fn bad_input_is_still_an_error() -> Result<()> {
             &bad,
         );
         assert_eq!(r.err(), Some(Error::InvalidParameter { name: "mean_size" }));
-        let bad = Pipeline { scene: SceneParams { min_delta: 0, ..SceneParams::default() }, ..p };
+        let bad = FuseConfig { scene: SceneParams { min_delta: 0, ..SceneParams::default() }, ..p };
         let r = fusion_nostd::pipeline::fuse(
             vis.view()?,
             tir.view()?,
@@ -338,7 +338,7 @@ fn bad_input_is_still_an_error() -> Result<()> {
             &bad,
         );
         assert_eq!(r.err(), Some(Error::InvalidParameter { name: "min_delta" }));
-        let none = Pipeline { rescale: RescalePolicy::None, ..p };
+        let none = FuseConfig { rescale: RescalePolicy::None, ..p };
         let r = fusion_nostd::pipeline::fuse(
             vis.view()?,
             tir.view()?,

@@ -6,7 +6,7 @@
 //! untouched.
 
 use anyhow::Result;
-use fusion_nostd::pipeline::{Method, Pipeline, RescalePolicy, SkipPolicy};
+use fusion_nostd::pipeline::{FuseConfig, Method, RescalePolicy, SkipPolicy};
 use fusion_nostd::strips::{STRIP_SCRATCH_BYTES, StripScratchMut, fuse_strips};
 use fusion_nostd::{AdaptiveParams, AdfParams, Error, IfevipParams, TsifsdParams, Variant};
 use host_harness::io::{Gray, vifb_pairs};
@@ -49,7 +49,13 @@ fn methods() -> Vec<(&'static str, Method)> {
 
 /// Fuses whole and in strips of at most `max_rows`; asserts identical bytes and guards and a
 /// consistent strip report. Returns the strip count.
-fn check(name: &str, vis: &Gray<u8>, tir: &Gray<u8>, pipeline: &Pipeline, max_rows: usize) -> Result<usize> {
+fn check(
+    name: &str,
+    vis: &Gray<u8>,
+    tir: &Gray<u8>,
+    pipeline: &FuseConfig,
+    max_rows: usize,
+) -> Result<usize> {
     let (want, want_report, _) = fuse_once(vis, tir, pipeline)?;
     let mut scratch = HostStripScratch::default();
     let h = want.height;
@@ -110,7 +116,7 @@ fn synthetic_frames_are_bit_identical_in_strips() -> Result<()> {
                 ("vis-down", &vis, &tir, RescalePolicy::VisDown),
                 ("same-grid", &vis, &same, RescalePolicy::None),
             ] {
-                let p = Pipeline { rescale, method, ..Pipeline::default() };
+                let p = FuseConfig { rescale, method, ..FuseConfig::default() };
                 for rows in [usize::MAX, 1, 2, 5, 16, 33] {
                     if check(&format!("{w}x{h} {label} {name}"), v, t, &p, rows)? > 1 {
                         multi += 1;
@@ -143,7 +149,7 @@ fn ifevip_grid_shapes_are_bit_identical_in_strips() -> Result<()> {
     ] {
         for &(w, h) in sizes {
             let (vis, tir) = (textured(w, h, 7), textured(w, h, 8));
-            let p = Pipeline { rescale: RescalePolicy::None, method, ..Pipeline::default() };
+            let p = FuseConfig { rescale: RescalePolicy::None, method, ..FuseConfig::default() };
             let (want, want_report, _) = fuse_once(&vis, &tir, &p)?;
             for rows in [usize::MAX, 9, 40] {
                 let mut scratch = HostStripScratch::default();
@@ -169,7 +175,7 @@ fn design_point_1024_fuses_in_five_strips() -> Result<()> {
     let tir = textured(512, 512, 6);
     let design = |n: &str| !n.contains("n7") && !n.contains("3it") && !n.contains("d64");
     for (name, method) in methods().into_iter().filter(|(n, _)| design(n)) {
-        let p = Pipeline { method, ..Pipeline::default() };
+        let p = FuseConfig { method, ..FuseConfig::default() };
         let (want, _, _) = fuse_once(&vis, &tir, &p)?;
         let mut scratch = HostStripScratch::default();
         let (got, _, strips, _) = fuse_strips_once(&vis, &tir, &p, usize::MAX, &mut scratch)?;
@@ -194,7 +200,7 @@ fn rendered_frames_are_bit_identical_in_strips() -> Result<()> {
                 let vis = ds.image(set, frame, noisy)?;
                 for (name, method) in methods() {
                     for rescale in [RescalePolicy::TirUp, RescalePolicy::VisDown] {
-                        let p = Pipeline { rescale, method, ..Pipeline::default() };
+                        let p = FuseConfig { rescale, method, ..FuseConfig::default() };
                         for rows in [usize::MAX, 24] {
                             check(
                                 &format!("{set} {frame} noisy {noisy} {name} {rescale:?}"),
@@ -217,7 +223,7 @@ fn vifb_pairs_are_bit_identical_in_strips() -> Result<()> {
     let mut pairs = 0;
     for (name, vis, tir) in vifb_pairs(&host_harness::testdata::vifb_dir())? {
         for (label, method) in methods() {
-            let p = Pipeline { rescale: RescalePolicy::None, method, ..Pipeline::default() };
+            let p = FuseConfig { rescale: RescalePolicy::None, method, ..FuseConfig::default() };
             for rows in [usize::MAX, 64, 17] {
                 check(&format!("vifb {name} {label}"), &vis, &tir, &p, rows)?;
             }
@@ -236,7 +242,7 @@ fn what_strips_do_not_run_is_an_error() -> Result<()> {
     let (mut work, mut band) = (vec![0i32; 1 << 16], vec![0u8; 1 << 18]);
     let run = |vis: &Gray<u8>,
                tir: &Gray<u8>,
-               p: &Pipeline,
+               p: &FuseConfig,
                rows,
                out: (usize, usize),
                work: &mut [i32],
@@ -254,8 +260,8 @@ fn what_strips_do_not_run_is_an_error() -> Result<()> {
         assert!(o.data.iter().all(|&v| v == 0xA5), "{p:?}: output written before an error");
         anyhow::Ok(r.err())
     };
-    let tsifsd = Pipeline::default();
-    let skip = Pipeline { skip: SkipPolicy::Roi, ..Pipeline::default() };
+    let tsifsd = FuseConfig::default();
+    let skip = FuseConfig { skip: SkipPolicy::Roi, ..FuseConfig::default() };
     let grid = (64, 48);
     assert_eq!(
         run(&vis, &tir, &skip, 8, grid, &mut work, &mut band)?,

@@ -6,7 +6,7 @@
 //! exact for any border rule and any frame size, windows larger than the frame included
 //! (circular windows then wrap more than once, as MATLAB's `padarray(…, 'circular')`).
 //!
-//! Range: a sum is at most `255 · (2r+1)²`; [`MAX_RADIUS`] keeps it below 2³¹.
+//! Range: a sum is at most `255 · (2r+1)²`; `MAX_RADIUS` keeps it below 2³¹.
 
 use super::border::Border;
 use crate::{Error, FrameRef};
@@ -105,7 +105,7 @@ pub(crate) fn horizontal<T: Copy + Into<i32>>(row: &[T], radius: usize, border: 
 
 /// `out[y][x] = Σ` of `src` over the `(2·radius+1)²` window around `(x, y)`, outside samples
 /// by `border`. `tmp` and `out` are packed `width × height` planes (the horizontal pass goes
-/// to `tmp`). Errors: [`Error::InvalidParameter`] for a radius above [`MAX_RADIUS`],
+/// to `tmp`). Errors: [`Error::InvalidParameter`] for a radius above `MAX_RADIUS`,
 /// [`Error::ScratchTooSmall`] for short planes.
 pub fn box_sum_u8(
     src: FrameRef<'_, u8>,

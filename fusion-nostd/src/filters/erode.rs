@@ -2,7 +2,7 @@
 //!
 //! IFEVIP reads its 32×32 local-minimum image at the Bézier control points only: the
 //! crossings of at most 3·16 + 1 rows and as many columns of the 512² grid
-//! ([`crate::fuse::ifevip::bezier::control_lines`]). [`min_at_crossings`] computes the erosion
+//! ([`crate::methods::ifevip::bezier::control_lines`]). [`min_at_crossings`] computes the erosion
 //! there and nowhere else: per marked row, the column minima over the row window (one
 //! comparison per pixel and window row), then per marked column the minimum of those over the
 //! column window. Samples outside the image are ignored (the window is clipped), as MATLAB's

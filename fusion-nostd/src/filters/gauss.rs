@@ -12,7 +12,9 @@
 //! Input and output share one Q format; the sums are exact `i64` (|value| < 2³¹, weights
 //! < 2³⁰, at most 31 taps) and rounded to nearest once per pass.
 
-use crate::{Error, FrameMut, FrameRef};
+use crate::Error;
+#[cfg(test)]
+use crate::{FrameMut, FrameRef};
 
 /// Fractional bits of the Gaussian weights.
 pub const GAUSS_BITS: u32 = 30;
@@ -46,14 +48,17 @@ pub fn weights(size: usize, sigma_num: u32, sigma_den: u32) -> Result<([i32; MAX
     Ok((w, size))
 }
 
+#[cfg(test)]
 #[inline(always)]
 fn round_q(acc: i64) -> i32 {
     ((acc + (1 << (GAUSS_BITS - 1))) >> GAUSS_BITS) as i32
 }
 
+#[cfg(test)]
 /// Strip width of the accumulators.
 const STRIP: usize = 64;
 
+#[cfg(test)]
 #[inline(always)]
 fn rows_kernel(src: FrameRef<'_, i32>, mut dst: FrameMut<'_, i32>, w: &[i32]) {
     let n = w.len();
@@ -92,6 +97,7 @@ fn rows_kernel(src: FrameRef<'_, i32>, mut dst: FrameMut<'_, i32>, w: &[i32]) {
     }
 }
 
+#[cfg(test)]
 #[inline(always)]
 fn cols_kernel(src: FrameRef<'_, i32>, mut dst: FrameMut<'_, i32>, w: &[i32]) {
     let height = src.height();
@@ -116,13 +122,16 @@ fn cols_kernel(src: FrameRef<'_, i32>, mut dst: FrameMut<'_, i32>, w: &[i32]) {
     }
 }
 
+#[cfg(test)]
 crate::cpu::dispatch! {
     fn rows_best(src: FrameRef<'_, i32>, dst: FrameMut<'_, i32>, w: &[i32]) => rows_kernel
 }
+#[cfg(test)]
 crate::cpu::dispatch! {
     fn cols_best(src: FrameRef<'_, i32>, dst: FrameMut<'_, i32>, w: &[i32]) => cols_kernel
 }
 
+#[cfg(test)]
 /// Horizontal pass: `dst[y][x] = Σ_t w[t]·src[y][x + t − r]`, samples outside dropped.
 pub fn correlate_rows(src: FrameRef<'_, i32>, dst: FrameMut<'_, i32>, w: &[i32]) -> Result<(), Error> {
     if src.size() != dst.size() {
@@ -132,6 +141,7 @@ pub fn correlate_rows(src: FrameRef<'_, i32>, dst: FrameMut<'_, i32>, w: &[i32])
     Ok(())
 }
 
+#[cfg(test)]
 /// Vertical pass: `dst[y][x] = Σ_t w[t]·src[y + t − r][x]`, rows outside dropped.
 pub fn correlate_cols(src: FrameRef<'_, i32>, dst: FrameMut<'_, i32>, w: &[i32]) -> Result<(), Error> {
     if src.size() != dst.size() {

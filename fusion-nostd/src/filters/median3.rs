@@ -5,7 +5,9 @@
 //! identity for 3×3 windows. Rows outside the frame are `None` (zeros, MATLAB `medfilt2`'s
 //! default); the columns beyond the edges follow the [`Border`] rule.
 
-use super::border::{Border, Neighbourhood, for_columns, map_neighbourhoods};
+use super::border::{Border, for_columns};
+#[cfg(test)]
+use super::border::{Neighbourhood, map_neighbourhoods};
 
 #[inline]
 fn sort3([a, b, c]: [u8; 3]) -> [u8; 3] {
@@ -20,6 +22,7 @@ fn med3(a: u8, b: u8, c: u8) -> u8 {
     a.max(b).min(a.min(b).max(c))
 }
 
+#[cfg(test)]
 /// The exact median of a 3×3 neighbourhood.
 #[inline(always)]
 pub fn median9([l, c, r]: Neighbourhood<u8>) -> u8 {
@@ -29,6 +32,7 @@ pub fn median9([l, c, r]: Neighbourhood<u8>) -> u8 {
     med3(l0.max(c0).max(r0), med3(l1, c1, r1), l2.min(c2).min(r2))
 }
 
+#[cfg(test)]
 /// Calls `f(median, item)` with the 3×3 median of every pixel of `mid` (left to right) with the next item of `out`,
 /// rows `up` / `down` around it (`None`: zeros).
 #[inline(always)]

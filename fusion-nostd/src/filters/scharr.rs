@@ -10,12 +10,16 @@
 //! from which [`scharr_l1_pair`] takes both bands' `Gx` with one subtraction and both `Gy`
 //! with one weighted sum (on Arm with the DSP lane instructions).
 
-use super::border::{Border, Neighbourhood, column, for_columns, map_neighbourhoods};
+use super::border::{Border, column, for_columns};
+#[cfg(test)]
+use super::border::{Neighbourhood, map_neighbourhoods};
 pub use super::median3::CHUNK;
 
+#[cfg(test)]
 /// The largest value [`scharr_l1_row`] can yield (8160).
 pub const SCHARR_L1_MAX: i32 = 2 * 16 * 255;
 
+#[cfg(test)]
 /// `|Gx| + |Gy|` of one 3×3 neighbourhood.
 #[inline(always)]
 pub fn scharr_l1([l, c, r]: Neighbourhood<u8>) -> i32 {
@@ -26,6 +30,7 @@ pub fn scharr_l1([l, c, r]: Neighbourhood<u8>) -> i32 {
     gx.abs() + gy.abs()
 }
 
+#[cfg(test)]
 /// Calls `f(|Gx| + |Gy|, item)` for the pixels of `mid` (left to right) with the next item of `out`, rows `up` / `down`
 /// around it (`None`: zeros), columns beyond the edges by `border`.
 #[inline(always)]

@@ -31,7 +31,7 @@
 //!   differing from their band's level at all) is exactly constant — noiseless frames — and,
 //!   classic (zero padding), that level is 0. Then the detail layers vanish outside the box
 //!   grown by N (iterations), the covariance is the sum over that region with the frame's
-//!   pixel count ([`crate::fuse::adf::fuse_adf_window`]), and the **whole** output is
+//!   pixel count ([`crate::methods::adf::fuse_adf_window`]), and the **whole** output is
 //!   bit-identical (outside: the background rule, exact there). Otherwise declined:
 //!   [`Decline::GlobalStatistic`].
 //! * **IFEVIP** (global histograms, quadtree background of the whole IR, top-k peak): always
@@ -53,11 +53,11 @@
 //!   follows the TIR target alone ([`Skips::ECLIPSE_TIR_TARGET`]; its VIS-side work, the box
 //!   sum, is ≈ 5 % and kept).
 
-use crate::fuse::adaptive::{AdaptiveParams, Decision, decide, decide_frame, fuse_adaptive};
-use crate::fuse::adf::{AdfParams, fuse_adf, fuse_adf_raw};
-use crate::fuse::ifevip::{IfevipParams, fuse_ifevip};
-use crate::fuse::tsifsd::{TsifsdParams, fuse_tsifsd, fuse_tsifsd_raw};
-use crate::fuse::{Guards, Variant};
+use crate::methods::adaptive::{AdaptiveParams, Decision, decide, decide_frame, fuse_adaptive};
+use crate::methods::adf::{AdfParams, fuse_adf, fuse_adf_raw};
+use crate::methods::ifevip::{IfevipParams, fuse_ifevip};
+use crate::methods::tsifsd::{TsifsdParams, fuse_tsifsd, fuse_tsifsd_raw};
+use crate::methods::{Guards, Variant};
 use crate::scene::{Decline, Illumination, Rect, Scene, SceneParams, analyze};
 use crate::{Error, Filter, FrameMut, FrameRef, ScratchMut, rescale};
 
@@ -82,7 +82,7 @@ pub enum Method {
     Tsifsd(TsifsdParams),
     /// Infrared feature extraction + visual information preservation.
     Ifevip(IfevipParams),
-    /// Illumination-adaptive two-scale fusion for navigation ([`crate::fuse::adaptive`]): the
+    /// Illumination-adaptive two-scale fusion for navigation ([`crate::methods::adaptive`]): the
     /// per-frame decision (TIR passes through when VIS has no signal) comes from the scene
     /// analysis of the input VIS frame.
     Adaptive(AdaptiveParams),
@@ -110,7 +110,7 @@ pub enum SkipPolicy {
 
 /// A whole per-frame configuration.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct Pipeline {
+pub struct FuseConfig {
     /// How the two bands are brought onto one grid.
     pub rescale: RescalePolicy,
     /// How they are fused.
@@ -121,7 +121,7 @@ pub struct Pipeline {
     pub scene: SceneParams,
 }
 
-impl Pipeline {
+impl FuseConfig {
     /// Pixels each scratch plane (the three `i32` planes and the `u8` band plane) must hold to
     /// fuse a `vis`-sized frame with a `tir`-sized one, or [`Error::SizeMismatch`] when the
     /// policy cannot align them.
@@ -141,7 +141,7 @@ impl Pipeline {
         let pixels = w.checked_mul(h).ok_or(Error::DimensionTooLarge { value: w.max(h) })?;
         Ok(match &self.method {
             Method::Adf(_) | Method::Tsifsd(_) | Method::Adaptive(_) => pixels,
-            Method::Ifevip(p) => crate::fuse::ifevip::scratch_pixels(w, h, p).max(pixels),
+            Method::Ifevip(p) => crate::methods::ifevip::scratch_pixels(w, h, p).max(pixels),
         })
     }
 }
@@ -260,6 +260,7 @@ pub fn fusion_grid(
 /// [`SceneParams`]) of this VIS frame; [`fuse`] takes it from the input VIS frame before any
 /// rescale ([`adaptive_decision`]), so call [`fuse_method_decided`] with that decision to get
 /// [`fuse`]'s bits from frames already on the grid.
+#[doc(hidden)]
 pub fn fuse_method(
     vis: FrameRef<'_, u8>,
     tir: FrameRef<'_, u8>,
@@ -272,6 +273,7 @@ pub fn fuse_method(
 
 /// [`fuse_method`] with the adaptive method's per-frame decision given (`None`: taken from
 /// these frames as [`fuse_method`] does; ignored by the other methods).
+#[doc(hidden)]
 pub fn fuse_method_decided(
     vis: FrameRef<'_, u8>,
     tir: FrameRef<'_, u8>,
@@ -296,7 +298,8 @@ pub fn fuse_method_decided(
 
 /// The adaptive method's per-frame decision for an input pair, as [`fuse`] takes it: the scene
 /// analysis of the VIS frame as given, with `pipeline.scene`. `None` for the other methods.
-pub fn adaptive_decision(vis: FrameRef<'_, u8>, pipeline: &Pipeline) -> Result<Option<Decision>, Error> {
+#[doc(hidden)]
+pub fn adaptive_decision(vis: FrameRef<'_, u8>, pipeline: &FuseConfig) -> Result<Option<Decision>, Error> {
     match &pipeline.method {
         Method::Adaptive(p) => Ok(Some(decide_frame(vis, &pipeline.scene, p)?)),
         _ => Ok(None),
@@ -314,7 +317,7 @@ pub fn fuse(
     tir: FrameRef<'_, u8>,
     out: FrameMut<'_, u8>,
     scratch: &mut ScratchMut<'_>,
-    pipeline: &Pipeline,
+    pipeline: &FuseConfig,
 ) -> Result<FuseReport, Error> {
     if pipeline.skip != SkipPolicy::None {
         return fuse_skipping(vis, tir, out, scratch, pipeline);
@@ -328,18 +331,19 @@ pub fn fuse(
 
 /// Like [`fuse`], but writes the method's real-valued result before the 8-bit cast, in Q16
 /// (`raw / 65536.0` grey levels); [`fuse`] is this value cast with
-/// [`crate::fuse::round_away_sat_u8`]`(raw, 16)`.
+/// [`crate::methods::round_away_sat_u8`]`(raw, 16)`.
 ///
 /// ADF and TSIFSD only: IFEVIP's published arithmetic saturates to `uint8` at every step, so
 /// its pre-cast value is its output, and the adaptive method has no published pre-cast value
 /// to compare with; for them this returns [`Error::InvalidParameter`]
 /// (`name: "method"`).
+#[doc(hidden)]
 pub fn fuse_raw(
     vis: FrameRef<'_, u8>,
     tir: FrameRef<'_, u8>,
     raw: FrameMut<'_, i32>,
     scratch: &mut ScratchMut<'_>,
-    pipeline: &Pipeline,
+    pipeline: &FuseConfig,
 ) -> Result<FuseReport, Error> {
     on_grid(vis, tir, raw.size(), scratch, pipeline.rescale, |v, t, s| match &pipeline.method {
         Method::Adf(p) => fuse_adf_raw(v, t, raw, p, s),

@@ -32,7 +32,7 @@ pub(super) fn align_even(r: Rect, (w, h): (usize, usize)) -> Rect {
 
 pub(super) fn plan(
     scene: &Scene,
-    pipeline: &Pipeline,
+    pipeline: &FuseConfig,
     grid: (usize, usize),
     eclipse: bool,
     decision: Option<Decision>,
@@ -230,7 +230,7 @@ pub(super) fn fuse_skipping(
     tir: FrameRef<'_, u8>,
     mut out: FrameMut<'_, u8>,
     scratch: &mut ScratchMut<'_>,
-    pipeline: &Pipeline,
+    pipeline: &FuseConfig,
 ) -> Result<FuseReport, Error> {
     let grid = fusion_grid(vis.size(), tir.size(), pipeline.rescale)?;
     if out.size() != grid {
@@ -315,7 +315,7 @@ pub(super) fn fuse_skipping(
             };
             let vis_opt = if vis_constant { None } else { Some(vis_w) };
             let level = scene.vis.background;
-            let g = crate::fuse::adf::fuse_adf_window(
+            let g = crate::methods::adf::fuse_adf_window(
                 vis_opt,
                 level,
                 tir_w,

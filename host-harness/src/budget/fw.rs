@@ -228,8 +228,8 @@ impl RunSpec {
 
     /// The core configuration the image builds for this run (`fw/src/job.rs`), for the host's
     /// comparison run.
-    pub fn pipeline(&self) -> fusion_nostd::pipeline::Pipeline {
-        fusion_nostd::pipeline::Pipeline {
+    pub fn pipeline(&self) -> fusion_nostd::pipeline::FuseConfig {
+        fusion_nostd::pipeline::FuseConfig {
             rescale: self.policy.into(),
             method: crate::methods::method_for(self.method, self.variant),
             skip: self.skip.into(),

@@ -17,7 +17,7 @@ use crate::io::{ColorPolicy, Gray, load_gray_u8};
 use crate::methods::{MethodArg, RescaleArg, VariantArg, fuse_core, method_for};
 use anyhow::{Context, Result, bail, ensure};
 use elf::Elf;
-use fusion_nostd::pipeline::Pipeline;
+use fusion_nostd::pipeline::FuseConfig;
 use fw::{FwReport, Grid, Job, RunOut, RunSpec, Target};
 use std::fmt::Write as _;
 use std::path::PathBuf;
@@ -773,11 +773,11 @@ pub fn memory_report(out: &Outcome) -> Result<String> {
             );
         }
     }
-    s.push_str("\nWhat the core needs per method (`Pipeline::scratch_pixels`: three `i32` planes + the `u8` band plane, plus the frames VIS in, TIR in, fused out):\n\n");
+    s.push_str("\nWhat the core needs per method (`FuseConfig::scratch_pixels`: three `i32` planes + the `u8` band plane, plus the frames VIS in, TIR in, fused out):\n\n");
     s.push_str("| grid | method | scratch | frames | total |\n|---|---|---|---|---|\n");
     for grid in [Grid::G512, Grid::G1024] {
         for m in [MethodArg::Adf, MethodArg::Tsifsd, MethodArg::Ifevip, MethodArg::Adaptive] {
-            let pipeline = Pipeline {
+            let pipeline = FuseConfig {
                 rescale: grid.policy().into(),
                 method: method_for(m, VariantArg::Flight),
                 ..Default::default()

@@ -2,7 +2,7 @@
 //! analysis + rescale + method, one `pipeline` region around `fusion_nostd::pipeline::fuse`)
 //! per rendered frame pair and skip level on the emulated targets, each fused frame checked
 //! byte for byte (and the skip report field by field) against the host's `fuse` with the same
-//! [`Pipeline`](fusion_nostd::pipeline::Pipeline).
+//! [`FuseConfig`](fusion_nostd::pipeline::FuseConfig).
 //!
 //! Runs: TSIFSD (flight) and ADF (flight) with `--skip none|roi|all`, IFEVIP (flight) with
 //! `--skip all` only (its plan always declines: one row shows the analysis on top of the whole

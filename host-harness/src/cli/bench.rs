@@ -14,7 +14,7 @@ use crate::skip::{SkipError, skip_error};
 use crate::study::{Dataset, fuse_timed, median};
 use anyhow::{Context, Result};
 use clap::Args;
-use fusion_nostd::pipeline::{Method, Pipeline, RescalePolicy};
+use fusion_nostd::pipeline::{FuseConfig, Method, RescalePolicy};
 use fusion_nostd::{AdfParams, IfevipParams, TsifsdParams, Variant};
 use render_host::{DatasetConfig, render_dataset};
 use std::fmt::Write as _;
@@ -133,7 +133,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
     let mut points = Vec::new();
     for (family, configs) in knobs() {
         for policy in [RescalePolicy::TirUp, RescalePolicy::VisDown] {
-            let default = Pipeline { rescale: policy, method: configs[0].1, ..Default::default() };
+            let default = FuseConfig { rescale: policy, method: configs[0].1, ..Default::default() };
             let t = Instant::now();
             let reference = fuse_reference(&vis, &tir, &default)?;
             let ref_seconds = t.elapsed().as_secs_f64();
@@ -148,7 +148,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
                 max_abs: 0,
             });
             for (label, method) in &configs {
-                let p = Pipeline { rescale: policy, method: *method, ..Default::default() };
+                let p = FuseConfig { rescale: policy, method: *method, ..Default::default() };
                 let r = fuse_timed(&vis, &tir, &p, args.repeats)?;
                 let SkipError { psnr, max_abs, .. } = skip_error(&r.fused, &reference.image);
                 outln!(
@@ -168,7 +168,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
             // The classic f64 reference of the same frame, for the engine comparison at equal
             // semantics (classic core vs classic reference).
             if let Some((label, method)) = configs.get(1) {
-                let p = Pipeline { rescale: policy, method: *method, ..Default::default() };
+                let p = FuseConfig { rescale: policy, method: *method, ..Default::default() };
                 let t = Instant::now();
                 let r = fuse_reference(&vis, &tir, &p)?;
                 let secs = t.elapsed().as_secs_f64();

@@ -15,7 +15,7 @@ use crate::study::{
 };
 use anyhow::{Context, Result};
 use clap::Args;
-use fusion_nostd::pipeline::{Pipeline, RescalePolicy};
+use fusion_nostd::pipeline::{FuseConfig, RescalePolicy};
 use fusion_nostd::{Filter, Guards};
 use render_host::{DatasetConfig, render_dataset};
 use std::fmt::Write as _;
@@ -96,7 +96,7 @@ pub fn run(args: &DemoArgs) -> Result<()> {
             let mut fused_all = Vec::new();
             for (mi, m) in methods.iter().enumerate() {
                 let pipeline =
-                    Pipeline { rescale: RescalePolicy::TirUp, method: m.method, ..Default::default() };
+                    FuseConfig { rescale: RescalePolicy::TirUp, method: m.method, ..Default::default() };
                 let r = fuse_timed(&vis, &tir, &pipeline, args.repeats)?;
                 let path = args.out.join("fused").join(ill).join(m.name).join(format!("frame_{f:03}.png"));
                 std::fs::create_dir_all(path.parent().unwrap_or(&args.out))?;

@@ -12,8 +12,8 @@ use crate::reference;
 use crate::study_methods::{HostMethod, cast_u8, drif, fuse_host_u8};
 use anyhow::{Context, Result, bail};
 use clap::{Args, ValueEnum};
-use fusion_nostd::fuse::Guards;
-use fusion_nostd::pipeline::{Pipeline, RescalePolicy, fusion_grid};
+use fusion_nostd::methods::Guards;
+use fusion_nostd::pipeline::{FuseConfig, RescalePolicy, fusion_grid};
 use std::path::{Path, PathBuf};
 
 /// Every method `fusion fuse` knows: the core's three and the study's four host-only ones.
@@ -311,7 +311,7 @@ fn fuse_gray(args: &FuseArgs, vis: &Gray<u8>, tir: &Gray<u8>) -> Result<GrayResu
     let rescale = args.rescale.unwrap_or(RescaleArg::TirUp);
     let fused = match args.method.split() {
         Ok(method) => {
-            let pipeline = Pipeline {
+            let pipeline = FuseConfig {
                 rescale: rescale.into(),
                 method: method_for(method, args.variant.unwrap_or(VariantArg::Flight)),
                 skip: args.skip.into(),

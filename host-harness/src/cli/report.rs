@@ -39,7 +39,7 @@ use crate::study_methods::{HostMethod, fuse_host_u8};
 use anyhow::{Context, Result};
 use clap::Args;
 use fusion_nostd::Filter;
-use fusion_nostd::pipeline::{Pipeline, RescalePolicy};
+use fusion_nostd::pipeline::{FuseConfig, RescalePolicy};
 use rayon::prelude::*;
 use render_host::{
     Camera, DatasetConfig, Illumination, Scene, VisParams, render_dataset, render_vis, trajectory,
@@ -299,16 +299,16 @@ pub fn run(args: &ReportArgs) -> Result<()> {
                 let up = fuse_timed(
                     &vis_n,
                     &tir_n,
-                    &Pipeline { rescale: RescalePolicy::TirUp, method, ..Default::default() },
+                    &FuseConfig { rescale: RescalePolicy::TirUp, method, ..Default::default() },
                     args.repeats,
                 )?;
                 let down = fuse_timed(
                     &vis_n,
                     &tir_n,
-                    &Pipeline { rescale: RescalePolicy::VisDown, method, ..Default::default() },
+                    &FuseConfig { rescale: RescalePolicy::VisDown, method, ..Default::default() },
                     args.repeats,
                 )?;
-                let none = Pipeline { rescale: RescalePolicy::None, method, ..Default::default() };
+                let none = FuseConfig { rescale: RescalePolicy::None, method, ..Default::default() };
                 let same = fuse_timed(&vis_n, &tir1024_n, &none, 1)?;
                 let reference = fuse_timed(&vis_c, &tir1024_c, &none, 1)?;
                 let ref_down = source_on_grid(&reference.fused, (small, small), Filter::Area)?;

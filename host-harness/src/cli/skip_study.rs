@@ -9,7 +9,7 @@ use crate::study::{Dataset, core_methods, source_on_grid, version};
 use anyhow::{Result, bail};
 use clap::Args;
 use fusion_nostd::Filter;
-use fusion_nostd::pipeline::{Pipeline, RescalePolicy, SkipPolicy, Skips};
+use fusion_nostd::pipeline::{FuseConfig, RescalePolicy, SkipPolicy, Skips};
 use fusion_nostd::scene::Rect;
 use fusion_nostd::scene::{SceneParams, analyze};
 use std::fmt::Write as _;
@@ -138,11 +138,11 @@ pub fn run(args: &SkipStudyArgs) -> Result<()> {
                 for m in core_methods() {
                     let mut full = None;
                     for (lname, level) in levels {
-                        let p = Pipeline {
+                        let p = FuseConfig {
                             rescale: RescalePolicy::TirUp,
                             method: m.method,
                             skip: level,
-                            ..Pipeline::default()
+                            ..FuseConfig::default()
                         };
                         let mut best = f64::INFINITY;
                         let mut last = None;

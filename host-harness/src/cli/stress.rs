@@ -27,7 +27,7 @@ use crate::methods::{fuse_core, fuse_reference, matlab_uint8, to_f64};
 use crate::reference;
 use anyhow::{Result, bail};
 use clap::Args;
-use fusion_nostd::pipeline::{Method, Pipeline, RescalePolicy, fusion_grid};
+use fusion_nostd::pipeline::{FuseConfig, Method, RescalePolicy, fusion_grid};
 use fusion_nostd::{AdfParams, Filter, Guards, IfevipParams, ScratchMut, Variant};
 use rayon::prelude::*;
 use std::fmt::Write as _;
@@ -328,7 +328,7 @@ pub struct Row {
 }
 
 /// Runs the core pipeline with scratch pre-filled with garbage.
-fn core_dirty(vis: &Gray<u8>, tir: &Gray<u8>, p: &Pipeline) -> Result<(Gray<u8>, Guards)> {
+fn core_dirty(vis: &Gray<u8>, tir: &Gray<u8>, p: &FuseConfig) -> Result<(Gray<u8>, Guards)> {
     let (vs, ts) = ((vis.width, vis.height), (tir.width, tir.height));
     let (w, h) = fusion_grid(vs, ts, p.rescale)?;
     let n = p.scratch_pixels(vs, ts)?;
@@ -346,7 +346,7 @@ fn core_dirty(vis: &Gray<u8>, tir: &Gray<u8>, p: &Pipeline) -> Result<(Gray<u8>,
 
 /// The f64 reference's ADF weights `(p_IR, p_VIS)` on the pair as the reference pipeline
 /// aligns it (as [`fuse_reference`]: the rescaled band through the f64 rescaler and a u8 cast).
-fn reference_kl_weights(vis: &Gray<u8>, tir: &Gray<u8>, p: &Pipeline, params: &AdfParams) -> (f64, f64) {
+fn reference_kl_weights(vis: &Gray<u8>, tir: &Gray<u8>, p: &FuseConfig, params: &AdfParams) -> (f64, f64) {
     let Ok((w, h)) = fusion_grid((vis.width, vis.height), (tir.width, tir.height), p.rescale) else {
         return (f64::NAN, f64::NAN);
     };
@@ -369,7 +369,7 @@ fn reference_kl_weights(vis: &Gray<u8>, tir: &Gray<u8>, p: &Pipeline, params: &A
 pub fn run_one(case: &Case, geometry: &Geometry, name: &'static str, method: Method) -> Row {
     let vis = case.vis.draw(geometry.vis.0, geometry.vis.1);
     let tir = case.tir.draw(geometry.tir.0, geometry.tir.1);
-    let p = Pipeline { rescale: geometry.rescale, method, ..Default::default() };
+    let p = FuseConfig { rescale: geometry.rescale, method, ..Default::default() };
     let mut row = Row {
         case: case.name,
         geometry: geometry.label(),

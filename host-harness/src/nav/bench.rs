@@ -23,7 +23,7 @@ use crate::CoreScratch;
 use crate::io::{ColorPolicy, Gray, load_gray_u8};
 use anyhow::{Context, Result};
 use fusion_nostd::pipeline::SkipPolicy;
-use fusion_nostd::{AdaptiveParams, Filter, Method, Pipeline, RescalePolicy};
+use fusion_nostd::{AdaptiveParams, Filter, FuseConfig, Method, RescalePolicy};
 use image::GrayImage;
 use rayon::prelude::*;
 use render_host::glam::{DVec2, DVec3};
@@ -41,7 +41,7 @@ pub enum Stream {
     /// The thermal camera alone, upscaled to the VIS grid with the core's bicubic.
     Tir,
     /// A core fusion (TIR upscaled with bicubic, as in flight).
-    Fused(Pipeline),
+    Fused(FuseConfig),
 }
 
 /// The streams of the benchmark with their names: `vis`, `tir`, `adaptive`, `adaptive-skip`,
@@ -52,11 +52,11 @@ pub fn streams() -> Vec<(String, Stream)> {
     for skip in [SkipPolicy::None, SkipPolicy::All] {
         out.push((
             if skip == SkipPolicy::None { "adaptive" } else { "adaptive-skip" }.to_string(),
-            Stream::Fused(Pipeline {
+            Stream::Fused(FuseConfig {
                 rescale: RescalePolicy::TirUp,
                 method: Method::Adaptive(AdaptiveParams::default()),
                 skip,
-                ..Pipeline::default()
+                ..FuseConfig::default()
             }),
         ));
     }
@@ -69,11 +69,11 @@ pub fn streams() -> Vec<(String, Stream)> {
             };
             out.push((
                 name,
-                Stream::Fused(Pipeline {
+                Stream::Fused(FuseConfig {
                     rescale: RescalePolicy::TirUp,
                     method,
                     skip,
-                    ..Pipeline::default()
+                    ..FuseConfig::default()
                 }),
             ));
         }

@@ -1,4 +1,4 @@
-//! Adaptive-fusion f64 reference, written from the rule in `fusion_nostd::fuse::adaptive`'s
+//! Adaptive-fusion f64 reference, written from the rule in `fusion_nostd::methods::adaptive`'s
 //! docs on images in 0..255 grey-level units, independent of the core's integer code:
 //!
 //! * `B_k`: the `n × n` mean, replicate border ([`super::tsifsd::box_mean`]).
@@ -12,7 +12,7 @@
 
 use super::tsifsd::box_mean;
 use crate::io::Gray;
-use fusion_nostd::fuse::adaptive::{AdaptiveParams, Decision};
+use fusion_nostd::methods::adaptive::{AdaptiveParams, Decision};
 
 /// The 3×3 binomial smoothing with replicate border.
 pub fn binomial3(img: &Gray<f64>) -> Gray<f64> {

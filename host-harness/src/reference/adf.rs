@@ -14,7 +14,7 @@
 
 use crate::io::Gray;
 use fusion_nostd::Variant;
-use fusion_nostd::fuse::adf::AdfParams;
+use fusion_nostd::methods::adf::AdfParams;
 
 /// Perona–Malik diffusion of `img` (N = `params.iterations`, Δt, κ, border by variant).
 pub fn diffuse(img: &Gray<f64>, params: &AdfParams) -> Gray<f64> {

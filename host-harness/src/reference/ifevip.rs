@@ -24,7 +24,7 @@
 
 use crate::io::Gray;
 use fusion_nostd::Variant;
-use fusion_nostd::fuse::ifevip::IfevipParams;
+use fusion_nostd::methods::ifevip::IfevipParams;
 
 /// MATLAB's bicubic kernel (Keys, a = −0.5), written with the same masks as `imresize`.
 pub fn cubic(x: f64) -> f64 {

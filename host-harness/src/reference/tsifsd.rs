@@ -12,7 +12,7 @@
 
 use crate::io::Gray;
 use fusion_nostd::Variant;
-use fusion_nostd::fuse::tsifsd::TsifsdParams;
+use fusion_nostd::methods::tsifsd::TsifsdParams;
 
 fn pick(i: isize, n: usize, circular: bool) -> usize {
     let n = n as isize;

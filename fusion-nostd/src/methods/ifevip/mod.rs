@@ -6,16 +6,16 @@
 //!
 //! | step | where | format | error against exact arithmetic |
 //! |---|---|---|---|
-//! | 1. IR → `D×D` (`D` = 512), MATLAB bicubic, `uint8` after each pass ([`imresize`]) | plane B | integers 0..=255 | weights Q30 (sum exactly 2³⁰), sums exact `i64`; differs from exact only within ≈ 2⁻²² of a .5 tie |
-//! | 2. quadtree (`max − min > 51`, sides 512…32) ([`quadtree`]) | stack, `heapless` | integers | exact |
-//! | 3. 32×32 erosion at the control points only ([`crate::filters::erode`]) | plane C | integers | exact |
-//! | 4. Bézier patches ([`bezier`]) | plane A | Q20 ([`BG_BITS`]) | exact numerator, one rounding: ≤ 2⁻²¹ |
+//! | 1. IR → `D×D` (`D` = 512), MATLAB bicubic, `uint8` after each pass (`imresize`) | plane B | integers 0..=255 | weights Q30 (sum exactly 2³⁰), sums exact `i64`; differs from exact only within ≈ 2⁻²² of a .5 tie |
+//! | 2. quadtree (`max − min > 51`, sides 512…32) (`quadtree`) | stack, `heapless` | integers | exact |
+//! | 3. 32×32 erosion at the control points only (`crate::filters::erode`) | plane C | integers | exact |
+//! | 4. Bézier patches (`bezier`) | plane A | Q20 (`BG_BITS`) | exact numerator, one rounding: ≤ 2⁻²¹ |
 //! | 5. back to W×H, `double` bicubic | plane C | Q20 | ≤ 2⁻²¹ per pass + weight rounding (≈ 2⁻³¹ × local variation) |
-//! | 6. 9×9 Gaussian σ 4.5, zero padded ([`crate::filters::gauss`]) | plane B | Q20 | ≤ 2⁻²¹ per pass + 9·2⁻³¹·255 |
+//! | 6. 9×9 Gaussian σ 4.5, zero padded (`crate::filters::gauss`) | plane B | Q20 | ≤ 2⁻²¹ per pass + 9·2⁻³¹·255 |
 //! | 7. `R = IR ⊖ uint8(bg)` | plane B | integers | flips only where bg is within ≈ 10⁻⁶ of a .5 tie |
-//! | 8. `r_H = H(IR)/H(VIS)` ([`entropy`]) | — | Q32 (keys use Q24) | `H` within 2⁻²⁹ bits |
-//! | 9. keys `max(Feat, 0) + VIS` = `VIS·2²⁴ + max(R·2²⁴ + (IR−VIS)·r_H,24, 0)`: counted per key class `(v + R, IR − VIS)` or `v` ([`peak::Classes`]) | plane A (counts) | `i64` Q24 ([`peak::KEY_BITS`]) | ≤ 255·2⁻²⁵ from `r_H`'s Q24 |
-//! | 10. `m·k` = exact sum of the top `k` keys by histogram selection over the classes ([`peak`]) | plane B (candidates) | `i128` Q24 | exact given the keys |
+//! | 8. `r_H = H(IR)/H(VIS)` (`entropy`) | — | Q32 (keys use Q24) | `H` within 2⁻²⁹ bits |
+//! | 9. keys `max(Feat, 0) + VIS` = `VIS·2²⁴ + max(R·2²⁴ + (IR−VIS)·r_H,24, 0)`: counted per key class `(v + R, IR − VIS)` or `v` (`peak::Classes`) | plane A (counts) | `i64` Q24 (`peak::KEY_BITS`) | ≤ 255·2⁻²⁵ from `r_H`'s Q24 |
+//! | 10. `m·k` = exact sum of the top `k` keys by histogram selection over the classes (`peak`) | plane B (candidates) | `i128` Q24 | exact given the keys |
 //! | 11. `g = min(255/m, 0.8)` as `G = g·2⁴⁰`, `B = g·r_H·2⁴⁰` (B saturated at 2⁵²) | — | Q40 | ≤ 2⁻⁴¹ |
 //! | 12. `F = VIS ⊕ uint8(R·G + (IR−VIS)·B)` | out (frames ≥ 8·256·511 px: the added value tabulated per `(R, IR−VIS)` in plane A) | `i64` Q40, round half away, saturate | ≤ 2⁻³² before rounding |
 //!
@@ -40,7 +40,7 @@
 //! # Scratch
 //!
 //! Three `i32` planes of [`scratch_pixels`] each: `max(W·H, D², 261 377)` (the last: the key
-//! classes of step 9, [`peak::CLASSES`]) plus the resizes' intermediate frames and tap tables
+//! classes of step 9, `peak::CLASSES`) plus the resizes' intermediate frames and tap tables
 //! (`D` × the shorter side, ≤ 4·max(W,H)+2·D entries); at most `W·H` for frames from 512² up
 //! to 1024² — even a 1×1 frame needs `D²`. No other memory except stack for the histograms
 //! and the quadtree: ≈ 12 KiB on the flight targets, ≈ 30 KiB on x86-64.
@@ -50,11 +50,11 @@
 //! the quadtree's block ranges, the erosion at the candidate control points, the exact top-`k`
 //! keys and, between passes 2 and 3, `R` in the output frame.
 
-pub mod bezier;
-pub mod entropy;
-pub mod imresize;
-pub mod peak;
-pub mod quadtree;
+pub(crate) mod bezier;
+pub(crate) mod entropy;
+pub(crate) mod imresize;
+pub(crate) mod peak;
+pub(crate) mod quadtree;
 pub(crate) mod stream;
 /// The strip form ([`crate::strips::StripForm`]).
 mod strips;
@@ -250,7 +250,7 @@ pub(crate) fn histogram(frame: FrameRef<'_, u8>) -> [u32; 256] {
     hist
 }
 
-/// Steps 1–6: the smoothed IR background (Q20, [`BG_BITS`]) for every pixel, row-major in
+/// Steps 1–6: the smoothed IR background (Q20, `BG_BITS`) for every pixel, row-major in
 /// the first `W·H` elements of the third plane of `scratch` (public for tests and tools).
 pub fn background(
     tir: FrameRef<'_, u8>,

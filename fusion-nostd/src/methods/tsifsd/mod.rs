@@ -22,7 +22,7 @@
 //! The 8-bit output folds that rounding and the cast's into one floor division, which needs no
 //! 64-bit division (a library call on the 32-bit targets): three 32-bit divisions for the
 //! flight saliency. The 35×35 mean costs O(1) per pixel (running sums,
-//! [`crate::filters::box_sum`]); the 3×3 median and the Scharr gradient sort or smooth each
+//! `crate::filters::box_sum`); the 3×3 median and the Scharr gradient sort or smooth each
 //! column once for its three windows (row chunks of 256 pixels on the stack). The flight
 //! 8-bit output has its own kernel (`flight_u8`): only `Σ_IR − Σ_VIS` enters it, so it keeps
 //! the 35×35 window's column sums of `I_IR − I_VIS` in one padded row instead of two box-sum

@@ -552,13 +552,13 @@ fn group_words(w: usize, stages: usize) -> usize {
 }
 
 /// A running diffusion: the constants, the flux table if one is used, the frame size.
-struct Pipeline<'t> {
+struct RowPipeline<'t> {
     d: Diffusion,
     table: Option<&'t [i16]>,
     size: (usize, usize),
 }
 
-impl<'t> Pipeline<'t> {
+impl<'t> RowPipeline<'t> {
     /// Splits the flux table off the front of `work` when the row loops read one and it fits
     /// (with at least `min_rest` words left), tabulates it, and returns the rest of `work`.
     fn new<'w: 't>(
@@ -744,7 +744,7 @@ fn diffuse_with(
     let pixels = w * h;
     let capacity = state.len();
     let state = state.get_mut(..pixels).ok_or(Error::ScratchTooSmall { needed: pixels, capacity })?;
-    let (pipe, mem) = Pipeline::new(d, size, work, group_words(w, 1));
+    let (pipe, mem) = RowPipeline::new(d, size, work, group_words(w, 1));
     let stages = usize::from(iterations);
     let group = stages.min(mem.len().checked_div(STAGE_ROWS * (w + 2)).unwrap_or(0));
     if group == 0 {
@@ -789,7 +789,7 @@ pub(crate) fn diffuse_rows(
     let capacity = work.len();
     let work = work.get_mut(..needed).ok_or(Error::ScratchTooSmall { needed, capacity })?;
     let (row, work) = work.split_at_mut_checked(w).ok_or(Error::ScratchTooSmall { needed, capacity })?;
-    let (pipe, mem) = Pipeline::new(Diffusion::new(params), size, work, group_words(w, stages));
+    let (pipe, mem) = RowPipeline::new(Diffusion::new(params), size, work, group_words(w, stages));
     let mem = mem.get_mut(..group_words(w, stages)).ok_or(Error::ScratchTooSmall { needed, capacity })?;
     mem.fill(0);
     let mut layers = Layers { a: row, whole: false };

@@ -7,7 +7,7 @@
 
 use super::stream::{Analysis, Keys, Tree, crossing_words, output_rows};
 use super::{EntropyRatio, GainTables, Gains, IfevipParams, top_k};
-use crate::fuse::Guards;
+use crate::methods::Guards;
 use crate::strips::{StripForm, StripPlan, StripReport, StripRun, Walk};
 use crate::{Error, FrameMut};
 
@@ -28,7 +28,7 @@ impl StripForm for IfevipParams {
     }
 }
 
-/// IFEVIP's three passes (see `fuse::ifevip::stream`): the analysis walk with the
+/// IFEVIP's three passes (see `methods::ifevip::stream`): the analysis walk with the
 /// step-1 halo, then keys and output over halo-free strips (`rest`). Returns the work words
 /// used and the guards, and whether an output saturated. Each pass is a function of its own
 /// (never inlined), so their state — a few KiB each — never shares one stack frame.

@@ -204,7 +204,7 @@ fn area_enlarge_phase(d: usize, n_src: usize, n_dst: usize) -> (usize, i64) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::rescale::Filter;
+    use crate::rescalers::Filter;
 
     fn taps(rule: AxisRule, d: usize) -> [(usize, i64); 4] {
         let mut out = [(0, 0); 4];

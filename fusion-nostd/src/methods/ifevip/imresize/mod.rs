@@ -57,6 +57,7 @@ pub struct Taps<'a> {
 }
 
 impl<'a> Taps<'a> {
+    #[cfg(test)]
     /// Elements per output sample in the table (`2 + taps`).
     pub fn stride(&self) -> usize {
         self.stride

@@ -7,7 +7,7 @@
 
 use super::{TsifsdParams, classic_words, flight_words, fuse_tsifsd_classic_rows, fuse_tsifsd_flight_rows};
 use crate::Error;
-use crate::fuse::{Guards, Variant};
+use crate::methods::{Guards, Variant};
 use crate::strips::{StripForm, StripPlan, StripRun, Window};
 
 impl StripForm for TsifsdParams {

@@ -4,7 +4,7 @@
 
 use super::{AdaptiveParams, decide_frame, fuse_adaptive_rows, work_words};
 use crate::Error;
-use crate::fuse::Guards;
+use crate::methods::Guards;
 use crate::strips::{StripForm, StripPlan, StripRun, Window};
 
 impl StripForm for AdaptiveParams {

@@ -165,7 +165,7 @@ fn every_schedule_gives_the_same_bits() -> Result<(), Error> {
                     }
                     // Plain sweeps with all eight fluxes per pixel.
                     let mut nothing = [];
-                    let (pipe, _) = Pipeline::new(Diffusion::new(&p), (w, h), &mut nothing, 0);
+                    let (pipe, _) = RowPipeline::new(Diffusion::new(&p), (w, h), &mut nothing, 0);
                     let (mut a, mut b) = (std::vec![0i32; w * h], std::vec![0i32; w * h]);
                     pipe.sweeps(vis, tir, &mut a, &mut b, p.iterations);
                     results.push(a);

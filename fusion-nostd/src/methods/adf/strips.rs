@@ -6,7 +6,7 @@
 
 use super::{AdfParams, Covariance, diffuse_rows, stream_words};
 use crate::Error;
-use crate::fuse::Guards;
+use crate::methods::Guards;
 use crate::strips::{StripForm, StripPlan, StripRun, Window};
 
 impl StripForm for AdfParams {

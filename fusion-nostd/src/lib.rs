@@ -174,7 +174,8 @@ pub mod agc;
 mod arch;
 pub mod cpu;
 pub mod error;
-pub(crate) mod filters;
+#[doc(hidden)]
+pub mod filters;
 pub mod frame;
 pub mod methods;
 pub mod pipeline;

@@ -50,11 +50,16 @@
 //! the quadtree's block ranges, the erosion at the candidate control points, the exact top-`k`
 //! keys and, between passes 2 and 3, `R` in the output frame.
 
-pub(crate) mod bezier;
-pub(crate) mod entropy;
-pub(crate) mod imresize;
-pub(crate) mod peak;
-pub(crate) mod quadtree;
+#[doc(hidden)]
+pub mod bezier;
+#[doc(hidden)]
+pub mod entropy;
+#[doc(hidden)]
+pub mod imresize;
+#[doc(hidden)]
+pub mod peak;
+#[doc(hidden)]
+pub mod quadtree;
 pub(crate) mod stream;
 /// The strip form ([`crate::strips::StripForm`]).
 mod strips;

@@ -52,7 +52,7 @@ pub const CHUNK: usize = 256;
 
 /// The medians of the pixels `x0 .. x0 + out.len()` (at most [`CHUNK`]) of `mid`, rows `up` /
 /// `down` around it (`None`: zeros), columns beyond the edges by `border`: the same values as
-/// [`median3_row`], with each column sorted once for its three windows.
+/// `median3_row`, with each column sorted once for its three windows.
 #[inline(always)]
 pub fn median3_chunk(rows: [Option<&[u8]>; 3], border: Border, x0: usize, out: &mut [u8]) {
     let n = out.len().min(CHUNK);

@@ -16,7 +16,7 @@ use super::border::{Neighbourhood, map_neighbourhoods};
 pub use super::median3::CHUNK;
 
 #[cfg(test)]
-/// The largest value [`scharr_l1_row`] can yield (8160).
+/// The largest value `scharr_l1_row` can yield (8160).
 pub const SCHARR_L1_MAX: i32 = 2 * 16 * 255;
 
 #[cfg(test)]
@@ -47,7 +47,7 @@ pub fn scharr_l1_row<U>(
 
 /// `|Gx| + |Gy|` of the pixels `x0 .. x0 + out.len()` (at most [`CHUNK`]) of `mid`, rows
 /// `up` / `down` around it (`None`: zeros), columns beyond the edges by `border`: the same
-/// values as [`scharr_l1_row`], with each column's smoothing `3u + 10m + 3d` and difference
+/// values as `scharr_l1_row`, with each column's smoothing `3u + 10m + 3d` and difference
 /// `d − u` computed once for its three windows.
 #[inline(always)]
 pub fn scharr_l1_chunk(rows: [Option<&[u8]>; 3], border: Border, x0: usize, out: &mut [i32]) {

@@ -15,7 +15,7 @@
 //!   weight ≤ 2⁻³¹ · (taps merged into it).
 //!
 //! Tables live in a caller `i32` slice: per output sample `[start, count, w₀ … w_{T−1}]`
-//! with the fixed row length `T + 2` ([`Taps::stride`]).
+//! with the fixed row length `T + 2` (`Taps::stride`).
 
 use crate::{Error, FrameMut, FrameRef};
 

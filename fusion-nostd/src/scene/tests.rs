@@ -1,3 +1,4 @@
+use super::blocks::for_each_block;
 use super::*;
 
 #[test]

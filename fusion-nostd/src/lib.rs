@@ -187,7 +187,7 @@ pub mod strips;
 // The front door: what firmware and host code call, by name, at the root.
 pub use agc::{AGC_MAX_SMOOTHING, Agc, AgcMode, AgcParams, AgcReport, agc_frame};
 pub use error::Error;
-pub use frame::{Frame, Frame512, Frame1024, FrameMut, FrameRef, MAX_DIMENSION};
+pub use frame::{Frame, Frame512, Frame1024, FrameMut, FrameRef, MAX_DIMENSION, Rect};
 pub use methods::adaptive::AdaptiveParams;
 pub use methods::adf::AdfParams;
 pub use methods::ifevip::IfevipParams;
@@ -197,7 +197,7 @@ pub use pipeline::{
     FuseConfig, FuseReport, Method, RescalePolicy, SkipPolicy, SkipReport, Skips, fuse, fusion_grid,
 };
 pub use rescalers::{Filter, Sample, rescale};
-pub use scene::{Decline, Illumination, Rect, SceneParams};
+pub use scene::{Decline, Illumination, SceneParams};
 pub use scratch::{SCRATCH_PLANES, Scratch, Scratch512, Scratch1024, ScratchMut};
 pub use strips::{
     STRIP_SCRATCH_BYTES, StripReport, StripScratch, StripScratch512K, StripScratchMut, fuse_strips,

@@ -71,101 +71,12 @@
 //! # Ok::<(), fusion_nostd::Error>(())
 //! ```
 
+pub use crate::frame::Rect;
 use crate::{Error, FrameRef, MAX_DIMENSION};
 
 mod blocks;
 
 pub use blocks::{block_side, block_stats};
-
-/// A rectangle of pixels `x0..x1` × `y0..y1` (half-open).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
-pub struct Rect {
-    /// First column.
-    pub x0: usize,
-    /// First row.
-    pub y0: usize,
-    /// One past the last column.
-    pub x1: usize,
-    /// One past the last row.
-    pub y1: usize,
-}
-
-impl Rect {
-    /// The whole `w × h` frame.
-    pub const fn full((w, h): (usize, usize)) -> Rect {
-        Rect { x0: 0, y0: 0, x1: w, y1: h }
-    }
-
-    /// Columns.
-    pub const fn width(&self) -> usize {
-        self.x1.saturating_sub(self.x0)
-    }
-
-    /// Rows.
-    pub const fn height(&self) -> usize {
-        self.y1.saturating_sub(self.y0)
-    }
-
-    /// Pixels.
-    pub const fn area(&self) -> usize {
-        self.width().saturating_mul(self.height())
-    }
-
-    /// Whether it holds no pixel.
-    pub const fn is_empty(&self) -> bool {
-        self.width() == 0 || self.height() == 0
-    }
-
-    /// Whether `(x, y)` is inside.
-    pub const fn contains(&self, x: usize, y: usize) -> bool {
-        x >= self.x0 && x < self.x1 && y >= self.y0 && y < self.y1
-    }
-
-    /// The smallest rectangle holding both (an empty one is ignored).
-    #[must_use]
-    pub fn union(self, other: Rect) -> Rect {
-        if self.is_empty() {
-            return other;
-        }
-        if other.is_empty() {
-            return self;
-        }
-        Rect {
-            x0: self.x0.min(other.x0),
-            y0: self.y0.min(other.y0),
-            x1: self.x1.max(other.x1),
-            y1: self.y1.max(other.y1),
-        }
-    }
-
-    /// Grown by `r` on every side, clipped to a `w × h` frame.
-    #[must_use]
-    pub fn grow(self, r: usize, (w, h): (usize, usize)) -> Rect {
-        Rect {
-            x0: self.x0.saturating_sub(r),
-            y0: self.y0.saturating_sub(r),
-            x1: self.x1.saturating_add(r).min(w),
-            y1: self.y1.saturating_add(r).min(h),
-        }
-    }
-
-    /// Shrunk by `r` on every side that is not on the edge of a `w × h` frame (what stays
-    /// exact when a filter of radius `r` runs on this window alone: at the frame's own edge the
-    /// window's border rule is the frame's).
-    #[must_use]
-    pub fn shrink_inner(self, r: usize, (w, h): (usize, usize)) -> Rect {
-        let lo = |v: usize| if v == 0 { 0 } else { v.saturating_add(r) };
-        let hi = |v: usize, n: usize| if v >= n { v } else { v.saturating_sub(r) };
-        let s = Rect { x0: lo(self.x0), y0: lo(self.y0), x1: hi(self.x1, w), y1: hi(self.y1, h) };
-        if s.is_empty() { Rect::default() } else { s }
-    }
-
-    /// Whether every pixel of `other` is inside.
-    pub const fn covers(&self, other: &Rect) -> bool {
-        other.is_empty()
-            || (self.x0 <= other.x0 && self.y0 <= other.y0 && self.x1 >= other.x1 && self.y1 >= other.y1)
-    }
-}
 
 /// Illumination class of the VIS frame.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]

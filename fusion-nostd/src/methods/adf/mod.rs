@@ -509,7 +509,7 @@ pub fn fuse_adf_window(
     vis_level: u8,
     tir: FrameRef<'_, u8>,
     mut out: FrameMut<'_, u8>,
-    exact: crate::scene::Rect,
+    exact: crate::frame::Rect,
     frame_pixels: usize,
     params: &AdfParams,
     scratch: &mut ScratchMut<'_>,
@@ -521,7 +521,7 @@ pub fn fuse_adf_window(
         return Err(Error::SizeMismatch { expected: tir.size(), got: out.size() });
     }
     let (w, h) = tir.size();
-    if exact.is_empty() || !crate::scene::Rect::full((w, h)).covers(&exact) || frame_pixels < w * h {
+    if exact.is_empty() || !crate::frame::Rect::full((w, h)).covers(&exact) || frame_pixels < w * h {
         return Err(Error::InvalidParameter { name: "rect" });
     }
     if vis.is_none() && vis_level != 0 && params.variant == Variant::Classic {

@@ -14,6 +14,7 @@ use crate::skip::{SkipError, skip_error};
 use crate::study::{Dataset, fuse_timed, median};
 use anyhow::{Context, Result};
 use clap::Args;
+use fusion_nostd::cpu::{Isa, isa, limit_isa};
 use fusion_nostd::pipeline::{FuseConfig, Method, RescalePolicy};
 use fusion_nostd::{AdfParams, IfevipParams, TsifsdParams, Variant};
 use render_host::{DatasetConfig, render_dataset};
@@ -36,6 +37,42 @@ pub struct BenchArgs {
     /// Which illumination's VIS frame to use.
     #[arg(long, default_value = "light")]
     pub illumination: String,
+    /// The best instruction set the core's host kernels may use (`avx2` measures the AVX2 forms
+    /// on an AVX-512 machine; `portable` the code the flight targets without SIMD run). The
+    /// output bits are the same for each.
+    #[arg(long, value_enum, default_value_t = IsaArg::Best)]
+    pub isa: IsaArg,
+}
+
+/// `--isa` values.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum IsaArg {
+    /// The best the CPU has (AVX-512, else AVX2, else portable).
+    Best,
+    /// At most AVX2.
+    Avx2,
+    /// The portable code.
+    Portable,
+}
+
+impl IsaArg {
+    /// Its name on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            IsaArg::Best => "best",
+            IsaArg::Avx2 => "avx2",
+            IsaArg::Portable => "portable",
+        }
+    }
+
+    /// The cap it sets.
+    pub fn cap(self) -> Isa {
+        match self {
+            IsaArg::Best => Isa::Avx512,
+            IsaArg::Avx2 => Isa::Avx2,
+            IsaArg::Portable => Isa::Portable,
+        }
+    }
 }
 
 /// One measured configuration.
@@ -110,6 +147,8 @@ fn on_front(p: &Point, all: &[Point]) -> bool {
 
 /// Runs `fusion bench`.
 pub fn run(args: &BenchArgs) -> Result<()> {
+    limit_isa(args.isa.cap());
+    outln!("core kernels: {} (the best under --isa {})", isa().name(), args.isa.name())?;
     let dataset = match Dataset::open(&args.data) {
         Ok(d) => d,
         Err(_) => {
@@ -186,11 +225,13 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         }
     }
 
-    let mut md = String::from(
+    let mut md = format!(
         "# Run time against error\n\nFrame 0 of the dataset, noisy inputs, one thread. Error: the 8-bit output \
          against the f64 reference of the method's shipped default (flight variant, published parameters) \
          with the same rescale policy. `front` marks the points no other configuration of the family beats \
-         in both time and error.\n\n| family | configuration | engine | grid | time ms | PSNR dB | max abs | front |\n|---|---|---|---|---|---|---|---|\n",
+         in both time and error. The core's host kernels ran {} (`--isa {}`).\n\n| family | configuration | engine | grid | time ms | PSNR dB | max abs | front |\n|---|---|---|---|---|---|---|---|\n",
+        isa().name(),
+        args.isa.name(),
     );
     let mut csv = String::from("family,configuration,engine,grid,seconds,psnr_db,max_abs,front\n");
     for p in &points {

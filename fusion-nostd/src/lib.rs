@@ -29,6 +29,11 @@
 //! per instruction set beside a kernel's portable code (`arm.rs` for the Armv7E-M DSP
 //! assembly, `avx2.rs`, `avx512.rs`; the short DSP sequences in `arch.rs`).
 //!
+//! Words used throughout: a *band* is one camera's image, VIS or TIR (the scratch's *band plane*
+//! holds the one rescaled onto the other's grid); the *grid* is the size both are fused on; a
+//! *strip* is a run of grid rows fused together ([`strips`]) and its *window* the strip with
+//! the method's halo rows; a *window* of the scene analysis is the target's [`Rect`].
+//!
 //! # Quick start
 //!
 //! Firmware declares the frames and the work memory statically (on a board, in a linker

@@ -9,6 +9,7 @@ target=thumbv7em-none-eabihf
 if [[ "${1:-}" == "--target" ]]; then target="$2"; fi
 cargo build --release --quiet --target "$target" --features exercise
 objdump=$(find "$(rustc --print sysroot)" -name llvm-objdump -type f | head -1)
+objdump=${objdump:-$(command -v llvm-objdump || true)}
 if [[ -z "$objdump" ]]; then
   echo "llvm-objdump not found: rustup component add llvm-tools" >&2
   exit 2

@@ -4,7 +4,8 @@
 //! Only the trap differs between the architectures (see [`crate::arch::semihost_call`]):
 //! Arm executes `bkpt 0xAB` with the operation in `r0` and the argument in `r1`; RISC-V
 //! executes the uncompressed `slli x0,x0,0x1f; ebreak; srai x0,x0,7` sequence with them in
-//! `a0`/`a1`. The operation numbers and parameter blocks are the same ("Semihosting for
+//! `a0`/`a1`; AArch64 executes `hlt #0xf000` with them in `x0`/`x1` (parameter blocks of 64-bit
+//! words, and `SYS_EXIT` takes a block). The operation numbers and parameter blocks are the same ("Semihosting for
 //! AArch32 and AArch64", v2; RISC-V reuses them).
 
 use crate::arch::semihost_call;
@@ -115,11 +116,17 @@ pub fn write_file(name: &str, data: &[u8]) -> Result<(), IoError> {
 /// Ends the emulation: QEMU exits with status 0 when `success`, 1 otherwise.
 pub fn exit(success: bool) -> ! {
     // On AArch32 and RV32 SYS_EXIT takes the reason code itself in the argument register, not
-    // a pointer to a block (QEMU cannot pass a status through it: 0 or 1 only).
+    // a pointer to a block (QEMU cannot pass a status through it: 0 or 1 only); on AArch64 it
+    // takes a block of the reason and a status.
     let reason = if success { EXIT_SUCCESS } else { EXIT_FAILURE };
     loop {
+        #[cfg(target_arch = "aarch64")]
+        call(SYS_EXIT, &[reason, usize::from(!success)]);
         // SAFETY: SYS_EXIT does not return under QEMU; the loop covers a debugger that resumes.
-        unsafe { semihost_call(SYS_EXIT, reason) };
+        #[cfg(not(target_arch = "aarch64"))]
+        unsafe {
+            semihost_call(SYS_EXIT, reason)
+        };
     }
 }
 

@@ -5,7 +5,7 @@
 //! Across builds and targets: the core is integer arithmetic throughout the fusion path (the
 //! only floating point is the `f32` rescaler, which the pipeline does not use), and the
 //! firmware budget run (`fusion budget`, `host-harness/src/budget/`) compares the Cortex-M7 and
-//! RV32 outputs with the host's byte for byte; `fw_selftest_matches_the_host` below compares the
+//! RV32 outputs (and the Cortex-A53's) with the host's byte for byte; `fw_selftest_matches_the_host` below compares the
 //! checksums the firmware self-test prints (release, fat LTO, Cortex-M7 and RV32 under QEMU)
 //! with this test build's (x86-64, debug assertions on) when the images and QEMU are there.
 
@@ -207,6 +207,10 @@ fn fw_selftest_matches_the_host() {
         (
             "riscv32imac-unknown-none-elf",
             vec!["qemu-system-riscv32", "-machine", "virt", "-bios", "none", "-m", "64M"],
+        ),
+        (
+            "aarch64-unknown-none",
+            vec!["qemu-system-aarch64", "-machine", "virt", "-cpu", "cortex-a53", "-m", "128M"],
         ),
     ];
     for (target, qemu) in targets {

@@ -1,4 +1,4 @@
-//! What differs between the two targets: start-up, traps, the semihosting instruction and
+//! What differs between the targets: start-up, traps, the semihosting instruction and
 //! the instruction counter.
 
 #[cfg(target_arch = "arm")]
@@ -10,3 +10,8 @@ pub use arm::*;
 mod riscv;
 #[cfg(target_arch = "riscv32")]
 pub use riscv::*;
+
+#[cfg(target_arch = "aarch64")]
+mod aarch64;
+#[cfg(target_arch = "aarch64")]
+pub use aarch64::*;

@@ -1,13 +1,9 @@
-//! Just enough of 32-bit little-endian ELF to read a firmware image's section headers and
-//! symbol table (both flight targets are ELF32 LE).
+//! A firmware image's section headers and symbol table (the `object` crate reads the ELF32 of
+//! the Cortex-M7 and RV32 images and the ELF64 of the Cortex-A53's).
 
 use anyhow::{Context, Result, bail};
 
-const SHT_SYMTAB: u32 = 2;
-const SHT_NOBITS: u32 = 8;
-const SHF_WRITE: u32 = 1;
-const SHF_ALLOC: u32 = 2;
-const SHF_EXECINSTR: u32 = 4;
+use object::{Object, ObjectSection, ObjectSymbol, SectionFlags, SectionKind};
 
 /// One section header.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -31,93 +27,49 @@ pub struct Section {
 /// A parsed image: its sections and symbols.
 #[derive(Debug, Clone)]
 pub struct Elf {
-    /// Every section header, in file order.
+    /// Every section header but the null one, in file order.
     pub sections: Vec<Section>,
     symbols: Vec<(String, u64)>,
 }
 
-fn u16_at(b: &[u8], at: usize) -> Result<u16> {
-    let s = b.get(at..at + 2).context("ELF truncated")?;
-    Ok(u16::from_le_bytes([s[0], s[1]]))
-}
-
-fn u32_at(b: &[u8], at: usize) -> Result<u32> {
-    let s = b.get(at..at + 4).context("ELF truncated")?;
-    Ok(u32::from_le_bytes([s[0], s[1], s[2], s[3]]))
-}
-
-fn c_str(b: &[u8], at: usize) -> Result<String> {
-    let tail = b.get(at..).context("ELF string offset out of range")?;
-    let end = tail.iter().position(|&c| c == 0).context("unterminated ELF string")?;
-    Ok(String::from_utf8_lossy(&tail[..end]).into_owned())
-}
-
-struct RawSection {
-    name_off: u32,
-    kind: u32,
-    flags: u32,
-    addr: u32,
-    offset: u32,
-    size: u32,
-    link: u32,
-}
+/// `SHF_WRITE`, `SHF_ALLOC`, `SHF_EXECINSTR`.
+const SHF_WRITE: u64 = 1;
+const SHF_ALLOC: u64 = 2;
+const SHF_EXECINSTR: u64 = 4;
 
 impl Elf {
-    /// Parses an ELF32 little-endian image.
+    /// Parses an ELF image (32- or 64-bit, little-endian: the Cortex-M7, RV32 and Cortex-A53
+    /// images) with the `object` crate.
     pub fn parse(b: &[u8]) -> Result<Elf> {
-        if b.get(..4) != Some(b"\x7fELF".as_slice()) {
-            bail!("not an ELF file");
+        let file = object::File::parse(b).context("not an ELF image")?;
+        if !matches!(file.format(), object::BinaryFormat::Elf) || !file.is_little_endian() {
+            bail!("only little-endian ELF is supported");
         }
-        if b.get(4) != Some(&1) || b.get(5) != Some(&1) {
-            bail!("only 32-bit little-endian ELF is supported");
-        }
-        let shoff = u32_at(b, 0x20)? as usize;
-        let shentsize = usize::from(u16_at(b, 0x2E)?);
-        let shnum = usize::from(u16_at(b, 0x30)?);
-        let shstrndx = usize::from(u16_at(b, 0x32)?);
-        if shentsize < 40 {
-            bail!("bad ELF section header size {shentsize}");
-        }
-        let raw = (0..shnum)
-            .map(|i| {
-                let at = shoff + i * shentsize;
-                Ok(RawSection {
-                    name_off: u32_at(b, at)?,
-                    kind: u32_at(b, at + 4)?,
-                    flags: u32_at(b, at + 8)?,
-                    addr: u32_at(b, at + 12)?,
-                    offset: u32_at(b, at + 16)?,
-                    size: u32_at(b, at + 20)?,
-                    link: u32_at(b, at + 24)?,
-                })
-            })
-            .collect::<Result<Vec<_>>>()?;
-        let shstr = raw.get(shstrndx).context("ELF section-name table index out of range")?;
-        let sections = raw
-            .iter()
+        let sections = file
+            .sections()
             .map(|s| {
+                let flags = match s.flags() {
+                    SectionFlags::Elf { sh_flags } => sh_flags,
+                    _ => 0,
+                };
                 Ok(Section {
-                    name: c_str(b, shstr.offset as usize + s.name_off as usize)?,
-                    addr: u64::from(s.addr),
-                    size: u64::from(s.size),
-                    alloc: s.flags & SHF_ALLOC != 0,
-                    write: s.flags & SHF_WRITE != 0,
-                    exec: s.flags & SHF_EXECINSTR != 0,
-                    nobits: s.kind == SHT_NOBITS,
+                    name: s.name().context("bad ELF section name")?.to_string(),
+                    addr: s.address(),
+                    size: s.size(),
+                    alloc: flags & SHF_ALLOC != 0,
+                    write: flags & SHF_WRITE != 0,
+                    exec: flags & SHF_EXECINSTR != 0,
+                    nobits: matches!(
+                        s.kind(),
+                        SectionKind::UninitializedData | SectionKind::UninitializedTls
+                    ),
                 })
             })
             .collect::<Result<Vec<_>>>()?;
-        let mut symbols = Vec::new();
-        for s in raw.iter().filter(|s| s.kind == SHT_SYMTAB) {
-            let strtab = raw.get(s.link as usize).context("ELF symbol string table out of range")?;
-            for i in 0..(s.size / 16) as usize {
-                let at = s.offset as usize + i * 16;
-                let name = c_str(b, strtab.offset as usize + u32_at(b, at)? as usize)?;
-                if !name.is_empty() {
-                    symbols.push((name, u64::from(u32_at(b, at + 4)?)));
-                }
-            }
-        }
+        let symbols = file
+            .symbols()
+            .filter_map(|s| s.name().ok().filter(|n| !n.is_empty()).map(|n| (n.to_string(), s.address())))
+            .collect();
         Ok(Elf { sections, symbols })
     }
 
@@ -142,6 +94,12 @@ impl Elf {
 mod tests {
     use super::*;
 
+    const SHT_SYMTAB: u32 = 2;
+    const SHT_NOBITS: u32 = 8;
+    const ALLOC: u32 = SHF_ALLOC as u32;
+    const WRITE: u32 = SHF_WRITE as u32;
+    const EXEC: u32 = SHF_EXECINSTR as u32;
+
     /// A hand-assembled ELF32 LE: null section, `.text` (4 bytes at 0x100), `.bss` (NOBITS,
     /// 64 bytes at 0x2000_0000), `.symtab` with one symbol, `.strtab`, `.shstrtab`.
     fn tiny_elf() -> Vec<u8> {
@@ -150,8 +108,13 @@ mod tests {
         let text = [0u8, 0xBF, 0x70, 0x47];
         let mut f = vec![0u8; 52];
         f[..4].copy_from_slice(b"\x7fELF");
-        f[4] = 1;
-        f[5] = 1;
+        f[4] = 1; // ELFCLASS32
+        f[5] = 1; // little-endian
+        f[6] = 1; // EV_CURRENT
+        f[0x10..0x12].copy_from_slice(&2u16.to_le_bytes()); // ET_EXEC
+        f[0x12..0x14].copy_from_slice(&40u16.to_le_bytes()); // EM_ARM
+        f[0x14..0x18].copy_from_slice(&1u32.to_le_bytes());
+        f[0x28..0x2A].copy_from_slice(&52u16.to_le_bytes()); // e_ehsize
         let text_off = f.len();
         f.extend_from_slice(&text);
         let sym_off = f.len();
@@ -174,8 +137,8 @@ mod tests {
             }
         };
         sh(0, 0, 0, 0, 0, 0, 0);
-        sh(1, 1, SHF_ALLOC | SHF_EXECINSTR, 0x100, text_off, 4, 0);
-        sh(7, SHT_NOBITS, SHF_ALLOC | SHF_WRITE, 0x2000_0000, 0, 64, 0);
+        sh(1, 1, ALLOC | EXEC, 0x100, text_off, 4, 0);
+        sh(7, SHT_NOBITS, ALLOC | WRITE, 0x2000_0000, 0, 64, 0);
         sh(12, SHT_SYMTAB, 0, 0, sym_off, 32, 4);
         sh(20, 3, 0, 0, str_off, strtab.len(), 0);
         sh(28, 3, 0, 0, shstr_off, shstr.len(), 0);
@@ -191,10 +154,11 @@ mod tests {
         let elf = Elf::parse(&tiny_elf())?;
         let names: Vec<_> = elf.alloc_sections().map(|s| s.name.as_str()).collect();
         assert_eq!(names, [".text", ".bss"]);
-        let bss = &elf.sections[2];
+        let section = |n: &str| elf.sections.iter().find(|s| s.name == n).cloned();
+        let bss = section(".bss").context(".bss")?;
         assert!(bss.nobits && bss.write && !bss.exec);
         assert_eq!((bss.addr, bss.size), (0x2000_0000, 64));
-        assert!(elf.sections[1].exec);
+        assert!(section(".text").is_some_and(|t| t.exec && !t.nobits));
         assert_eq!(elf.symbol("fw_region_begin"), Some(0x101));
         assert_eq!(elf.symbol("missing"), None);
         Ok(())

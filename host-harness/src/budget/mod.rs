@@ -35,9 +35,6 @@ use std::path::PathBuf;
 use std::time::Duration;
 use table::Table;
 
-/// Clock rate of the frame-rate estimates.
-pub const CLOCK_HZ: f64 = 400e6;
-
 /// What `fusion budget` does.
 #[derive(Debug, Clone)]
 pub struct Options {
@@ -224,7 +221,7 @@ fn exactness_jobs(opts: &Options, pair: &(Gray<u8>, Gray<u8>)) -> Result<Vec<(St
 pub fn run(opts: &Options) -> Result<Outcome> {
     std::fs::create_dir_all(&opts.out).with_context(|| format!("cannot create {}", opts.out.display()))?;
     let timeout = opts.timeout;
-    let plugin = if opts.targets.contains(&Target::Arm) {
+    let plugin = if opts.targets.iter().any(|t| t.counts_with_plugin()) {
         progress("building the Arm counting plugin");
         Some(fw::build_plugin(&opts.out)?)
     } else {

@@ -330,7 +330,7 @@ pub fn run(opts: &StudyOptions) -> Result<Vec<Row>> {
     std::fs::create_dir_all(&opts.work).with_context(|| format!("cannot create {}", opts.work.display()))?;
     std::fs::create_dir_all(&opts.report_dir)?;
     let target = opts.target;
-    let plugin = if target == Target::Arm {
+    let plugin = if target.counts_with_plugin() {
         progress("building the Arm counting plugin");
         Some(fw::build_plugin(&opts.work)?)
     } else {

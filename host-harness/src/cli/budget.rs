@@ -18,7 +18,9 @@ pub enum TargetArg {
     Arm,
     /// RV32IMAC (QEMU virt), counted by minstret.
     Riscv,
-    /// Both.
+    /// Cortex-A53 (QEMU virt, AArch64 with NEON), counted by the TCG plugin.
+    A53,
+    /// Every target.
     All,
 }
 
@@ -102,7 +104,8 @@ fn run_skip_study(args: &BudgetArgs, dataset: &std::path::Path) -> Result<()> {
     let target = match args.target {
         TargetArg::Arm => Target::Arm,
         TargetArg::Riscv => Target::Riscv,
-        TargetArg::All => bail!("--skip-study measures one target: pass --target arm or --target riscv"),
+        TargetArg::A53 => Target::A53,
+        TargetArg::All => bail!("--skip-study measures one target: pass --target arm, riscv or a53"),
     };
     let versions = match args.versions.as_str() {
         "clean" => vec![false],
@@ -135,6 +138,7 @@ pub fn run(args: &BudgetArgs) -> Result<()> {
     let targets = match args.target {
         TargetArg::Arm => vec![Target::Arm],
         TargetArg::Riscv => vec![Target::Riscv],
+        TargetArg::A53 => vec![Target::A53],
         TargetArg::All => Target::ALL.to_vec(),
     };
     let grids = match args.size {

@@ -290,10 +290,11 @@ pub(crate) fn fuse_tsifsd_classic_rows<'a>(
     };
     let both = |y: usize| Ok::<_, Error>((band(&vis_row, y)?, band(&tir_row, y)?));
     // Row `y + k` wrapped into the frame, in unsigned arithmetic (no overflow case).
-    let hh = h.max(1);
+    // `%` by a `NonZeroUsize`: no division-by-zero path, whatever the inlining.
+    let hh = core::num::NonZeroUsize::new(h).unwrap_or(core::num::NonZeroUsize::MIN);
     let wrap = |y: usize, k: isize| {
         let (y, step) = (y % hh, k.unsigned_abs() % hh);
-        if k < 0 { (y + hh - step) % hh } else { (y + step) % hh }
+        if k < 0 { (y + hh.get() - step) % hh } else { (y + step) % hh }
     };
     let radius = usize::from(params.mean_size / 2);
     let r = radius as isize;

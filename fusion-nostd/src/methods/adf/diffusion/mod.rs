@@ -372,7 +372,8 @@ impl Diffusion {
         if self.avx512 {
             return false;
         }
-        true
+        // The NEON loop keeps the function in registers too.
+        !cfg!(all(target_arch = "aarch64", target_feature = "neon"))
     }
 
     /// The next iterate of one pixel (both bands) from its 3×3 neighbourhood (columns left,
@@ -444,7 +445,14 @@ impl Diffusion {
         let fl = |a: i32, b: i32| pack(f.flux(lo(b) - lo(a)), f.flux(hi(b) - hi(a)));
         let (Some(&p0), Some(&p1), Some(&q1)) = (p.first(), p.get(1), q.get(1)) else { return };
         // The left pad's pairs: p[0]–p[1] (the first west flux) and p[0]–q[1].
-        #[cfg_attr(not(any(target_arch = "x86_64", fusion_arm_dsp)), allow(unused_mut))]
+        #[cfg_attr(
+            not(any(
+                target_arch = "x86_64",
+                fusion_arm_dsp,
+                all(target_arch = "aarch64", target_feature = "neon")
+            )),
+            allow(unused_mut)
+        )]
         let mut carry = RowCarry { h_prev: fl(p0, p1), dr_prev: fl(p0, q1), partial: 0 };
         #[cfg(target_arch = "x86_64")]
         let done = match f.table() {
@@ -459,7 +467,13 @@ impl Diffusion {
             Some(t) => arm::row_pixels(t, p, q, north, out, &mut carry),
             None => 0,
         };
-        #[cfg(not(any(target_arch = "x86_64", fusion_arm_dsp)))]
+        #[cfg(all(target_arch = "aarch64", target_feature = "neon"))]
+        let done = neon::row_blocks(&self.fx, p, q, north, out, &mut carry);
+        #[cfg(not(any(
+            target_arch = "x86_64",
+            fusion_arm_dsp,
+            all(target_arch = "aarch64", target_feature = "neon")
+        )))]
         let done = 0;
         let mut bands = [0, 1].map(|b| [carry.h_prev, carry.dr_prev, carry.partial].map(|w| half(w, b)));
         let north = core::cell::Cell::from_mut(north).as_slice_of_cells();
@@ -806,8 +820,11 @@ pub(crate) fn diffuse_rows(
 #[cfg(fusion_arm_dsp)]
 mod arm;
 
-#[cfg(target_arch = "x86_64")]
+#[cfg(any(target_arch = "x86_64", all(target_arch = "aarch64", target_feature = "neon")))]
 mod simd;
+
+#[cfg(all(target_arch = "aarch64", target_feature = "neon"))]
+mod neon;
 
 #[cfg(target_arch = "x86_64")]
 mod avx2;

@@ -109,9 +109,9 @@ impl Lanes for Flux {
     }
 
     #[inline(always)]
-    fn load(&self, s: &[i32], at: usize) -> Option<__m256i> {
+    fn load(&self, s: &[i32]) -> __m256i {
         // SAFETY: see above.
-        unsafe { load(s, at) }
+        unsafe { load(s, 0) }.unwrap_or_else(|| self.zero())
     }
 
     #[inline(always)]

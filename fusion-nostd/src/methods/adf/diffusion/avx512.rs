@@ -113,9 +113,9 @@ impl Lanes for Flux {
     }
 
     #[inline(always)]
-    fn load(&self, s: &[i32], at: usize) -> Option<__m512i> {
+    fn load(&self, s: &[i32]) -> __m512i {
         // SAFETY: see above.
-        unsafe { load(s, at) }
+        unsafe { load(s, 0) }.unwrap_or_else(|| self.zero())
     }
 
     #[inline(always)]

@@ -107,10 +107,12 @@ impl Lanes for Flux {
     }
 
     #[inline(always)]
-    fn load(&self, s: &[i32], at: usize) -> Option<int16x8_t> {
-        let v: &[i32; 4] = s.get(at..at + 4)?.try_into().ok()?;
-        // SAFETY: see above; reads the 16 bytes of `v`.
-        Some(unsafe { vreinterpretq_s16_s32(vld1q_s32(v.as_ptr())) })
+    fn load(&self, s: &[i32]) -> int16x8_t {
+        match s.get(..4).and_then(|v| <&[i32; 4]>::try_from(v).ok()) {
+            // SAFETY: see above; reads the 16 bytes of `v`.
+            Some(v) => unsafe { vreinterpretq_s16_s32(vld1q_s32(v.as_ptr())) },
+            None => self.zero(),
+        }
     }
 
     #[inline(always)]

@@ -24,8 +24,10 @@ pub(super) trait Lanes {
     fn zero(&self) -> Self::V;
     /// Word `WORDS − 1` = `w`, every other word 0.
     fn top(&self, w: i32) -> Self::V;
-    /// `s[at..at + WORDS]`, `None` past the end.
-    fn load(&self, s: &[i32], at: usize) -> Option<Self::V>;
+    /// The first `WORDS` words of `s` (the callers pass at least `WORDS`; all 0 otherwise). A
+    /// register, not an `Option` of one: LLVM builds an `Option` of a vector through the stack on
+    /// AArch64.
+    fn load(&self, s: &[i32]) -> Self::V;
     /// Stores to `s[at..at + WORDS]`, `None` (nothing written) past the end.
     fn store(&self, s: &mut [i32], at: usize, x: Self::V) -> Option<()>;
     /// Word `i` of `x`.
@@ -65,16 +67,16 @@ pub(super) fn row_blocks<L: Lanes>(
     let mut dr_prev = l.top(carry.dr_prev);
     let mut x = 0;
     while x + n <= out.len() {
-        let (Some(pc), Some(pr), Some(ql), Some(qc), Some(qr), Some(n_here)) = (
-            l.load(p, x + 1),
-            l.load(p, x + 2),
-            l.load(q, x),
-            l.load(q, x + 1),
-            l.load(q, x + 2),
-            l.load(north, x + 1),
-        ) else {
+        // The block's words: pixels x .. x + n with one padding word each side, and the north
+        // sums of pixels x + 1 .. x + n + 1 (the padded row's indices).
+        let (Some(ps), Some(qs), Some(ns)) =
+            (p.get(x..x + n + 2), q.get(x..x + n + 2), north.get(x + 1..x + n + 1))
+        else {
             break;
         };
+        let (pc, pr) = (l.load(from(ps, 1)), l.load(from(ps, 2)));
+        let (ql, qc, qr) = (l.load(qs), l.load(from(qs, 1)), l.load(from(qs, 2)));
+        let n_here = l.load(ns);
         let h = l.flux(l.sub(pr, pc));
         let v = l.flux(l.sub(qc, pc));
         let dr = l.flux(l.sub(qr, pc));
@@ -106,4 +108,10 @@ pub(super) fn row_blocks<L: Lanes>(
         };
     }
     x
+}
+
+/// `s` from word `k` on (empty past the end).
+#[inline(always)]
+fn from(s: &[i32], k: usize) -> &[i32] {
+    s.get(k..).unwrap_or(&[])
 }

@@ -7,7 +7,8 @@
 //! AVX-512 forms (`*/avx2.rs`, `*/avx512.rs`) chosen the same way. The arithmetic is integer
 //! (or IEEE operations proven exact), so every copy gives the same bits. On every other target
 //! (the flight targets included) the choice is made at compile time: the Armv7E-M forms
-//! (`*/arm.rs`) on `thumbv7em`, the portable code elsewhere.
+//! (`*/arm.rs`) on `thumbv7em`, the NEON forms (`*/neon.rs`) on AArch64, the portable code
+//! elsewhere; [`limit_isa`] does not change them.
 //!
 //! [`limit_isa`] caps the choice for the whole process: the tests run every SIMD form and the
 //! portable code on the same frames and compare the bytes, and a benchmark measures the AVX2

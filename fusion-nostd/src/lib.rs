@@ -153,7 +153,7 @@
 //! * **Numerical stress**: `fusion stress` runs every method and variant, core and f64
 //!   reference, over adversarial frames (`BENCHMARKS.md`, "Stress").
 //! * **Determinism**: `tests/tests/determinism.rs` (dirty and reused scratch, strides, the
-//!   firmware's results on Cortex-M7 and RV32 against the host's); `fusion budget` compares
+//!   firmware's results on Cortex-M7, RV32 and Cortex-A53 against the host's); `fusion budget` compares
 //!   every target run with the host byte for byte.
 #![no_std]
 #![cfg_attr(

@@ -7,8 +7,9 @@
 //! QEMU loads the ELF image and starts it at `_start` in EL1 with the MMU off. With the MMU off
 //! every data access is to Device memory, where an unaligned access faults; the kernels load
 //! unaligned words and vectors, so the start-up maps the first 4 GiB with 1 GiB blocks first:
-//! `0..1 GiB` as Device (the `virt` board's peripherals), `1..2 GiB` (the RAM at 0x4000_0000) as
-//! normal write-back memory (table `fw_page_table`, `MAIR_EL1` attribute 1).
+//! `0..1 GiB` as Device (the `virt` board's peripherals; never executable: PXN and UXN),
+//! `1..2 GiB` (the RAM at 0x4000_0000) as normal write-back memory (table `fw_page_table`,
+//! `MAIR_EL1` attribute 1); the TLB is invalidated before the MMU is turned on.
 
 /// Target name printed in the report.
 pub const NAME: &str = "a53";
@@ -31,6 +32,7 @@ _start:
     msr tcr_el1, x0
     ldr x0, =fw_page_table
     msr ttbr0_el1, x0
+    tlbi vmalle1
     dsb ish
     isb
     mrs x0, sctlr_el1
@@ -70,10 +72,10 @@ fw_vectors:
     .section .data.fw_page_table, "aw"
     .balign 4096
 fw_page_table:
-    .quad 0x00000000 | (1 << 10) | (0 << 2) | 1
+    .quad 0x00000000 | (3 << 53) | (1 << 10) | (0 << 2) | 1
     .quad 0x40000000 | (1 << 10) | (3 << 8) | (1 << 2) | 1
-    .quad 0x80000000 | (1 << 10) | (0 << 2) | 1
-    .quad 0xc0000000 | (1 << 10) | (0 << 2) | 1
+    .quad 0x80000000 | (3 << 53) | (1 << 10) | (0 << 2) | 1
+    .quad 0xc0000000 | (3 << 53) | (1 << 10) | (0 << 2) | 1
     .fill 508, 8, 0
 "#
 );

@@ -37,9 +37,10 @@ pub struct BenchArgs {
     /// Which illumination's VIS frame to use.
     #[arg(long, default_value = "light")]
     pub illumination: String,
-    /// The best instruction set the core's host kernels may use (`avx2` measures the AVX2 forms
-    /// on an AVX-512 machine; `portable` the code the flight targets without SIMD run). The
-    /// output bits are the same for each.
+    /// The best x86-64 instruction set the core's host kernels may use (`avx2` measures the AVX2
+    /// forms on an AVX-512 machine; `portable` the code without x86-64 SIMD forms). No effect on
+    /// other hosts (an AArch64 host runs its NEON forms, chosen at compile time). The output
+    /// bits are the same for each.
     #[arg(long, value_enum, default_value_t = IsaArg::Best)]
     pub isa: IsaArg,
 }

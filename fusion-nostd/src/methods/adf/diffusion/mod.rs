@@ -47,7 +47,10 @@
 //! arithmetic and no clamp (the states are clamped instead); on x86-64 with AVX2 but not
 //! AVX-512 the row loop reads it with two `vpgatherdd` per 16 lanes.
 //! The AVX-512 row loop keeps the 64 bases and slopes in four registers and reads them with
-//! `vpermi2w`, 32 lanes at a time. All give the same bits (checked exhaustively).
+//! `vpermi2w`, 32 lanes at a time; the NEON loop (AArch64) keeps them in eight and reads the
+//! entries' bytes with `tbl`/`tbx`, 8 lanes at a time. All give the same bits: the table and the
+//! AVX-512 form are checked exhaustively against the function on x86-64 hosts, the NEON form
+//! against the host's frames on the emulated Cortex-A53 (`fusion budget --target a53`).
 //!
 //! **Both bands at once.** A work word holds one pixel of both bands; the Armv7E-M loop takes
 //! both differences with one `ssub16` and sums both bands' fluxes with `qadd16`/`qsub16`
@@ -159,8 +162,8 @@ fn mulhrs(a: i32, b: i32) -> i32 {
     (a * b + (1 << 14)) >> 15
 }
 
-/// Segments of the piecewise-linear flux function (the vector loop holds each of its two
-/// 64-entry tables in two 512-bit registers).
+/// Segments of the piecewise-linear flux function (the AVX-512 loop holds each of its two
+/// 64-entry tables in two 512-bit registers, the NEON loop in four 128-bit ones).
 const SEGMENTS: usize = 64;
 
 /// The flux function's per-call constants (see the module docs): a piecewise-linear `F(|∇|)`

@@ -1,4 +1,4 @@
-//! The row loop of the x86-64 SIMD forms, written once for any register width: [`Lanes`] is
+//! The row loop of the SIMD forms (AVX2, AVX-512, NEON), written once for any register width: [`Lanes`] is
 //! what a form provides (its register type, its loads and stores, its 16-bit lane arithmetic
 //! and its flux), [`row_blocks`] the loop over whole blocks of `Lanes::WORDS` pixels (both
 //! bands per 32-bit word, so `2·WORDS` lanes of `i16`). `avx2.rs` (8 pixels, fluxes gathered

@@ -1,18 +1,19 @@
-//! Run-time choice of the best instruction set for the host kernels (x86-64 hosts only), and
-//! the switch that caps it ([`limit_isa`]).
+//! Run-time choice of the best instruction set for the host kernels, and the switch that caps
+//! it ([`limit_isa`]).
 //!
 //! The hot kernels are plain portable Rust marked `#[inline(always)]`. On x86-64,
 //! `dispatch!` compiles two more copies of a kernel, with AVX-512 (F, BW, VL) and with AVX2
 //! enabled, and calls the best one the CPU has; a few kernels have hand-written AVX2 and
 //! AVX-512 forms (`*/avx2.rs`, `*/avx512.rs`) chosen the same way. The arithmetic is integer
 //! (or IEEE operations proven exact), so every copy gives the same bits. On every other target
-//! (the flight targets included) the choice is made at compile time: the Armv7E-M forms
+//! (the flight targets included) the forms are chosen at compile time: the Armv7E-M forms
 //! (`*/arm.rs`) on `thumbv7em`, the NEON forms (`*/neon.rs`) on AArch64, the portable code
-//! elsewhere; [`limit_isa`] does not change them.
+//! elsewhere. [`limit_isa`] can still switch the NEON forms off (AArch64 has NEON by definition,
+//! so there is nothing to detect); the Armv7E-M forms it does not change.
 //!
 //! [`limit_isa`] caps the choice for the whole process: the tests run every SIMD form and the
-//! portable code on the same frames and compare the bytes, and a benchmark measures the AVX2
-//! forms on a machine that has AVX-512.
+//! portable code on the same frames and compare the bytes (on x86-64 hosts and under
+//! `qemu-aarch64`), and a benchmark measures the AVX2 forms on a machine that has AVX-512.
 
 use core::sync::atomic::{AtomicU8, Ordering};
 
@@ -25,37 +26,50 @@ pub enum Isa {
     Avx2 = 1,
     /// x86-64 AVX-512 F, BW and VL.
     Avx512 = 2,
+    /// AArch64 Advanced SIMD (NEON), which every AArch64 CPU has.
+    Neon = 3,
 }
 
 impl Isa {
-    /// Every set, plainest first.
-    pub const ALL: [Isa; 3] = [Isa::Portable, Isa::Avx2, Isa::Avx512];
+    /// Every set: the portable code, then the x86-64 sets plainest first, then NEON.
+    pub const ALL: [Isa; 4] = [Isa::Portable, Isa::Avx2, Isa::Avx512, Isa::Neon];
 
-    /// Its lower-case name (`portable`, `avx2`, `avx512`).
+    /// Its lower-case name (`portable`, `avx2`, `avx512`, `neon`).
     pub fn name(self) -> &'static str {
         match self {
             Isa::Portable => "portable",
             Isa::Avx2 => "avx2",
             Isa::Avx512 => "avx512",
+            Isa::Neon => "neon",
+        }
+    }
+
+    /// Its level as a cap: 0 the portable code, 1 AVX2 or NEON, 2 AVX-512.
+    const fn level(self) -> u8 {
+        match self {
+            Isa::Portable => 0,
+            Isa::Avx2 | Isa::Neon => 1,
+            Isa::Avx512 => 2,
         }
     }
 }
 
-/// The cap set by [`limit_isa`] (an [`Isa`] as `u8`).
-static CAP: AtomicU8 = AtomicU8::new(Isa::Avx512 as u8);
+/// The cap set by [`limit_isa`] (an [`Isa::level`]).
+static CAP: AtomicU8 = AtomicU8::new(u8::MAX);
 
 /// Caps the instruction set the host kernels use, for the whole process, from the next call
-/// on: [`Isa::Portable`] runs the portable code everywhere, [`Isa::Avx2`] the AVX2 forms on a
-/// machine with AVX-512, [`Isa::Avx512`] (the default) the best the CPU has. Every choice gives
-/// the same output bits; only the time differs. For tests and benchmarks; calls in progress on
-/// other threads may finish on the previous choice. No effect off x86-64 (the Armv7E-M forms
-/// are chosen at compile time).
+/// on: [`Isa::Portable`] runs the portable code everywhere (no AVX2, AVX-512 or NEON form),
+/// [`Isa::Avx2`] (or [`Isa::Neon`], the same level) the AVX2 forms on a machine with AVX-512
+/// and the NEON forms on AArch64, [`Isa::Avx512`] (the default) the best the CPU has. Every
+/// choice gives the same output bits; only the time differs. For tests and benchmarks; calls in
+/// progress on other threads may finish on the previous choice. The Armv7E-M forms are chosen
+/// at compile time and not capped.
 pub fn limit_isa(max: Isa) {
-    CAP.store(max as u8, Ordering::Relaxed);
+    CAP.store(max.level(), Ordering::Relaxed);
 }
 
 /// The instruction set the host kernels use now: the best the CPU has, under the cap of
-/// [`limit_isa`]. Always [`Isa::Portable`] off x86-64.
+/// [`limit_isa`]. Always [`Isa::Portable`] on targets with neither x86-64 nor NEON forms.
 pub fn isa() -> Isa {
     #[cfg(target_arch = "x86_64")]
     {
@@ -66,13 +80,23 @@ pub fn isa() -> Isa {
             return Isa::Avx2;
         }
     }
+    #[cfg(all(target_arch = "aarch64", target_feature = "neon"))]
+    if has_neon() {
+        return Isa::Neon;
+    }
     Isa::Portable
 }
 
+/// Whether the cap allows the NEON forms (compiled in wherever this exists).
+#[cfg(all(target_arch = "aarch64", target_feature = "neon"))]
+pub(crate) fn has_neon() -> bool {
+    allowed(Isa::Neon)
+}
+
 /// Whether the cap allows `isa`.
-#[cfg(target_arch = "x86_64")]
+#[cfg(any(target_arch = "x86_64", all(target_arch = "aarch64", target_feature = "neon")))]
 fn allowed(isa: Isa) -> bool {
-    CAP.load(Ordering::Relaxed) >= isa as u8
+    CAP.load(Ordering::Relaxed) >= isa.level()
 }
 
 /// A CPU feature detected once: 0 unknown, 1 no, 2 yes.

@@ -3,8 +3,10 @@
 //! then at AVX2, then lets them take the best the CPU has (AVX-512 where there is one); every
 //! method and variant, every rescale policy, the scene-skipping plans, strips and the
 //! rescalers on their own run under each cap on the same rendered and synthetic frames, and
-//! the outputs, reports and guards must be identical. The Armv7E-M forms are checked the same
-//! way against the host by `fusion budget` (byte-identical outputs under QEMU).
+//! the outputs, reports and guards must be identical. On AArch64 (CI runs this test under
+//! `qemu-aarch64`, built for `aarch64-unknown-linux-gnu`) the same comparison checks the NEON
+//! forms. The Armv7E-M forms are checked against the host by `fusion budget` (byte-identical
+//! outputs under QEMU).
 
 use std::sync::Mutex;
 
@@ -92,6 +94,9 @@ fn every_simd_form_gives_the_portable_bytes() -> Result<()> {
     if std::arch::is_x86_feature_detected!("avx2") {
         assert!(sets.len() >= 2 && sets.contains(&Isa::Avx2), "the cap did not select AVX2: {sets:?}");
     }
+    // And on AArch64 (under `qemu-aarch64` in CI) the NEON forms.
+    #[cfg(target_arch = "aarch64")]
+    assert_eq!(sets, [Isa::Portable, Isa::Neon], "the cap did not select NEON");
     for (name, vis, tir) in &pairs {
         limit_isa(Isa::Portable);
         let portable = outputs(vis, tir);
@@ -124,10 +129,15 @@ fn the_cap_selects_the_instruction_set() {
     let best = isa();
     limit_isa(Isa::Portable);
     assert_eq!(isa(), Isa::Portable);
-    limit_isa(Isa::Avx2);
-    assert_eq!(isa(), best.min(Isa::Avx2));
+    // AVX2 and NEON are one level: either caps AVX-512 at AVX2 and leaves NEON on.
+    for level_one in [Isa::Avx2, Isa::Neon] {
+        limit_isa(level_one);
+        assert_eq!(isa(), if best == Isa::Avx512 { Isa::Avx2 } else { best });
+    }
     limit_isa(Isa::Avx512);
     assert_eq!(isa(), best);
     #[cfg(target_arch = "x86_64")]
-    assert_eq!(best >= Isa::Avx2, std::arch::is_x86_feature_detected!("avx2"));
+    assert_eq!([Isa::Avx2, Isa::Avx512].contains(&best), std::arch::is_x86_feature_detected!("avx2"));
+    #[cfg(target_arch = "aarch64")]
+    assert_eq!(best, Isa::Neon);
 }

@@ -316,6 +316,9 @@ pub(super) struct Diffusion {
     /// Else use the AVX2 row loop on the table (x86-64 with AVX2).
     #[cfg(target_arch = "x86_64")]
     avx2: bool,
+    /// Use the NEON row loop (AArch64, unless `cpu::limit_isa` capped it).
+    #[cfg(all(target_arch = "aarch64", target_feature = "neon"))]
+    neon: bool,
 }
 
 /// One band's part of the row update: the step `Σ = 2·(h + v − h_prev) + (dr + dl − north)`
@@ -365,6 +368,8 @@ impl Diffusion {
             avx512: crate::cpu::has_avx512bw(),
             #[cfg(target_arch = "x86_64")]
             avx2: crate::cpu::has_avx2(),
+            #[cfg(all(target_arch = "aarch64", target_feature = "neon"))]
+            neon: crate::cpu::has_neon(),
         }
     }
 
@@ -376,7 +381,11 @@ impl Diffusion {
             return false;
         }
         // The NEON loop keeps the function in registers too.
-        !cfg!(all(target_arch = "aarch64", target_feature = "neon"))
+        #[cfg(all(target_arch = "aarch64", target_feature = "neon"))]
+        if self.neon {
+            return false;
+        }
+        true
     }
 
     /// The next iterate of one pixel (both bands) from its 3×3 neighbourhood (columns left,
@@ -471,7 +480,7 @@ impl Diffusion {
             None => 0,
         };
         #[cfg(all(target_arch = "aarch64", target_feature = "neon"))]
-        let done = neon::row_blocks(&self.fx, p, q, north, out, &mut carry);
+        let done = if self.neon { neon::row_blocks(&self.fx, p, q, north, out, &mut carry) } else { 0 };
         #[cfg(not(any(
             target_arch = "x86_64",
             fusion_arm_dsp,

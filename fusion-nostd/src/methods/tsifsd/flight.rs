@@ -75,7 +75,8 @@ pub(super) fn flight_u8_kernel<const WIDE: bool>(
     let a_factor = 1u32.wrapping_sub(1 << 9).wrapping_sub(c.get() << 18);
     let q_const = (255 << 9) + (taps << 18);
     let (mut zero, mut sat) = (false, 0i32);
-    let k = Consts { c, by_c, inv_c: 1.0 / f64::from(c.get()), taps, a_factor, q_const };
+    let k =
+        Consts { c, by_c, inv_c: 1.0 / f64::from(c.get()), magic: MagicC::new(c), taps, a_factor, q_const };
     // Per column of a chunk: the two lane words of the Scharr columns and, one column to the
     // right of its pixel (the centre of its window), the packed weight-free part.
     let mut buf = [[0u32; 3]; CHUNK + 2];
@@ -140,6 +141,9 @@ pub(super) fn flight_u8_kernel<const WIDE: bool>(
             };
             let o = dst.get_mut(x0..x0 + n).unwrap_or(&mut []);
             if WIDE {
+                #[cfg(all(target_arch = "aarch64", target_feature = "neon"))]
+                chunk_neon(&chunk, &k, &mut sum, &mut wide, &mut buf, o, &mut zero, &mut sat);
+                #[cfg(not(all(target_arch = "aarch64", target_feature = "neon")))]
                 chunk_wide(&chunk, &k, &mut sum, &mut wide, o, &mut zero, &mut sat);
             } else {
                 chunk_portable(&chunk, &k, &mut sum, &mut buf, o, &mut zero, &mut sat);
@@ -150,18 +154,54 @@ pub(super) fn flight_u8_kernel<const WIDE: bool>(
     (zero, sat != 0)
 }
 
-/// Whether the flight kernel's chunks take the wide form ([`chunk_wide`]: `f64` divisions in
-/// separate passes the compiler vectorises, on x86-64) or the portable one ([`chunk_portable`]:
-/// integer divisions in one pass, the fewest instructions on the flight targets). Both give
-/// the same bytes (unit test `wide_and_portable_chunks_agree`).
-pub(super) const WIDE_CHUNKS: bool = cfg!(target_arch = "x86_64");
+/// Whether the flight kernel's chunks take the wide form (x86-64: [`chunk_wide`], the divisions
+/// in floating point, in separate passes the compiler vectorises; AArch64 with NEON, unless
+/// `cpu::limit_isa` caps it at the portable code: `chunk_neon`, `neon.rs`) or the portable
+/// one ([`chunk_portable`]: integer divisions in one pass, the fewest instructions on the
+/// flight microcontrollers). Both give the same bytes (unit test
+/// `wide_and_portable_chunks_agree`; on AArch64 the SIMD-forms test under `qemu-aarch64`).
+#[inline(always)]
+pub(super) fn wide_chunks() -> bool {
+    #[cfg(all(target_arch = "aarch64", target_feature = "neon"))]
+    {
+        crate::cpu::has_neon()
+    }
+    #[cfg(not(all(target_arch = "aarch64", target_feature = "neon")))]
+    {
+        cfg!(target_arch = "x86_64")
+    }
+}
+
+/// [`flight_u8_kernel`] in this target's chunk form ([`wide_chunks`]).
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+pub(super) fn flight_u8_chunks(
+    vis: FrameRef<'_, u8>,
+    tir: FrameRef<'_, u8>,
+    taps: u32,
+    radius: usize,
+    cols: &mut [i32],
+    lanes: &mut [i32],
+    out: FrameMut<'_, u8>,
+    y0: usize,
+) -> (bool, bool) {
+    if wide_chunks() {
+        flight_u8_kernel::<true>(vis, tir, taps, radius, cols, lanes, out, y0)
+    } else {
+        flight_u8_kernel::<false>(vis, tir, taps, radius, cols, lanes, out, y0)
+    }
+}
 
 /// The per-frame constants of the flight kernel's output (see [`flight_u8_kernel`]).
 pub(super) struct Consts {
     pub(super) c: NonZeroU32,
     pub(super) by_c: ByC,
-    /// `1/c` in `f64` for [`div_c_f64`].
+    /// `1/c` in `f64` for [`div_c_f64`] (x86-64's wide chunk).
+    #[cfg_attr(all(target_arch = "aarch64", target_feature = "neon"), allow(dead_code))]
     pub(super) inv_c: f64,
+    /// `⌊n/c⌋` by a multiplication ([`MagicC`], the NEON chunk).
+    #[cfg_attr(not(all(target_arch = "aarch64", target_feature = "neon")), allow(dead_code))]
+    pub(super) magic: MagicC,
     pub(super) taps: u32,
     pub(super) a_factor: u32,
     pub(super) q_const: u32,

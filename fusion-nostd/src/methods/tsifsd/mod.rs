@@ -170,7 +170,7 @@ crate::cpu::dispatch! {
         lanes: &mut [i32],
         out: FrameMut<'_, u8>,
         y0: usize,
-    ) -> (bool, bool) => flight_u8_kernel::<WIDE_CHUNKS>
+    ) -> (bool, bool) => flight_u8_chunks
 }
 
 /// Fuses a VIS/TIR pair with TSIFSD into the 8-bit `out` (MATLAB `uint8` cast of the raw value).
@@ -338,11 +338,15 @@ pub(crate) fn fuse_tsifsd_classic_rows<'a>(
 
 mod flight;
 mod general;
+#[cfg(all(target_arch = "aarch64", target_feature = "neon"))]
+mod neon;
 mod wide;
 
 pub(crate) use flight::flight_words;
 use flight::*;
 use general::*;
+#[cfg(all(target_arch = "aarch64", target_feature = "neon"))]
+use neon::*;
 use wide::*;
 
 /// The strip form ([`crate::strips::StripForm`]).

@@ -281,8 +281,10 @@ fn division_helpers_are_exact() {
         let c = 2 * side * side;
         let by_c = ByC(NonZeroU32::new(c).unwrap());
         let inv_c = 1.0 / f64::from(c);
+        let magic = MagicC::new(NonZeroU32::new(c).unwrap());
         let check = |n: u32| {
             assert_eq!(div_c_f64(n, inv_c), n / c, "n {n} c {c}");
+            assert_eq!(magic.div(n), n / c, "n {n} c {c}");
             assert_eq!(by_c.div(n), n / c, "n {n} c {c}");
         };
         for k in (0..(1u32 << 28) / c).step_by(997).chain([(1 << 28) / c - 1]) {
@@ -291,6 +293,14 @@ fn division_helpers_are_exact() {
                     check(n);
                 }
             }
+        }
+    }
+    // The multiplication's bound holds for every divisor below 2¹⁴, not only the window's.
+    for c in 1u32..1 << 14 {
+        let magic = MagicC::new(NonZeroU32::new(c).unwrap());
+        let top = (1u32 << 28) - 1;
+        for n in [0, 1, c - 1, c, c + 1, top / c * c - 1, top / c * c, top - 1, top] {
+            assert_eq!(magic.div(n), n / c, "n {n} c {c}");
         }
     }
     for sigma in 1u32..=16320 {

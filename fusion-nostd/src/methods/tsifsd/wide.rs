@@ -1,6 +1,11 @@
 //! x86-64's form of the flight kernel's chunk: the divisions in `f64`/`f32`, in separate passes the
-//! compiler vectorises (the portable chunk, [`super::flight`], divides in integers in one pass).
-//! Both give the same bytes (unit test `wide_and_portable_chunks_agree`).
+//! compiler vectorises (the portable chunk, [`super::flight`], divides in integers in one pass;
+//! AArch64 has its own NEON chunk, `neon.rs`, dividing by [`MagicC`]). All give the same bytes
+//! (unit test `wide_and_portable_chunks_agree`; on AArch64 the SIMD-forms test under
+//! `qemu-aarch64`).
+// On AArch64 only `Wide` (its Scharr columns) and `MagicC` serve the NEON chunk; the rest is
+// x86-64's, kept compiled there for the division tests.
+#![cfg_attr(all(target_arch = "aarch64", target_feature = "neon"), allow(dead_code))]
 
 use super::*;
 
@@ -25,11 +30,41 @@ pub(super) fn div_c_f64(n: u32, inv_c: f64) -> u32 {
     trunc_u32(f64::from(n as i32) * inv_c + 1.0 / (1u32 << 20) as f64)
 }
 
+/// `⌊n / c⌋` for `n < 2²⁸` and the frame's constant `c < 2¹⁴` as `(n·m) >> s` (Granlund and
+/// Montgomery's division by an invariant integer): with `l = ⌈log₂ c⌉`, `s = 28 + l` and
+/// `m = ⌈2ˢ/c⌉ = (2ˢ + e)/c`, `0 ≤ e < c ≤ 2ˡ`, the product is `n/c + n·e/(c·2ˢ)` with
+/// `n·e < 2²⁸⁺ˡ = 2ˢ`, so less than `1/c` above `n/c`: not enough to reach the next integer.
+/// `m < 2²⁹ + 1` and `n·m < 2⁵⁸`: one widening multiply per lane.
+/// (The NEON chunk's division: `umull` and a shift per two lanes.)
+#[derive(Debug, Clone, Copy)]
+pub(super) struct MagicC {
+    /// `m`.
+    pub(super) m: u64,
+    /// `s`.
+    pub(super) s: u32,
+}
+
+impl MagicC {
+    pub(super) fn new(c: NonZeroU32) -> Self {
+        let l = u32::BITS - (c.get() - 1).leading_zeros();
+        let s = 28 + l;
+        let c64 = core::num::NonZeroU64::from(c);
+        Self { m: ((1u64 << s) + c64.get() - 1) / c64, s }
+    }
+
+    #[inline(always)]
+    pub(super) fn div(self, n: u32) -> u32 {
+        ((u64::from(n) * self.m) >> self.s) as u32
+    }
+}
+
 /// `⌊n / σ⌋` of the flight kernel's last division in `f32` (vectorisable, 8 lanes with AVX2):
 /// `n < 2²⁴` and `σ ≤ 16320` are exact in `f32`, the quotient is below 2¹⁰ (`n ≤ 512σ + 1`),
 /// so the correctly rounded quotient is within 2⁻²⁴·2¹⁰ = 2⁻¹⁴ of the true one, less than the
 /// distance `≥ 1/σ > 2⁻¹⁴` of a non-integer quotient to the next integer: truncation gives the
 /// floor (tested against the integer division over the whole range of `σ`).
+/// (The NEON chunk truncates the same quotient with `fcvtzu`, which has no saturation test to
+/// avoid.)
 #[inline(always)]
 pub(super) fn div_sigma_f32(n: u32, sigma: u32) -> u32 {
     const MAGIC: f32 = (1u32 << 23) as f32;

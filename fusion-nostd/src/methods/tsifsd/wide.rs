@@ -35,8 +35,9 @@ pub(super) fn div_c_f64(n: u32, inv_c: f64) -> u32 {
 /// `m = ⌈2ˢ/c⌉ = (2ˢ + e)/c`, `0 ≤ e < c ≤ 2ˡ`, the product is `n/c + n·e/(c·2ˢ)` with
 /// `n·e < 2²⁸⁺ˡ = 2ˢ`, so less than `1/c` above `n/c`: not enough to reach the next integer.
 /// `m < 2²⁹ + 1` and `n·m < 2⁵⁸`: one widening multiply per lane.
-/// (The NEON chunk's division: `umull` and a shift per two lanes.)
+/// (The NEON chunk's division: `umull` and a shift per two lanes; elsewhere only tested.)
 #[derive(Debug, Clone, Copy)]
+#[cfg_attr(not(all(target_arch = "aarch64", target_feature = "neon")), allow(dead_code))]
 pub(super) struct MagicC {
     /// `m`.
     pub(super) m: u64,
@@ -44,6 +45,7 @@ pub(super) struct MagicC {
     pub(super) s: u32,
 }
 
+#[cfg_attr(not(all(target_arch = "aarch64", target_feature = "neon")), allow(dead_code))]
 impl MagicC {
     pub(super) fn new(c: NonZeroU32) -> Self {
         let l = u32::BITS - (c.get() - 1).leading_zeros();

@@ -41,16 +41,18 @@
 //! form replaced a fixed-point `exp` (0.59 units, but 18 vector operations with 11 multiplies
 //! against 9 with one), which tripled the host's speed; the VIFB accuracy stays at max 1 level.
 //!
-//! Where a table read is cheaper than the arithmetic (Cortex-M, RV32, x86-64 without AVX-512),
-//! the function is tabulated once per call for all 65 535 differences (128 KiB of the work
-//! plane, [`TABLE_WORDS`]). A pair flux is then one subtraction and one read: no index
-//! arithmetic and no clamp (the states are clamped instead); on x86-64 with AVX2 but not
-//! AVX-512 the row loop reads it with two `vpgatherdd` per 16 lanes.
+//! Where a table read is cheaper than the arithmetic (Cortex-M, RV32, hosts without a SIMD
+//! form), the function is tabulated once per call for all 65 535 differences (128 KiB of the
+//! work plane, [`TABLE_WORDS`]). A pair flux is then one subtraction and one read: no index
+//! arithmetic and no clamp (the states are clamped instead).
 //! The AVX-512 row loop keeps the 64 bases and slopes in four registers and reads them with
-//! `vpermi2w`, 32 lanes at a time; the NEON loop (AArch64) keeps them in eight and reads the
-//! entries' bytes with `tbl`/`tbx`, 8 lanes at a time. All give the same bits: the table and the
-//! AVX-512 form are checked exhaustively against the function on x86-64 hosts, the NEON form
-//! against the host's frames on the emulated Cortex-A53 (`fusion budget --target a53`).
+//! `vpermi2w`, 32 lanes at a time; the AVX2 loop keeps the 64 nodes and rises as three byte
+//! tables in twelve registers and reads them with `vpshufb` and blends, 16 lanes at a time; the
+//! NEON loop (AArch64) keeps the bases and slopes in eight and reads the entries' bytes with
+//! `tbl`/`tbx`, 8 lanes at a time. All give the same bits: the table, the AVX-512 and the AVX2
+//! forms are checked exhaustively against the function on x86-64 hosts, the NEON form by the
+//! SIMD-forms test under `qemu-aarch64` and against the host's frames on the emulated
+//! Cortex-A53 (`fusion budget --target a53`).
 //!
 //! **Both bands at once.** A work word holds one pixel of both bands; the Armv7E-M loop takes
 //! both differences with one `ssub16` and sums both bands' fluxes with `qadd16`/`qsub16`
@@ -226,6 +228,21 @@ impl FluxFn {
         if d < 0 { -f } else { f }
     }
 
+    /// The nodes `n_j` and rises `ρ_j` of the segments (`ρ_j` from the slope, `n_j = base_j +
+    /// j·ρ_j`), `None` if a rise does not fit a byte (the AVX2 loop holds them as bytes).
+    #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
+    fn nodes_and_rises(&self) -> Option<([i16; SEGMENTS], [i8; SEGMENTS])> {
+        let mut node = [0i16; SEGMENTS];
+        let mut rise = [0i8; SEGMENTS];
+        for (j, ((n, r), (&b, &s))) in
+            node.iter_mut().zip(rise.iter_mut()).zip(self.base.iter().zip(&self.slope)).enumerate()
+        {
+            let rho = i32::from(s) >> (15 - self.shift);
+            (*n, *r) = (i16::try_from(i32::from(b) + j as i32 * rho).ok()?, i8::try_from(rho).ok()?);
+        }
+        Some((node, rise))
+    }
+
     /// `F` for `|∇| = m`: with `m` clamped to `limit`, `j = m >> k` and `q = m − j·2ᵏ` the
     /// linear interpolation `n_j + ⌊(q·ρ_j + 2^(k−1)) / 2ᵏ⌋` between the nodes (rounded half
     /// up). Computed as the vector loop does, in one rounded Q15 product of `m` itself:
@@ -313,7 +330,7 @@ pub(super) struct Diffusion {
     /// Use the AVX-512 row loop (x86-64 with AVX-512 F, BW and VL).
     #[cfg(target_arch = "x86_64")]
     avx512: bool,
-    /// Else use the AVX2 row loop on the table (x86-64 with AVX2).
+    /// Else use the AVX2 row loop (x86-64 with AVX2).
     #[cfg(target_arch = "x86_64")]
     avx2: bool,
     /// Use the NEON row loop (AArch64, unless `cpu::limit_isa` capped it).
@@ -361,23 +378,24 @@ fn band_pixel<F: FluxSource>(
 
 impl Diffusion {
     pub(super) fn new(params: &AdfParams) -> Self {
+        let fx = FluxFn::new(params);
         Self {
-            fx: FluxFn::new(params),
+            fx,
             border: params.border(),
             #[cfg(target_arch = "x86_64")]
             avx512: crate::cpu::has_avx512bw(),
             #[cfg(target_arch = "x86_64")]
-            avx2: crate::cpu::has_avx2(),
+            avx2: crate::cpu::has_avx2() && fx.nodes_and_rises().is_some(),
             #[cfg(all(target_arch = "aarch64", target_feature = "neon"))]
             neon: crate::cpu::has_neon(),
         }
     }
 
-    /// Whether the row loops here read a table (false: the AVX-512 loop keeps the function in
-    /// registers).
+    /// Whether the row loops here read a table (false: the AVX-512, AVX2 and NEON loops keep
+    /// the function in registers).
     fn wants_table(&self) -> bool {
         #[cfg(target_arch = "x86_64")]
-        if self.avx512 {
+        if self.avx512 || self.avx2 {
             return false;
         }
         // The NEON loop keeps the function in registers too.
@@ -471,7 +489,7 @@ impl Diffusion {
             // SAFETY: `avx512` is set only when the CPU has AVX-512 F, BW and VL, `avx2` only
             // when it has AVX2 (checked at run time).
             _ if self.avx512 => unsafe { avx512::row_blocks(&self.fx, p, q, north, out, &mut carry) },
-            Some(t) if self.avx2 => unsafe { avx2::row_blocks(t, p, q, north, out, &mut carry) },
+            _ if self.avx2 => unsafe { avx2::row_blocks(&self.fx, p, q, north, out, &mut carry) },
             _ => 0,
         };
         #[cfg(fusion_arm_dsp)]

@@ -514,10 +514,19 @@ impl Sample for u8 {
     fn pass_rows(src: FrameRef<'_, u8>, taps: &Taps<'_>, dst: FrameMut<'_, i32>, out: Output) {
         rows_u8_best(src, taps, dst, out)
     }
-    fn pass_cols(src: FrameRef<'_, u8>, taps: &Taps<'_>, dst: FrameMut<'_, i32>, out: Output) {
+    #[cfg_attr(not(all(target_arch = "aarch64", target_feature = "neon")), allow(unused_mut))]
+    fn pass_cols(src: FrameRef<'_, u8>, taps: &Taps<'_>, mut dst: FrameMut<'_, i32>, out: Output) {
         #[cfg(fusion_arm_dsp)]
         if taps.stride == 8 + 2 && matches!(out, Output::U8) {
             arm::cols8::<u8, true>(src, taps, dst, arm::u8_to_u8);
+            return;
+        }
+        #[cfg(all(target_arch = "aarch64", target_feature = "neon"))]
+        if taps.stride == 8 + 2
+            && matches!(out, Output::U8)
+            && crate::cpu::has_neon()
+            && neon::cols8(src, taps, dst.reborrow())
+        {
             return;
         }
         cols_u8_best(src, taps, dst, out)
@@ -550,12 +559,29 @@ impl Sample for i32 {
             }
             return;
         }
+        #[cfg(all(target_arch = "aarch64", target_feature = "neon"))]
+        if taps.stride == 8 + 2 && crate::cpu::has_neon() {
+            match out {
+                Output::U8 => rows_with::<i32, 8, true>(src, taps, dst, neon::dot8),
+                Output::Same => rows_with::<i32, 8, false>(src, taps, dst, neon::dot8),
+            }
+            return;
+        }
         rows_i32_best(src, taps, dst, out)
     }
-    fn pass_cols(src: FrameRef<'_, i32>, taps: &Taps<'_>, dst: FrameMut<'_, i32>, out: Output) {
+    #[cfg_attr(not(all(target_arch = "aarch64", target_feature = "neon")), allow(unused_mut))]
+    fn pass_cols(src: FrameRef<'_, i32>, taps: &Taps<'_>, mut dst: FrameMut<'_, i32>, out: Output) {
         #[cfg(fusion_arm_dsp)]
         if taps.stride == 8 + 2 && matches!(out, Output::Same) {
             arm::cols8::<i32, false>(src, taps, dst, arm::i32_to_same);
+            return;
+        }
+        #[cfg(all(target_arch = "aarch64", target_feature = "neon"))]
+        if taps.stride == 8 + 2
+            && matches!(out, Output::Same)
+            && crate::cpu::has_neon()
+            && neon::cols8(src, taps, dst.reborrow())
+        {
             return;
         }
         cols_i32_best(src, taps, dst, out)
@@ -661,6 +687,8 @@ crate::cpu::dispatch! {
 
 #[cfg(fusion_arm_dsp)]
 mod arm;
+#[cfg(all(target_arch = "aarch64", target_feature = "neon"))]
+mod neon;
 
 /// [`pass_rows`] into [`Output::U8`] of a source whose samples all lie in `0..=255` (the
 /// output of a `U8` pass), which lets the Cortex-M kernel round in 32 bits; the same bytes as

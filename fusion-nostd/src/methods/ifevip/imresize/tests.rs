@@ -48,9 +48,10 @@ fn periodic_rows_equal_computed_rows() -> Result<(), Error> {
     Ok(())
 }
 
-/// The AVX2 8-tap row pass against the portable one (both output kinds, ragged widths).
+/// The 8-tap row pass (AVX2 on x86-64, NEON on AArch64) against the portable one (both output
+/// kinds, ragged widths).
 #[test]
-fn avx2_rows_equal_portable_rows() -> Result<(), Error> {
+fn simd_rows_equal_portable_rows() -> Result<(), Error> {
     let mut buf = std::vec![0i32; 1 << 16];
     let mut seed = 7u32;
     for (n_in, n_out, h) in [(1024usize, 512usize, 3usize), (64, 35, 2), (40, 21, 1)] {
@@ -72,6 +73,60 @@ fn avx2_rows_equal_portable_rows() -> Result<(), Error> {
             assert_eq!(a, b, "{n_in}->{n_out} {out:?}");
         }
     }
+    Ok(())
+}
+
+/// The 8-tap column pass (Armv7E-M assembly, NEON) against the portable one for the two forms
+/// IFEVIP runs (`u8` → `U8`, `i32` → `Same`), widths around the 8-column blocks, and a table
+/// whose last rows reach below the source (the SIMD forms decline it).
+#[test]
+fn simd_cols_equal_portable_cols() -> Result<(), Error> {
+    let mut buf = std::vec![0i32; 1 << 16];
+    let mut seed = 11u32;
+    let mut next = move || {
+        seed = seed.wrapping_mul(1664525).wrapping_add(1013904223);
+        seed
+    };
+    let mut tested = 0;
+    for (n_in, n_out) in [(1024usize, 512usize), (64, 35), (40, 21), (17, 9)] {
+        let taps = build(n_in, n_out, &mut buf)?;
+        if taps.stride() != 10 {
+            continue;
+        }
+        for w in [1usize, 7, 8, 9, 33] {
+            let bytes: std::vec::Vec<u8> = (0..n_in * w).map(|_| (next() >> 24) as u8).collect();
+            let words: std::vec::Vec<i32> = (0..n_in * w).map(|_| (next() >> 3) as i32 - (1 << 28)).collect();
+            let mut a = std::vec![0i32; n_out * w];
+            let mut b = std::vec![1i32; n_out * w];
+            pass_cols(FrameRef::new(&bytes, w, n_in)?, &taps, FrameMut::new(&mut a, w, n_out)?, Output::U8);
+            cols_kernel(FrameRef::new(&bytes, w, n_in)?, &taps, FrameMut::new(&mut b, w, n_out)?, Output::U8);
+            assert_eq!(a, b, "u8 {n_in}->{n_out} width {w}");
+            pass_cols(FrameRef::new(&words, w, n_in)?, &taps, FrameMut::new(&mut a, w, n_out)?, Output::Same);
+            cols_kernel(
+                FrameRef::new(&words, w, n_in)?,
+                &taps,
+                FrameMut::new(&mut b, w, n_out)?,
+                Output::Same,
+            );
+            assert_eq!(a, b, "i32 {n_in}->{n_out} width {w}");
+            // A source shorter than the table reaches: zero rows below it.
+            let short = n_in - 3;
+            let (bytes, words) = (&bytes[..short * w], &words[..short * w]);
+            pass_cols(FrameRef::new(bytes, w, short)?, &taps, FrameMut::new(&mut a, w, n_out)?, Output::U8);
+            cols_kernel(FrameRef::new(bytes, w, short)?, &taps, FrameMut::new(&mut b, w, n_out)?, Output::U8);
+            assert_eq!(a, b, "u8 short {n_in}->{n_out} width {w}");
+            pass_cols(FrameRef::new(words, w, short)?, &taps, FrameMut::new(&mut a, w, n_out)?, Output::Same);
+            cols_kernel(
+                FrameRef::new(words, w, short)?,
+                &taps,
+                FrameMut::new(&mut b, w, n_out)?,
+                Output::Same,
+            );
+            assert_eq!(a, b, "i32 short {n_in}->{n_out} width {w}");
+            tested += 1;
+        }
+    }
+    assert!(tested > 0, "no 8-tap table among the sizes");
     Ok(())
 }
 

@@ -37,9 +37,13 @@ impl Rounding {
     /// `num / den` rounded by this rule (`den > 0`; a zero `den` gives 0, never a panic).
     #[inline]
     pub(crate) fn divide(self, num: i64, den: i64) -> i64 {
-        let (Some(q), Some(r)) = (num.checked_div_euclid(den), num.checked_rem_euclid(den)) else {
+        if den <= 0 {
             return 0;
-        };
+        }
+        // Euclidean quotient and remainder by a divisor ≥ 1, which neither is zero nor
+        // overflows (LLVM's AArch64 code kept a panic path behind `checked_div_euclid`).
+        let (q, r) = (num / den, num % den);
+        let (q, r) = if r < 0 { (q - 1, r + den) } else { (q, r) };
         let twice_r = 2 * r;
         let up = match self {
             Rounding::HalfUp => twice_r >= den,

@@ -18,6 +18,7 @@
 //! with the fixed row length `T + 2` (`Taps::stride`).
 
 use crate::{Error, FrameMut, FrameRef};
+use core::num::NonZeroU64;
 
 /// Fractional bits of the stored weights.
 pub const WEIGHT_BITS: u32 = 30;
@@ -40,8 +41,15 @@ fn reflect(j: i64, n: i64) -> i64 {
     if (0..n).contains(&j) {
         return j; // the common case, without a 64-bit division
     }
-    let m = j.rem_euclid(2 * n);
-    if m < n { m } else { 2 * n - 1 - m }
+    // The Euclidean remainder by a period ≥ 1 (spelled out: neither zero nor −1, so no panic
+    // path, which LLVM's AArch64 code kept behind `rem_euclid`).
+    let period = 2 * n;
+    if period <= 0 {
+        return 0;
+    }
+    let m = j % period;
+    let m = if m < 0 { m + period } else { m };
+    if m < n { m } else { period - 1 - m }
 }
 
 /// `a / b` rounded toward −∞ (b > 0).
@@ -115,9 +123,11 @@ fn for_taps(x: i64, n_in: i64, n_out: i64, mut f: impl FnMut(i64, i64)) -> i128 
     total
 }
 
-fn gcd(mut a: i64, mut b: i64) -> i64 {
-    while b != 0 {
-        (a, b) = (b, a % b);
+/// The greatest common divisor of `|a|` and `|b|` (`a` when `b` is 0).
+fn gcd(a: i64, b: i64) -> u64 {
+    let (mut a, mut b) = (a.unsigned_abs(), b.unsigned_abs());
+    while let Some(d) = NonZeroU64::new(b) {
+        (a, b) = (b, a % d);
     }
     a
 }
@@ -139,8 +149,8 @@ fn build_with(in_len: usize, out_len: usize, buf: &mut [i32], reuse: bool) -> Re
         return Err(Error::ZeroDimension);
     }
     let (n_in, n_out) = (in_len as i64, out_len as i64);
-    let g = gcd(n_in, n_out);
-    let (period, shift) = (n_out / g, n_in / g);
+    let g = NonZeroU64::new(gcd(n_in, n_out)).unwrap_or(NonZeroU64::MIN);
+    let (period, shift) = ((n_out.unsigned_abs() / g) as i64, (n_in.unsigned_abs() / g) as i64);
     // The widest merged run (an interior row has the run of the row one period back).
     let mut taps = 1usize;
     for x in 1..=n_out {

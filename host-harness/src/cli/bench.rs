@@ -37,10 +37,9 @@ pub struct BenchArgs {
     /// Which illumination's VIS frame to use.
     #[arg(long, default_value = "light")]
     pub illumination: String,
-    /// The best x86-64 instruction set the core's host kernels may use (`avx2` measures the AVX2
-    /// forms on an AVX-512 machine; `portable` the code without x86-64 SIMD forms). No effect on
-    /// other hosts (an AArch64 host runs its NEON forms, chosen at compile time). The output
-    /// bits are the same for each.
+    /// The best instruction set the core's host kernels may use (`avx2` measures the AVX2 forms
+    /// on an AVX-512 machine; `portable` the code without SIMD forms, on x86-64 and on AArch64,
+    /// whose NEON forms `best` and `avx2` keep). The output bits are the same for each.
     #[arg(long, value_enum, default_value_t = IsaArg::Best)]
     pub isa: IsaArg,
 }
@@ -48,9 +47,9 @@ pub struct BenchArgs {
 /// `--isa` values.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum IsaArg {
-    /// The best the CPU has (AVX-512, else AVX2, else portable).
+    /// The best the CPU has (AVX-512, else AVX2, else portable; NEON on AArch64).
     Best,
-    /// At most AVX2.
+    /// At most AVX2 (NEON on AArch64).
     Avx2,
     /// The portable code.
     Portable,

@@ -17,8 +17,9 @@
 
 use core::sync::atomic::{AtomicU8, Ordering};
 
-/// The instruction sets the host kernels choose from, plainest first.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
+/// The instruction sets the host kernels choose from: the portable code, the x86-64 sets and
+/// NEON. Not ordered (NEON and AVX2 are one level of [`limit_isa`]'s cap).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum Isa {
     /// The portable Rust code (what every target without a SIMD form runs).
     Portable = 0,

@@ -18,7 +18,7 @@
 //!   equalisation or a percentile stretch), by frame, strip or row, with temporal smoothing.
 //! * [`Error`] — the one small `Copy` error type; bad input is an `Err`, never a panic.
 //! * [`cpu`] — which instruction set the host kernels run (AVX-512, AVX2 or portable, chosen at
-//!   run time on x86-64; [`cpu::limit_isa`] caps it for tests and benchmarks).
+//!   run time on x86-64; NEON on AArch64; [`cpu::limit_isa`] caps it for tests and benchmarks).
 //!
 //! Everything a firmware or host user calls is re-exported here at the root: the frames and
 //! scratch, [`FuseConfig`] (method, rescale policy, skip policy, scene thresholds), [`fuse`]

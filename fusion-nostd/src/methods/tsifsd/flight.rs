@@ -89,6 +89,11 @@ pub(super) fn flight_u8_kernel<const WIDE: bool>(
     // Converts the (clamped) frame row `k` into the ring slot of key `k`.
     let fill = |lanes: &mut [i32], k: isize| {
         let dst = lanes.get_mut(slot(k)..slot(k) + w).unwrap_or(&mut []);
+        #[cfg(all(target_arch = "aarch64", target_feature = "neon"))]
+        if WIDE {
+            lane_pairs(dst, vis.row_clamped(k), tir.row_clamped(k));
+            return;
+        }
         for ((o, &v), &t) in dst.iter_mut().zip(vis.row_clamped(k)).zip(tir.row_clamped(k)) {
             *o = lane_pair(v, t);
         }
@@ -116,9 +121,7 @@ pub(super) fn flight_u8_kernel<const WIDE: bool>(
             }
         } else {
             let (enter, leave) = (lane_row(yi + radius as isize), lane_row(yi - radius as isize - 1));
-            for ((m, &e), &l) in mid.iter_mut().zip(enter).zip(leave) {
-                *m = column_step(*m, e, l, lane_weights);
-            }
+            column_steps_any::<WIDE>(mid, enter, leave, lane_weights);
         }
         let (first_col, last_col) = (mid.first().copied().unwrap_or(0), mid.last().copied().unwrap_or(0));
         left.fill(first_col);
@@ -152,6 +155,19 @@ pub(super) fn flight_u8_kernel<const WIDE: bool>(
         }
     }
     (zero, sat != 0)
+}
+
+/// `mid[x] = column_step(mid[x], enter[x], leave[x], lane_weights)` for every `x`: on AArch64
+/// in the wide form by NEON (`column_steps`, `neon.rs`), else lane by lane.
+#[inline(always)]
+fn column_steps_any<const WIDE: bool>(mid: &mut [i32], enter: &[i32], leave: &[i32], lane_weights: [i32; 2]) {
+    #[cfg(all(target_arch = "aarch64", target_feature = "neon"))]
+    if WIDE {
+        return column_steps(mid, enter, leave);
+    }
+    for ((m, &e), &l) in mid.iter_mut().zip(enter).zip(leave) {
+        *m = column_step(*m, e, l, lane_weights);
+    }
 }
 
 /// Whether the flight kernel's chunks take the wide form (x86-64: [`chunk_wide`], the divisions

@@ -1,15 +1,76 @@
 //! The NEON form of the flight kernel's chunk (AArch64: Cortex-A53/A72 class, Arm hosts): eight
 //! pixels per step, the formulas of [`chunk_portable`] lane by lane. The window sums `dd` as a
 //! prefix sum of `enter − leave` in registers; `⌊dd/c⌋` and the output's `⌊·/c⌋` by [`MagicC`]
-//! (`umull`, a shift); the Scharr gradients of both bands on the 16-bit lanes of the column
+//! (`sqdmulh`, a shift); the Scharr gradients of both bands on the 16-bit lanes of the column
 //! words ([`scharr_columns_pair`]), where `abs` is one instruction; `⌊·/σ⌋` as the `f32`
 //! quotient truncated (`fdiv`, `fcvtzu`: exact, see [`div_sigma_f32`]); the clamp to `0..=255` by
 //! the saturating narrows. The chunk's last `n mod 8` pixels take [`chunk_portable`]. The same
 //! bytes and flags as the portable chunk (the SIMD-forms test under `qemu-aarch64`, and the
-//! bit-exactness jobs of `fusion budget --target a53`).
+//! bit-exactness jobs of `fusion budget --target a53`). The kernel's two row loops have NEON
+//! forms too: [`lane_pairs`] (a frame row pair into lane words) and [`column_steps`] (the
+//! window's column sums, one row in and one out).
 
 use super::*;
 use core::arch::aarch64::*;
+
+/// `dst[x] = lane_pair(vis[x], tir[x])` (VIS + IR·2¹⁶) over the shortest of the three, eight
+/// words per step (`zip` of the widened bytes).
+pub(super) fn lane_pairs(dst: &mut [i32], vis: &[u8], tir: &[u8]) {
+    let n = dst.len().min(vis.len()).min(tir.len());
+    let mut x = 0;
+    while x + 8 <= n {
+        let (Some(o), Some(v), Some(t)) = (
+            dst.get_mut(x..x + 8).and_then(|s| <&mut [i32; 8]>::try_from(s).ok()),
+            vis.get(x..x + 8).and_then(|s| <&[u8; 8]>::try_from(s).ok()),
+            tir.get(x..x + 8).and_then(|s| <&[u8; 8]>::try_from(s).ok()),
+        ) else {
+            break;
+        };
+        // SAFETY: NEON; reads the 8 bytes of `v` and `t`, writes the 32 bytes of `o`.
+        unsafe {
+            let (v, t) = (vmovl_u8(vld1_u8(v.as_ptr())), vmovl_u8(vld1_u8(t.as_ptr())));
+            vst1q_u16(o.as_mut_ptr().cast(), vzip1q_u16(v, t));
+            vst1q_u16(o.as_mut_ptr().add(4).cast(), vzip2q_u16(v, t));
+        }
+        x += 8;
+    }
+    let rest = dst.iter_mut().zip(vis.iter().zip(tir)).skip(x);
+    for (o, (&v, &t)) in rest {
+        *o = lane_pair(v, t);
+    }
+}
+
+/// `mid[x] = column_step(mid[x], enter[x], leave[x])` over the shortest of the three: per
+/// 16-bit lane `d = enter − leave` (`|d| ≤ 255`), times (−1, 1), pairwise added into the
+/// column sums (`sadalp`): `mid + (d_IR − d_VIS)`, four columns per step.
+pub(super) fn column_steps(mid: &mut [i32], enter: &[i32], leave: &[i32]) {
+    let n = mid.len().min(enter.len()).min(leave.len());
+    let mut x = 0;
+    // SAFETY: NEON register operations only.
+    let signs = unsafe { vreinterpretq_s16_s32(vdupq_n_s32(0x0001_FFFF)) };
+    while x + 4 <= n {
+        let (Some(m), Some(e), Some(l)) = (
+            mid.get_mut(x..x + 4).and_then(|s| <&mut [i32; 4]>::try_from(s).ok()),
+            enter.get(x..x + 4).and_then(|s| <&[i32; 4]>::try_from(s).ok()),
+            leave.get(x..x + 4).and_then(|s| <&[i32; 4]>::try_from(s).ok()),
+        ) else {
+            break;
+        };
+        // SAFETY: NEON; reads the 16 bytes of `e`, `l` and `m`, writes those of `m`.
+        unsafe {
+            let d = vsubq_s16(
+                vreinterpretq_s16_s32(vld1q_s32(e.as_ptr())),
+                vreinterpretq_s16_s32(vld1q_s32(l.as_ptr())),
+            );
+            vst1q_s32(m.as_mut_ptr(), vpadalq_s16(vld1q_s32(m.as_ptr()), vmulq_s16(d, signs)));
+        }
+        x += 4;
+    }
+    let rest = mid.iter_mut().zip(enter.iter().zip(leave)).skip(x);
+    for (m, (&e, &l)) in rest {
+        *m = column_step(*m, e, l, LANE_WEIGHTS);
+    }
+}
 
 /// One chunk: the blocks of eight pixels in NEON, the rest by [`chunk_portable`] (which
 /// continues the running sum).
@@ -26,7 +87,8 @@ pub(super) fn chunk_neon(
     sat: &mut i32,
 ) {
     let n = out.len();
-    let blocks = n / 8 * 8;
+    // `c = 2·taps ≥ 2`, so the multiplier fits `sqdmulh`; otherwise the portable chunk.
+    let blocks = if k.magic.m <= i32::MAX as u64 { n / 8 * 8 } else { 0 };
     let mut done = 0;
     if let Some(sd) = wide.sd.get_mut(..blocks + 2).filter(|_| blocks > 0) {
         // SAFETY: NEON is part of every AArch64 target this module is compiled for; every load
@@ -108,8 +170,10 @@ struct Four {
     taps: uint32x4_t,
     a_factor: uint32x4_t,
     q_const: uint32x4_t,
-    magic: uint32x2_t,
-    magic_shift: int64x2_t,
+    /// `m` of [`MagicC`] (below 2³¹ for `c ≥ 2`, see [`Four::new`]).
+    magic: int32x4_t,
+    /// `31 − s`: `ushl` by a negative count shifts right.
+    magic_shift: int32x4_t,
     /// The running window sum in every lane.
     running: int32x4_t,
     /// Lanes all ones where a pixel had both weights 0.
@@ -130,8 +194,8 @@ impl Four {
                 taps: vdupq_n_u32(k.taps),
                 a_factor: vdupq_n_u32(k.a_factor),
                 q_const: vdupq_n_u32(k.q_const),
-                magic: vdup_n_u32(k.magic.m as u32),
-                magic_shift: vdupq_n_s64(-i64::from(k.magic.s)),
+                magic: vdupq_n_s32(k.magic.m as i32),
+                magic_shift: vdupq_n_s32(31 - k.magic.s as i32),
                 running: vdupq_n_s32(sum),
                 flat: vdupq_n_u32(0),
                 sat: vdupq_n_s32(0),
@@ -139,14 +203,14 @@ impl Four {
         }
     }
 
-    /// `⌊n/c⌋` of four lanes (`n < 2²⁸`; [`MagicC`]).
+    /// `⌊n/c⌋` of four lanes (`n < 2²⁸`; [`MagicC`]: `⌊n·m / 2³¹⌋` by `sqdmulh`, then the
+    /// shift by `s − 31`).
     #[inline(always)]
     unsafe fn div_c(&self, n: uint32x4_t) -> uint32x4_t {
         // SAFETY: NEON register operations only.
         unsafe {
-            let lo = vshlq_u64(vmull_u32(vget_low_u32(n), self.magic), self.magic_shift);
-            let hi = vshlq_u64(vmull_u32(vget_high_u32(n), self.magic), self.magic_shift);
-            vcombine_u32(vmovn_u64(lo), vmovn_u64(hi))
+            let high = vqdmulhq_s32(vreinterpretq_s32_u32(n), self.magic);
+            vshlq_u32(vreinterpretq_u32_s32(high), self.magic_shift)
         }
     }
 

@@ -295,12 +295,19 @@ fn division_helpers_are_exact() {
             }
         }
     }
-    // The multiplication's bound holds for every divisor below 2¹⁴, not only the window's.
+    // The multiplication's bound holds for every divisor below 2¹⁴, not only the window's;
+    // from c = 2 on the multiplier fits the NEON chunk's `sqdmulh` (⌊2·n·m / 2³²⌋, then the
+    // shift by s − 31), modelled here.
     for c in 1u32..1 << 14 {
         let magic = MagicC::new(NonZeroU32::new(c).unwrap());
+        assert!(magic.s >= 31 && (c < 2 || magic.m <= i32::MAX as u64), "c {c}: {magic:?}");
         let top = (1u32 << 28) - 1;
         for n in [0, 1, c - 1, c, c + 1, top / c * c - 1, top / c * c, top - 1, top] {
             assert_eq!(magic.div(n), n / c, "n {n} c {c}");
+            if c >= 2 {
+                let high = (2 * i64::from(n) * magic.m as i64) >> 32;
+                assert_eq!((high >> (magic.s - 31)) as u32, n / c, "sqdmulh n {n} c {c}");
+            }
         }
     }
     for sigma in 1u32..=16320 {

@@ -31,11 +31,12 @@ pub(super) fn div_c_f64(n: u32, inv_c: f64) -> u32 {
 }
 
 /// `⌊n / c⌋` for `n < 2²⁸` and the frame's constant `c < 2¹⁴` as `(n·m) >> s` (Granlund and
-/// Montgomery's division by an invariant integer): with `l = ⌈log₂ c⌉`, `s = 28 + l` and
-/// `m = ⌈2ˢ/c⌉ = (2ˢ + e)/c`, `0 ≤ e < c ≤ 2ˡ`, the product is `n/c + n·e/(c·2ˢ)` with
-/// `n·e < 2²⁸⁺ˡ = 2ˢ`, so less than `1/c` above `n/c`: not enough to reach the next integer.
-/// `m < 2²⁹ + 1` and `n·m < 2⁵⁸`: one widening multiply per lane.
-/// (The NEON chunk's division: `umull` and a shift per two lanes; elsewhere only tested.)
+/// Montgomery's division by an invariant integer): with `l = ⌈log₂ c⌉`, `s = max(28 + l, 31)`
+/// and `m = ⌈2ˢ/c⌉ = (2ˢ + e)/c`, `0 ≤ e < c ≤ 2ˡ`, the product is `n/c + n·e/(c·2ˢ)` with
+/// `n·e < 2²⁸⁺ˡ ≤ 2ˢ`, so less than `1/c` above `n/c`: not enough to reach the next integer.
+/// For `c ≥ 2`, `m < 2³¹` (`m ≤ 2²⁹ + 1` when `s = 28 + l`, `m ≤ 2³⁰ + 1` when `s = 31`): the
+/// NEON chunk takes `⌊n·m / 2³¹⌋` with one `sqdmulh` (`n`, `m` non-negative `i32`, so it
+/// neither rounds nor saturates) and shifts by `s − 31`; elsewhere it is only tested.
 #[derive(Debug, Clone, Copy)]
 #[cfg_attr(not(all(target_arch = "aarch64", target_feature = "neon")), allow(dead_code))]
 pub(super) struct MagicC {
@@ -49,7 +50,7 @@ pub(super) struct MagicC {
 impl MagicC {
     pub(super) fn new(c: NonZeroU32) -> Self {
         let l = u32::BITS - (c.get() - 1).leading_zeros();
-        let s = 28 + l;
+        let s = (28 + l).max(31);
         let c64 = core::num::NonZeroU64::from(c);
         Self { m: ((1u64 << s) + c64.get() - 1) / c64, s }
     }

@@ -2,7 +2,7 @@
 //! two bands (16 lanes of `i16`) for the loop of `simd.rs`. AVX2 has no permute of 16-bit words
 //! over 64 entries (AVX-512's `vpermi2w`), so the flux function's 64 segments are held as three
 //! 64-entry byte tables (the nodes' low and high bytes, the rises) of four registers each, read
-//! with `vpshufb` and two blends per table: 12 shuffles and 7 blends per 16 fluxes, against
+//! with `vpshufb` and three blends per table: 12 shuffles and 10 blends per 16 fluxes, against
 //! two `vpgatherdd` of the 128 KiB table before (the diffusion at 1024² 34–35 ms instead of
 //! 57–76 ms on an AMD EPYC with AVX2, BENCHMARKS.md). The same values as the portable loop, so the same bits (checked by
 //! `avx2_rows_equal_the_portable_rows` and `table_and_avx512_equal_the_function_exhaustively`).
@@ -225,7 +225,7 @@ impl Lanes for Flux {
 
 /// Runs the row loop of `Diffusion::row` (`simd.rs`) on whole blocks of eight pixels from the
 /// start of the row with the flux function `fx`, updating `carry`; returns the pixels done (0
-/// when `fx` does not fit the registers, see [`fits`]).
+/// when `fx` does not fit the registers, see [`Flux::new`]).
 ///
 /// # Safety
 /// The CPU must support AVX2.

@@ -274,8 +274,8 @@ impl FluxFn {
 /// Where the row loops read a flux from.
 trait FluxSource {
     fn flux(&self, d: i32) -> i32;
-    /// The table behind the source, if it is one (the Armv7E-M and AVX2 loops read tables).
-    #[cfg_attr(not(any(fusion_arm_dsp, target_arch = "x86_64")), allow(dead_code))]
+    /// The table behind the source, if it is one (the Armv7E-M loop reads the table).
+    #[cfg_attr(not(fusion_arm_dsp), allow(dead_code))]
     fn table(&self) -> Option<&[i16]> {
         None
     }
@@ -485,12 +485,14 @@ impl Diffusion {
         )]
         let mut carry = RowCarry { h_prev: fl(p0, p1), dr_prev: fl(p0, q1), partial: 0 };
         #[cfg(target_arch = "x86_64")]
-        let done = match f.table() {
-            // SAFETY: `avx512` is set only when the CPU has AVX-512 F, BW and VL, `avx2` only
-            // when it has AVX2 (checked at run time).
-            _ if self.avx512 => unsafe { avx512::row_blocks(&self.fx, p, q, north, out, &mut carry) },
-            _ if self.avx2 => unsafe { avx2::row_blocks(&self.fx, p, q, north, out, &mut carry) },
-            _ => 0,
+        // SAFETY: `avx512` is set only when the CPU has AVX-512 F, BW and VL, `avx2` only when
+        // it has AVX2 (checked at run time).
+        let done = if self.avx512 {
+            unsafe { avx512::row_blocks(&self.fx, p, q, north, out, &mut carry) }
+        } else if self.avx2 {
+            unsafe { avx2::row_blocks(&self.fx, p, q, north, out, &mut carry) }
+        } else {
+            0
         };
         #[cfg(fusion_arm_dsp)]
         let done = match f.table() {

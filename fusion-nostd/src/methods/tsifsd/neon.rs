@@ -166,10 +166,9 @@ unsafe fn blocks_neon(
 
 /// The constants and running values of four pixels' outputs.
 struct Four {
+    c: uint32x4_t,
     c2: uint32x4_t,
     taps: uint32x4_t,
-    a_factor: uint32x4_t,
-    q_const: uint32x4_t,
     /// `m` of [`MagicC`] (below 2³¹ for `c ≥ 2`, see [`Four::new`]).
     magic: int32x4_t,
     /// `31 − s`: `ushl` by a negative count shifts right.
@@ -190,10 +189,9 @@ impl Four {
         // SAFETY: NEON register operations only.
         unsafe {
             Four {
+                c: vdupq_n_u32(k.c.get()),
                 c2: vdupq_n_u32(2 * k.c.get()),
                 taps: vdupq_n_u32(k.taps),
-                a_factor: vdupq_n_u32(k.a_factor),
-                q_const: vdupq_n_u32(k.q_const),
                 magic: vdupq_n_s32(k.magic.m as i32),
                 magic_shift: vdupq_n_s32(31 - k.magic.s as i32),
                 running: vdupq_n_s32(sum),
@@ -230,18 +228,22 @@ impl Four {
             let p2 = vaddq_s32(p1, vextq_s32::<2>(vdupq_n_s32(0), p1));
             let dd = vreinterpretq_u32_s32(vaddq_s32(vsubq_s32(p2, d), self.running));
             self.running = vaddq_s32(self.running, vdupq_laneq_s32::<3>(p2));
-            // The packed weight-free part (`packed`).
-            let low = vaddq_u32(vaddq_u32(iv, vshlq_n_u32::<9>(ii)), self.q_const);
-            let q = vaddq_u32(vmlaq_u32(vshlq_n_u32::<18>(dd), self.div_c(dd), self.a_factor), low);
+            // The weight-free part, the three fields `packed` would pack: with `a = ⌊dd/c⌋`,
+            // `q_VIS = I_VIS + a`, `q_IR = I_IR + 255 − a`, `r + taps = dd − c·a + taps`.
+            let a = self.div_c(dd);
+            let qv = vaddq_u32(iv, a);
+            let qi = vsubq_u32(vaddq_u32(ii, vdupq_n_u32(255)), a);
+            let rt = vmlsq_u32(vaddq_u32(dd, self.taps), a, self.c);
             // The weights (`scharr_l1_pair`): each 16-bit lane of a column word is a band.
             let left = vld2q_u32(cols);
             let mid = vld2q_u32(cols.add(2)).1;
             let right = vld2q_u32(cols.add(4));
             let gx = vsubq_u16(vreinterpretq_u16_u32(right.0), vreinterpretq_u16_u32(left.0));
             let gx = vabsq_s16(vreinterpretq_s16_u16(gx));
-            let gy = vaddq_u16(
+            let gy = vmlaq_n_u16(
                 vmulq_n_u16(vreinterpretq_u16_u32(vaddq_u32(left.1, right.1)), 3),
-                vmulq_n_u16(vreinterpretq_u16_u32(mid), 10),
+                vreinterpretq_u16_u32(mid),
+                10,
             );
             let gy = vabsq_s16(vsubq_s16(vreinterpretq_s16_u16(gy), vdupq_n_s16(4096)));
             let wts = vreinterpretq_u32_s16(vaddq_s16(gx, gy));
@@ -252,9 +254,6 @@ impl Four {
             let (gv, gi) = (vorrq_u32(gv, one), vorrq_u32(gi, one));
             let sigma = vaddq_u32(gv, gi);
             // `output`: f = ⌊(w_VIS·rt + w_IR·(2c − rt) + ⌊taps·σ/2¹⁶⌋)/c⌋, then ⌊(…)/σ⌋ − 128.
-            let nine = vdupq_n_u32(0x1FF);
-            let (qv, qi, rt) =
-                (vandq_u32(q, nine), vandq_u32(vshrq_n_u32::<9>(q), nine), vshrq_n_u32::<18>(q));
             let num = vmlaq_u32(vmulq_u32(gv, rt), gi, vsubq_u32(self.c2, rt));
             let f = self.div_c(vaddq_u32(num, vshrq_n_u32::<16>(vmulq_u32(self.taps, sigma))));
             let x = vaddq_u32(vmlaq_u32(vmulq_u32(gv, qv), gi, qi), f);

@@ -17,6 +17,10 @@
 
 use core::sync::atomic::{AtomicU8, Ordering};
 
+// The NEON forms read 32-bit words as 16-bit lanes and bytes, low half first.
+#[cfg(all(target_arch = "aarch64", target_endian = "big"))]
+compile_error!("the NEON forms assume little-endian AArch64 (aarch64_be is not supported)");
+
 /// The instruction sets the host kernels choose from: the portable code, the x86-64 sets and
 /// NEON. Not ordered (NEON and AVX2 are one level of [`limit_isa`]'s cap).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]

@@ -175,7 +175,8 @@ fn column_steps_any<const WIDE: bool>(mid: &mut [i32], enter: &[i32], leave: &[i
 /// `cpu::limit_isa` caps it at the portable code: `chunk_neon`, `neon.rs`) or the portable
 /// one ([`chunk_portable`]: integer divisions in one pass, the fewest instructions on the
 /// flight microcontrollers). Both give the same bytes (unit test
-/// `wide_and_portable_chunks_agree`; on AArch64 the SIMD-forms test under `qemu-aarch64`).
+/// `wide_and_portable_chunks_agree`, which on AArch64 — under `qemu-aarch64` in CI — checks
+/// the NEON chunk and row loops; and the SIMD-forms test).
 #[inline(always)]
 pub(super) fn wide_chunks() -> bool {
     #[cfg(all(target_arch = "aarch64", target_feature = "neon"))]

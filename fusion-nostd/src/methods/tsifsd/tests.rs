@@ -321,7 +321,8 @@ fn division_helpers_are_exact() {
     }
 }
 
-/// The wide chunk form (x86-64) gives the portable form's bytes and flags: random frames,
+/// The wide kernel form (x86-64: the wide chunk; AArch64: the NEON chunk and row loops) gives
+/// the portable form's bytes and flags: random frames,
 /// flat ones (the zero-saliency guard), and full-swing checkerboards and stripes (the
 /// largest gradients, σ up to 16320, and saturated outputs), several widths and row ranges.
 #[test]

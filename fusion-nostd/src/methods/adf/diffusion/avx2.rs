@@ -57,7 +57,7 @@ impl Bytes {
 
     /// Entry `j` in every byte that holds `j` (0..64) in `idx`; `b4`, `b5` hold bits 4 and 5 of
     /// each byte's `j` in its bit 7: `vpshufb` reads the low four bits of the index (bit 7 is
-    /// 0), the two blends pick the quarter.
+    /// 0), three blends pick the quarter.
     #[target_feature(enable = "avx2")]
     #[inline]
     fn lookup(&self, idx: __m256i, b4: __m256i, b5: __m256i) -> __m256i {

@@ -124,7 +124,7 @@ fn table_and_avx512_equal_the_function_exhaustively() {
 }
 
 /// Every way to run the diffusion gives the same bits: the row pipeline in one group (with
-/// the table, and on x86-64 with the AVX-512 loop) and in several groups without the table,
+/// the table, and with each SIMD loop the CPU has) and in several groups without the table,
 /// and plain Jacobi sweeps with all eight fluxes per pixel; sizes from one row to one
 /// column, both borders, parameters that saturate the sums.
 #[test]

@@ -46,8 +46,9 @@
 //! work plane, [`TABLE_WORDS`]). A pair flux is then one subtraction and one read: no index
 //! arithmetic and no clamp (the states are clamped instead).
 //! The AVX-512 row loop keeps the 64 bases and slopes in four registers and reads them with
-//! `vpermi2w`, 32 lanes at a time; the AVX2 loop keeps the 64 nodes and rises as three byte
-//! tables in twelve registers and reads them with `vpshufb` and blends, 16 lanes at a time; the
+//! `vpermi2w`, 32 lanes at a time; the AVX2 loop keeps the 64 nodes and rises as byte tables
+//! (two, or three when a node needs two bytes) and reads them with `vpshufb`, 32 lanes (two
+//! fluxes of 8 pixels × 2 bands) at a time; the
 //! NEON loop (AArch64) keeps the bases and slopes in eight and reads the entries' bytes with
 //! `tbl`/`tbx`, 8 lanes at a time. All give the same bits: the table, the AVX-512 and the AVX2
 //! forms are checked exhaustively against the function on x86-64 hosts, the NEON form by the
@@ -229,18 +230,19 @@ impl FluxFn {
     }
 
     /// The nodes `n_j` and rises `ρ_j` of the segments (`ρ_j` from the slope, `n_j = base_j +
-    /// j·ρ_j`), `None` if a rise does not fit a byte (the AVX2 loop holds them as bytes).
+    /// j·ρ_j`; both fit `i16`: `|n_j| ≤ MAX_FLUX`, `|ρ_j| ≤ 2¹³`), for the AVX2 loop's byte
+    /// tables.
     #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
-    fn nodes_and_rises(&self) -> Option<([i16; SEGMENTS], [i8; SEGMENTS])> {
+    fn nodes_and_rises(&self) -> ([i16; SEGMENTS], [i16; SEGMENTS]) {
         let mut node = [0i16; SEGMENTS];
-        let mut rise = [0i8; SEGMENTS];
+        let mut rise = [0i16; SEGMENTS];
         for (j, ((n, r), (&b, &s))) in
             node.iter_mut().zip(rise.iter_mut()).zip(self.base.iter().zip(&self.slope)).enumerate()
         {
             let rho = i32::from(s) >> (15 - self.shift);
-            (*n, *r) = (i16::try_from(i32::from(b) + j as i32 * rho).ok()?, i8::try_from(rho).ok()?);
+            (*n, *r) = ((i32::from(b) + j as i32 * rho) as i16, rho as i16);
         }
-        Some((node, rise))
+        (node, rise)
     }
 
     /// `F` for `|∇| = m`: with `m` clamped to `limit`, `j = m >> k` and `q = m − j·2ᵏ` the
@@ -330,9 +332,12 @@ pub(super) struct Diffusion {
     /// Use the AVX-512 row loop (x86-64 with AVX-512 F, BW and VL).
     #[cfg(target_arch = "x86_64")]
     avx512: bool,
-    /// Else use the AVX2 row loop (x86-64 with AVX2).
+    /// Else use the AVX2 row loop (x86-64 with AVX2, and `avx2_tables` built).
     #[cfg(target_arch = "x86_64")]
     avx2: bool,
+    /// The AVX2 loop's byte tables of `fx`.
+    #[cfg(target_arch = "x86_64")]
+    avx2_tables: Option<avx2::Tables>,
     /// Use the NEON row loop (AArch64, unless `cpu::limit_isa` capped it).
     #[cfg(all(target_arch = "aarch64", target_feature = "neon"))]
     neon: bool,
@@ -379,13 +384,17 @@ fn band_pixel<F: FluxSource>(
 impl Diffusion {
     pub(super) fn new(params: &AdfParams) -> Self {
         let fx = FluxFn::new(params);
+        #[cfg(target_arch = "x86_64")]
+        let avx2_tables = avx2::Tables::new(&fx);
         Self {
             fx,
             border: params.border(),
             #[cfg(target_arch = "x86_64")]
             avx512: crate::cpu::has_avx512bw(),
             #[cfg(target_arch = "x86_64")]
-            avx2: crate::cpu::has_avx2() && fx.nodes_and_rises().is_some(),
+            avx2: crate::cpu::has_avx2() && avx2_tables.is_some(),
+            #[cfg(target_arch = "x86_64")]
+            avx2_tables,
             #[cfg(all(target_arch = "aarch64", target_feature = "neon"))]
             neon: crate::cpu::has_neon(),
         }
@@ -489,8 +498,8 @@ impl Diffusion {
         // it has AVX2 (checked at run time).
         let done = if self.avx512 {
             unsafe { avx512::row_blocks(&self.fx, p, q, north, out, &mut carry) }
-        } else if self.avx2 {
-            unsafe { avx2::row_blocks(&self.fx, p, q, north, out, &mut carry) }
+        } else if let (true, Some(t)) = (self.avx2, &self.avx2_tables) {
+            unsafe { avx2::row_blocks(t, p, q, north, out, &mut carry) }
         } else {
             0
         };

@@ -1,9 +1,8 @@
 //! The row loop of the SIMD forms (AVX2, AVX-512, NEON), written once for any register width: [`Lanes`] is
 //! what a form provides (its register type, its loads and stores, its 16-bit lane arithmetic
 //! and its flux), [`row_blocks`] the loop over whole blocks of `Lanes::WORDS` pixels (both
-//! bands per 32-bit word, so `2·WORDS` lanes of `i16`). `avx2.rs` (8 pixels, fluxes gathered
-//! from the table) and `avx512.rs` (16 pixels, the flux function's segments in registers)
-//! each implement [`Lanes`] and call [`row_blocks`] from a function compiled for their
+//! bands per 32-bit word, so `2·WORDS` lanes of `i16`). `avx2.rs` (8 pixels), `avx512.rs` (16 pixels) and
+//! `neon.rs` (4 pixels), each with the flux function's segments in registers, each implement [`Lanes`] and call [`row_blocks`] from a function compiled for their
 //! instruction set, where every method here is inlined.
 //!
 //! Every sum in the loop is one of the portable loop's (`update_band` and the north sums) in
@@ -34,6 +33,11 @@ pub(super) trait Lanes {
     fn word(&self, x: Self::V, i: usize) -> i32;
     /// The flux of every lane's difference (in `−32768..=32767`).
     fn flux(&self, d: Self::V) -> Self::V;
+    /// The fluxes of four registers (the AVX2 form reads its tables once per pair).
+    #[inline(always)]
+    fn flux4(&self, d: [Self::V; 4]) -> [Self::V; 4] {
+        d.map(|d| self.flux(d))
+    }
     /// Lane-wise wrapping difference (exact for the states' differences, `|d| < 2¹⁵`).
     fn sub(&self, a: Self::V, b: Self::V) -> Self::V;
     /// Lane-wise saturating sum.
@@ -77,10 +81,7 @@ pub(super) fn row_blocks<L: Lanes>(
         let (pc, pr) = (l.load(from(ps, 1)), l.load(from(ps, 2)));
         let (ql, qc, qr) = (l.load(qs), l.load(from(qs, 1)), l.load(from(qs, 2)));
         let n_here = l.load(ns);
-        let h = l.flux(l.sub(pr, pc));
-        let v = l.flux(l.sub(qc, pc));
-        let dr = l.flux(l.sub(qr, pc));
-        let dl = l.flux(l.sub(ql, pc));
+        let [h, v, dr, dl] = l.flux4([l.sub(pr, pc), l.sub(qc, pc), l.sub(qr, pc), l.sub(ql, pc)]);
         let west = l.up::<1>(h_prev, h);
         let t = l.subs(l.adds(h, v), west);
         let s = l.subs(l.adds(dr, dl), n_here);

@@ -81,12 +81,14 @@ fn flux_is_odd_bounded_and_zero_far_away() {
     }
 }
 
-/// The table, (on x86-64 with AVX-512) the thirty-two-lane form and (with AVX2) the
-/// sixteen-lane form give the function's value for every difference and every κ class (the
+/// The table, (on x86-64 with AVX-512) the thirty-two-lane form and (with AVX2) the form
+/// that reads two sixteen-lane registers at once give the function's value for every difference and every κ class (the
 /// AVX2 form: every 16-bit difference, −32768 read as −32767 like the table).
 #[test]
 fn table_and_avx512_equal_the_function_exhaustively() {
     let mut table = std::vec![0i32; TABLE_WORDS];
+    // The AVX2 form's two table layouts (one-byte and two-byte nodes) both occur below.
+    let mut layouts = std::collections::BTreeSet::new();
     for kappa in [1u16, 2, 7, 16, 30, 63, 64, 65, 100, 128, 129, 200, 255] {
         for dt in [1u16, 150, 250] {
             let fx = FluxFn::new(&params(kappa, dt));
@@ -109,17 +111,29 @@ fn table_and_avx512_equal_the_function_exhaustively() {
             }
             #[cfg(target_arch = "x86_64")]
             if crate::cpu::has_avx2() {
+                layouts.insert(avx2::Tables::new(&fx).map(|t| t.two_byte_nodes()));
+                // Four consecutive blocks of 16 differences (the small ones take the form's
+                // first-quarter path), and each block beside three from elsewhere in the range.
                 let all: Vec<i16> = (i16::MIN..=i16::MAX).collect();
-                for block in all.chunks_exact(16) {
-                    let mut lanes = [0i16; 16];
-                    lanes.copy_from_slice(block);
-                    // SAFETY: the CPU has AVX2 (checked above).
-                    let got = unsafe { avx2::flux16(&fx, lanes) };
-                    // Every parameter's rises fit the AVX2 form's bytes.
-                    assert_eq!(got, Some(lanes.map(|d| t.flux(i32::from(d)) as i16)), "κ {kappa} Δt {dt}");
+                let blocks: Vec<[i16; 16]> = all.chunks_exact(16).filter_map(|c| c.try_into().ok()).collect();
+                let n = blocks.len();
+                let want = |x: [i16; 16]| x.map(|d| t.flux(i32::from(d)) as i16);
+                for i in 0..n {
+                    let consecutive = [0, 1, 2, 3].map(|k| blocks[(4 * i + k) % n]);
+                    let mixed = [0, 1, 2, 3].map(|k| blocks[(i + k * (i * 7919 + 1234)) % n]);
+                    for x in [consecutive, mixed].into_iter().skip(usize::from(4 * i >= n)) {
+                        // SAFETY: the CPU has AVX2 (checked above).
+                        let got = unsafe { avx2::flux_four(&fx, x) };
+                        // Every parameter's rises fit the AVX2 form's bytes.
+                        assert_eq!(got, Some(x.map(want)), "κ {kappa} Δt {dt}");
+                    }
                 }
             }
         }
+    }
+    #[cfg(target_arch = "x86_64")]
+    if crate::cpu::has_avx2() {
+        assert_eq!(layouts.into_iter().collect::<Vec<_>>(), [Some(false), Some(true)]);
     }
 }
 
@@ -272,38 +286,50 @@ fn simd_rows_equal_the_portable_rows() {
 
 /// The host's row loops at 1024² (`cargo test --release -p fusion-nostd --lib
 /// row_loop_times -- --ignored --nocapture`): the AVX-512 loop, the AVX2 loop (what an x86-64
-/// host without AVX-512 runs) and the portable loop on the table, median
-/// of 5.
+/// host without AVX-512 runs) and the portable loop on the table, median of 5, on two frame
+/// pairs: uniform noise (every neighbour difference anywhere in 0..256: the AVX2 loop's worst
+/// case) and a smooth scene (a slow wave with a sharp-edged disc: most differences small).
 #[cfg(target_arch = "x86_64")]
 #[test]
 #[ignore = "measurement, prints the times"]
 fn row_loop_times() -> Result<(), Error> {
     let (w, h) = (1024, 1024);
-    let (sv, st) = (noise(w * h, 5, 256), noise(w * h, 6, 256));
-    let (vis, tir) = (Band::Frame(FrameRef::new(&sv, w, h)?), Band::Frame(FrameRef::new(&st, w, h)?));
+    let scene = |phase: f64| -> Vec<u8> {
+        (0..w * h)
+            .map(|i| {
+                let (x, y) = ((i % w) as f64, (i / w) as f64);
+                let disc = if (x - 500.0).hypot(y - 480.0) < 300.0 { 60.0 } else { 0.0 };
+                (100.0 + 60.0 * (x / 40.0 + phase).sin() * (y / 55.0).cos() + disc) as u8
+            })
+            .collect()
+    };
+    let frames = [("noise", noise(w * h, 5, 256), noise(w * h, 6, 256)), ("smooth", scene(0.0), scene(1.0))];
     let p = AdfParams::default();
     let (mut a, mut work) = (std::vec![0i32; w * h], std::vec![0i32; stream_words(w, &p)]);
-    for (v512, v2) in [(true, false), (false, true), (false, false)] {
-        let mut d = Diffusion::new(&p);
-        d.avx512 = v512 && crate::cpu::has_avx512bw();
-        d.avx2 = v2 && crate::cpu::has_avx2();
-        let mut times: Vec<f64> = (0..5)
-            .map(|_| {
-                let t = std::time::Instant::now();
-                let r = diffuse_with(d, vis, tir, (w, h), p.iterations, &mut a, &mut work);
-                assert!(r.is_ok());
-                t.elapsed().as_secs_f64() * 1e3
-            })
-            .collect();
-        times.sort_by(f64::total_cmp);
-        let name = if d.avx512 {
-            "AVX-512"
-        } else if d.avx2 {
-            "AVX2"
-        } else {
-            "portable on the table"
-        };
-        std::println!("diffusion 1024², {name} loop: median {:.2} ms", times[2]);
+    for (frame, sv, st) in &frames {
+        let (vis, tir) = (Band::Frame(FrameRef::new(sv, w, h)?), Band::Frame(FrameRef::new(st, w, h)?));
+        for (v512, v2) in [(true, false), (false, true), (false, false)] {
+            let mut d = Diffusion::new(&p);
+            d.avx512 = v512 && crate::cpu::has_avx512bw();
+            d.avx2 = v2 && crate::cpu::has_avx2();
+            let mut times: Vec<f64> = (0..5)
+                .map(|_| {
+                    let t = std::time::Instant::now();
+                    let r = diffuse_with(d, vis, tir, (w, h), p.iterations, &mut a, &mut work);
+                    assert!(r.is_ok());
+                    t.elapsed().as_secs_f64() * 1e3
+                })
+                .collect();
+            times.sort_by(f64::total_cmp);
+            let name = if d.avx512 {
+                "AVX-512"
+            } else if d.avx2 {
+                "AVX2"
+            } else {
+                "portable on the table"
+            };
+            std::println!("diffusion 1024², {frame} frames, {name} loop: median {:.2} ms", times[2]);
+        }
     }
     Ok(())
 }

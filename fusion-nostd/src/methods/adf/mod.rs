@@ -68,6 +68,9 @@ mod strips;
 /// The Armv7E-M forms of the covariance loop and the flight output row.
 #[cfg(fusion_arm_dsp)]
 mod arm;
+/// The AVX2 forms of the covariance loop and the flight output row.
+#[cfg(target_arch = "x86_64")]
+mod avx2;
 
 use diffusion::STATE_BITS;
 pub use diffusion::{Band, diffuse_pair};
@@ -247,7 +250,15 @@ type Moments = [i128; 5];
 fn chunk_moments(iv: &[u8], it: &[u8], a: &[i32]) -> Moments {
     #[cfg(fusion_arm_dsp)]
     let (done, [mut s1, mut s2], [mut s11, mut s12, mut s22]) = arm::moments_pairs(iv, it, a);
-    #[cfg(not(fusion_arm_dsp))]
+    #[cfg(target_arch = "x86_64")]
+    let (done, [mut s1, mut s2], [mut s11, mut s12, mut s22]) = if crate::cpu::isa() == crate::cpu::Isa::Avx2
+    {
+        // SAFETY: the best set the CPU has (and the cap allows) is AVX2.
+        unsafe { avx2::moments_blocks(iv, it, a) }
+    } else {
+        (0, [0i32; 2], [0i64; 3])
+    };
+    #[cfg(not(any(fusion_arm_dsp, target_arch = "x86_64")))]
     let (done, [mut s1, mut s2], [mut s11, mut s12, mut s22]) = (0, [0i32; 2], [0i64; 3]);
     let ([r1, r2], [r11, r12, r22]) = moments_rest(
         iv.get(done..).unwrap_or(&[]),
@@ -339,7 +350,15 @@ impl Fusion {
             Some(p) => arm::u8_pixels(p, iv, it, a, out),
             None => (0, false),
         };
-        #[cfg(not(fusion_arm_dsp))]
+        #[cfg(target_arch = "x86_64")]
+        let (done, mut saturated) = match self.p32 {
+            // SAFETY: the best set the CPU has (and the cap allows) is AVX2.
+            Some(p) if crate::cpu::isa() == crate::cpu::Isa::Avx2 => unsafe {
+                avx2::u8_blocks(p, iv, it, a, out)
+            },
+            _ => (0, false),
+        };
+        #[cfg(not(any(fusion_arm_dsp, target_arch = "x86_64")))]
         let (done, mut saturated) = (0, false);
         let (iv, it, a) =
             (iv.get(done..).unwrap_or(&[]), it.get(done..).unwrap_or(&[]), a.get(done..).unwrap_or(&[]));

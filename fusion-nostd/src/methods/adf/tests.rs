@@ -168,3 +168,68 @@ fn params_are_validated() {
     }
     assert_eq!(AdfParams::default().validate(), Ok(()));
 }
+
+/// Random pixels of both bands and packed base layers (each half anywhere in `0..=32767`, the
+/// first ones at the extremes), `n` of each.
+#[cfg(target_arch = "x86_64")]
+fn random_pixels(n: usize, seed: u32) -> (std::vec::Vec<u8>, std::vec::Vec<u8>, std::vec::Vec<i32>) {
+    let mut s = seed;
+    let mut next = move || {
+        s = s.wrapping_mul(1664525).wrapping_add(1013904223);
+        s >> 8
+    };
+    let extremes = [(0, 0), (32767, 0), (0, 32767), (32767, 32767)];
+    let a = (0..n)
+        .map(|i| {
+            let (lo, hi) = extremes.get(i).copied().unwrap_or(((next() % 32768) as i32, (next() % 32768) as i32));
+            diffusion::pack(lo, hi)
+        })
+        .collect();
+    let iv = (0..n).map(|i| if i % 5 == 0 { 255 } else { next() as u8 }).collect();
+    let it = (0..n).map(|i| if i % 7 == 0 { 0 } else { next() as u8 }).collect();
+    (iv, it, a)
+}
+
+/// The AVX2 covariance loop gives the portable kernel's sums for the pixels it takes (whole
+/// blocks of 16 up to the chunk), at every length around the blocks and the chunk.
+#[cfg(target_arch = "x86_64")]
+#[test]
+fn avx2_moments_are_exact() {
+    if !crate::cpu::has_avx2() {
+        return;
+    }
+    for (n, seed) in [(0, 1), (15, 2), (16, 3), (17, 4), (1000, 5), (COV_CHUNK, 6), (COV_CHUNK + 40, 7)] {
+        let (iv, it, a) = random_pixels(n, seed);
+        // SAFETY: the CPU has AVX2 (checked above).
+        let (done, sums, squares) = unsafe { avx2::moments_blocks(&iv, &it, &a) };
+        assert_eq!(done, n.min(COV_CHUNK) / 16 * 16, "n {n}");
+        assert_eq!((sums, squares), moments_kernel(&iv[..done], &it[..done], &a[..done]), "n {n}");
+    }
+}
+
+/// The AVX2 output row gives the portable kernel's bytes and saturation flag for the pixels it
+/// takes (whole blocks of 32) and leaves the rest of the row alone, for weights across the
+/// `i32` range (both flag values occur).
+#[cfg(target_arch = "x86_64")]
+#[test]
+fn avx2_output_rows_are_exact() {
+    if !crate::cpu::has_avx2() {
+        return;
+    }
+    let mut flags = std::collections::BTreeSet::new();
+    for p in [0, 1, -1, 1 << 29, 1 << 30, -(1 << 30), 123_456_789, -987_654_321, i32::MAX, i32::MIN + 1] {
+        for (n, seed) in [(0, 1), (31, 2), (32, 3), (33, 4), (100, 5), (1029, 6)] {
+            let (iv, it, a) = random_pixels(n, seed ^ p as u32);
+            let (mut got, mut want) = (std::vec![7u8; n], std::vec![7u8; n]);
+            // SAFETY: the CPU has AVX2 (checked above).
+            let (done, saturated) = unsafe { avx2::u8_blocks(p, &iv, &it, &a, &mut got) };
+            assert_eq!(done, n / 32 * 32, "p {p} n {n}");
+            let want_saturated = u8_kernel(p, &iv[..done], &it[..done], &a[..done], &mut want[..done]);
+            assert_eq!((&got, saturated), (&want, want_saturated), "p {p} n {n}");
+            if done > 0 {
+                flags.insert(saturated);
+            }
+        }
+    }
+    assert_eq!(flags.len(), 2, "both saturation outcomes are exercised");
+}

@@ -43,26 +43,40 @@ fn shift_in<const BYTES: i32>(prev: __m256i, cur: __m256i) -> __m256i {
     _mm256_alignr_epi8::<BYTES>(cur, _mm256_permute2x128_si256::<0x21>(prev, cur))
 }
 
-/// A 64-entry byte table `T` as its quarters `T₀, T₀⊕T₁, T₁⊕T₂, T₂⊕T₃` (16 bytes each, in
-/// both 128-bit halves: `vpshufb` looks up within a half).
+/// A 64-entry byte table `T` as its quarters `T₀, T₀⊕T₁, T₁⊕T₂, T₂⊕T₃` (16 bytes each).
+type Chained = [[u8; 16]; 4];
+
+/// [`Chained`] quarters of `t`.
+fn chained(t: &[u8; SEGMENTS]) -> Chained {
+    let quarter = |q: usize| -> [u8; 16] {
+        t.get(16 * q..16 * q + 16).and_then(|c| c.try_into().ok()).unwrap_or([0; 16])
+    };
+    core::array::from_fn(|q| {
+        let mut x = quarter(q);
+        if let Some(before) = q.checked_sub(1) {
+            x.iter_mut().zip(quarter(before)).for_each(|(x, b)| *x ^= b);
+        }
+        x
+    })
+}
+
+/// Sixteen bytes in both 128-bit halves (`vpshufb` looks up within a half).
+#[target_feature(enable = "avx2")]
+#[inline]
+fn both_halves(b: &[u8; 16]) -> __m256i {
+    // SAFETY: reads the 16 bytes of `b`.
+    _mm256_broadcastsi128_si256(unsafe { _mm_loadu_si128(b.as_ptr().cast()) })
+}
+
+/// A [`Chained`] table in registers.
 #[derive(Clone, Copy)]
 struct Bytes([__m256i; 4]);
 
 impl Bytes {
     #[target_feature(enable = "avx2")]
     #[inline]
-    fn new(t: &[u8; SEGMENTS]) -> Self {
-        let quarter = |q: usize| -> [u8; 16] {
-            t.get(16 * q..16 * q + 16).and_then(|c| c.try_into().ok()).unwrap_or([0; 16])
-        };
-        Bytes(core::array::from_fn(|q| {
-            let mut x = quarter(q);
-            if let Some(before) = q.checked_sub(1) {
-                x.iter_mut().zip(quarter(before)).for_each(|(x, b)| *x ^= b);
-            }
-            // SAFETY: reads the 16 bytes of `x`.
-            _mm256_broadcastsi128_si256(unsafe { _mm_loadu_si128(x.as_ptr().cast()) })
-        }))
+    fn new(t: &Chained) -> Self {
+        Bytes(t.map(|q| both_halves(&q)))
     }
 
     /// Entry `j` in every byte that holds `j` (0..64) in `idx[0]`; `idx[q]` is `idx[0] − 16q`
@@ -79,7 +93,7 @@ impl Bytes {
     }
 }
 
-/// The flux function as the AVX2 loop's byte tables, built once per call: the nodes `n_j`
+/// The flux function as the AVX2 loop's byte tables ([`Chained`]), built once per call: the nodes `n_j`
 /// (low bytes; high bytes when some node does not fit an `i8`) and the rises `ρ_j` scaled by
 /// `2^max(7 − k, 0)`, so that a rise byte moved to a lane's high byte is the slope
 /// `ρ_j·2^(15−k)` after an arithmetic shift right by `max(k − 7, 0)`.
@@ -87,9 +101,9 @@ impl Bytes {
 pub(super) struct Tables {
     limit: i16,
     shift: u32,
-    node_lo: [u8; SEGMENTS],
-    node_hi: Option<[u8; SEGMENTS]>,
-    rise: [u8; SEGMENTS],
+    node_lo: Chained,
+    node_hi: Option<Chained>,
+    rise: Chained,
     /// Segments 0..16 as [`FluxFn::magnitude`] reads them: the bases' low and high bytes, the
     /// slopes' low and high bytes.
     first: [[u8; 16]; 4],
@@ -124,9 +138,9 @@ impl Tables {
             ],
             limit: fx.limit as i16,
             shift: fx.shift,
-            node_lo: node.map(|n| n.to_le_bytes()[0]),
-            node_hi: (!narrow).then(|| node.map(|n| n.to_le_bytes()[1])),
-            rise: bytes,
+            node_lo: chained(&node.map(|n| n.to_le_bytes()[0])),
+            node_hi: (!narrow).then(|| chained(&node.map(|n| n.to_le_bytes()[1]))),
+            rise: chained(&bytes),
         })
     }
 
@@ -166,12 +180,9 @@ impl<const WIDE: bool> Flux<WIDE> {
             rise_shift: _mm_cvtsi32_si128(t.shift.saturating_sub(7) as i32),
             low_bits: _mm256_set1_epi16(((1u32 << t.shift) - 1) as i16),
             node_lo: Bytes::new(&t.node_lo),
-            node_hi: Bytes::new(&t.node_hi.unwrap_or([0; SEGMENTS])),
+            node_hi: Bytes::new(&t.node_hi.unwrap_or_default()),
             rise: Bytes::new(&t.rise),
-            // SAFETY: reads the 16 bytes of each table.
-            first: t
-                .first
-                .map(|b| _mm256_broadcastsi128_si256(unsafe { _mm_loadu_si128(b.as_ptr().cast()) })),
+            first: t.first.map(|b| both_halves(&b)),
         }
     }
 

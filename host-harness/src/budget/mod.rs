@@ -216,6 +216,33 @@ fn exactness_jobs(opts: &Options, pair: &(Gray<u8>, Gray<u8>)) -> Result<Vec<(St
     Ok(jobs)
 }
 
+/// Runs each `(folder, job)` of `jobs` on `image`, as many at a time as the host has cores (one
+/// emulator is one thread; the counts are exact either way, only the wall times grow), and
+/// returns the reports in the order of `jobs`.
+fn run_jobs(
+    target: Target,
+    image: &std::path::Path,
+    plugin: Option<&std::path::Path>,
+    jobs: &[(&std::path::Path, &Job)],
+    timeout: std::time::Duration,
+) -> Result<Vec<FwReport>> {
+    let at_once = std::thread::available_parallelism().map_or(1, |n| n.get()).max(1);
+    let mut reports = Vec::with_capacity(jobs.len());
+    for batch in jobs.chunks(at_once) {
+        let done: Vec<_> = std::thread::scope(|s| {
+            let running: Vec<_> = batch
+                .iter()
+                .map(|&(dir, job)| s.spawn(move || fw::run_job(target, image, plugin, job, dir, timeout)))
+                .collect();
+            running.into_iter().map(|r| r.join()).collect()
+        });
+        for r in done {
+            reports.push(r.map_err(|_| anyhow::anyhow!("an emulator thread panicked"))??);
+        }
+    }
+    Ok(reports)
+}
+
 /// Builds, runs and measures (see [`Options`]). Returns the outcome; errors on a build or run
 /// failure, on counts that differ between repeats, or on output that differs from the host.
 pub fn run(opts: &Options) -> Result<Outcome> {
@@ -273,16 +300,16 @@ pub fn run(opts: &Options) -> Result<Outcome> {
                 runs: staged.chain(strips).chain(classic).chain(agc).collect(),
                 tir16: (grid == Grid::G512).then(|| counts_of(&pair.1)),
             };
+            let reps = opts.repeat.max(1);
+            progress(&format!("{target} {}²: budget runs 1–{reps} (two at a time)", grid.side()));
+            let dirs: Vec<_> = (0..reps)
+                .map(|rep| opts.out.join(format!("{target}-{}-budget-{rep}", grid.side())))
+                .collect();
+            let jobs: Vec<_> = dirs.iter().map(|d| (d.as_path(), &job)).collect();
             let mut first: Option<FwReport> = None;
-            for rep in 0..opts.repeat.max(1) {
-                progress(&format!(
-                    "{target} {}²: budget run {}/{}",
-                    grid.side(),
-                    rep + 1,
-                    opts.repeat.max(1)
-                ));
-                let dir = opts.out.join(format!("{target}-{}-budget-{rep}", grid.side()));
-                let report = fw::run_job(target, &image, plugin.as_deref(), &job, &dir, timeout)?;
+            for (rep, report) in
+                run_jobs(target, &image, plugin.as_deref(), &jobs, timeout)?.into_iter().enumerate()
+            {
                 out.wall.push((target, format!("{}² budget job", grid.side()), report.wall.as_secs_f64()));
                 match &first {
                     None => first = Some(report),
@@ -384,12 +411,16 @@ pub fn run(opts: &Options) -> Result<Outcome> {
                 .find(|(t, g, _)| *t == target && *g == Grid::G1024)
                 .map(|(_, _, p)| p.clone())
                 .context("no 1024² image")?;
-            for (i, (what, job)) in exactness_jobs(opts, &pair)?.into_iter().enumerate() {
-                progress(&format!("{target}: bit-exactness, {what} ({} runs)", job.runs.len()));
-                let dir = opts.out.join(format!("{target}-exact-{i}"));
-                let report = fw::run_job(target, &image, plugin.as_deref(), &job, &dir, timeout)?;
+            let jobs = exactness_jobs(opts, &pair)?;
+            let runs: usize = jobs.iter().map(|(_, job)| job.runs.len()).sum();
+            progress(&format!("{target}: bit-exactness, {} jobs ({runs} runs, two at a time)", jobs.len()));
+            let dirs: Vec<_> =
+                (0..jobs.len()).map(|i| opts.out.join(format!("{target}-exact-{i}"))).collect();
+            let both: Vec<_> = dirs.iter().zip(&jobs).map(|(d, (_, job))| (d.as_path(), job)).collect();
+            let reports = run_jobs(target, &image, plugin.as_deref(), &both, timeout)?;
+            for ((what, job), report) in jobs.iter().zip(reports) {
                 out.wall.push((target, format!("exactness: {what}"), report.wall.as_secs_f64()));
-                let same = compare_with_host(&job, &report, &mut diffs, &format!("{target} {what}"))?;
+                let same = compare_with_host(job, &report, &mut diffs, &format!("{target} {what}"))?;
                 out.exact.push((format!("{target}: {what}, 3 methods × 2 variants"), job.runs.len(), same));
             }
         }

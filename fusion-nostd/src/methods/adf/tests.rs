@@ -181,7 +181,8 @@ fn random_pixels(n: usize, seed: u32) -> (std::vec::Vec<u8>, std::vec::Vec<u8>, 
     let extremes = [(0, 0), (32767, 0), (0, 32767), (32767, 32767)];
     let a = (0..n)
         .map(|i| {
-            let (lo, hi) = extremes.get(i).copied().unwrap_or(((next() % 32768) as i32, (next() % 32768) as i32));
+            let (lo, hi) =
+                extremes.get(i).copied().unwrap_or(((next() % 32768) as i32, (next() % 32768) as i32));
             diffusion::pack(lo, hi)
         })
         .collect();

@@ -9,7 +9,10 @@
 //! remain telescopes to `T_q`), and the bytes are interleaved back into 16-bit lanes. With
 //! the published parameters every node fits a byte: 8 shuffles per 32 fluxes (the first
 //! AVX2 form: 24 shuffles and 20 blends per 32; the one before it, two `vpgatherdd` of the
-//! 128 KiB table per 16). The same values as the portable loop, so the same bits (checked by
+//! 128 KiB table per 16). A block whose four fluxes all lie in the first 16 segments (most of
+//! a real frame's blocks) reads the first 16 bases and slopes instead, 4 shuffles per 32 fluxes
+//! and no clamp ([`Flux::apply4`]): the frame decides the time, not the values (BENCHMARKS.md
+//! gives a uniform-noise frame's). The same values as the portable loop, so the same bits (checked by
 //! `simd_rows_equal_the_portable_rows` and `table_and_avx512_equal_the_function_exhaustively`).
 
 use super::simd::{Lanes, row_blocks as blocks};

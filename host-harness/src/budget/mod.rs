@@ -301,7 +301,7 @@ pub fn run(opts: &Options) -> Result<Outcome> {
                 tir16: (grid == Grid::G512).then(|| counts_of(&pair.1)),
             };
             let reps = opts.repeat.max(1);
-            progress(&format!("{target} {}²: budget runs 1–{reps} (two at a time)", grid.side()));
+            progress(&format!("{target} {}²: budget runs 1–{reps} (in parallel, one per core)", grid.side()));
             let dirs: Vec<_> = (0..reps)
                 .map(|rep| opts.out.join(format!("{target}-{}-budget-{rep}", grid.side())))
                 .collect();
@@ -413,7 +413,10 @@ pub fn run(opts: &Options) -> Result<Outcome> {
                 .context("no 1024² image")?;
             let jobs = exactness_jobs(opts, &pair)?;
             let runs: usize = jobs.iter().map(|(_, job)| job.runs.len()).sum();
-            progress(&format!("{target}: bit-exactness, {} jobs ({runs} runs, two at a time)", jobs.len()));
+            progress(&format!(
+                "{target}: bit-exactness, {} jobs ({runs} runs, in parallel, one per core)",
+                jobs.len()
+            ));
             let dirs: Vec<_> =
                 (0..jobs.len()).map(|i| opts.out.join(format!("{target}-exact-{i}"))).collect();
             let both: Vec<_> = dirs.iter().zip(&jobs).map(|(d, (_, job))| (d.as_path(), job)).collect();

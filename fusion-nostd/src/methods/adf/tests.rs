@@ -218,7 +218,9 @@ fn avx2_output_rows_are_exact() {
         return;
     }
     let mut flags = std::collections::BTreeSet::new();
-    for p in [0, 1, -1, 1 << 29, 1 << 30, -(1 << 30), 123_456_789, -987_654_321, i32::MAX, i32::MIN + 1] {
+    for p in
+        [0, 1, -1, 1 << 29, 1 << 30, -(1 << 30), 123_456_789, -987_654_321, i32::MAX, i32::MIN + 1, i32::MIN]
+    {
         for (n, seed) in [(0, 1), (31, 2), (32, 3), (33, 4), (100, 5), (1029, 6)] {
             let (iv, it, a) = random_pixels(n, seed ^ p as u32);
             let (mut got, mut want) = (std::vec![7u8; n], std::vec![7u8; n]);

@@ -7,8 +7,8 @@
 //! shuffles chained with XOR (the quarters `T₀, T₀⊕T₁, T₁⊕T₂, T₂⊕T₃` on the index less 0, 16,
 //! 32, 48: `vpshufb` gives 0 where the index byte is negative, so the XOR of the terms that
 //! remain telescopes to `T_q`), and the bytes are interleaved back into 16-bit lanes. With
-//! the published parameters every node fits a byte: 8 shuffles per 32 fluxes (the first
-//! AVX2 form: 24 shuffles and 20 blends per 32; the one before it, two `vpgatherdd` of the
+//! the published parameters every node fits a byte: 8 shuffles per 32 fluxes (session 15's
+//! form: 24 shuffles and 20 blends per 32; the first AVX2 form, two `vpgatherdd` of the
 //! 128 KiB table per 16). A block whose four fluxes all lie in the first 16 segments (most of
 //! a real frame's blocks) reads the first 16 bases and slopes instead, 4 shuffles per 32 fluxes
 //! and no clamp ([`Flux::apply4`]): the frame decides the time, not the values (BENCHMARKS.md

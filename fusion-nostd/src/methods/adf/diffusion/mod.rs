@@ -48,7 +48,8 @@
 //! The AVX-512 row loop keeps the 64 bases and slopes in four registers and reads them with
 //! `vpermi2w`, 32 lanes at a time; the AVX2 loop keeps the 64 nodes and rises as byte tables
 //! (two, or three when a node needs two bytes) and reads them with `vpshufb`, 32 lanes (two
-//! fluxes of 8 pixels × 2 bands) at a time; the
+//! fluxes of 8 pixels × 2 bands) at a time, and the first 16 bases and slopes as four more for
+//! the blocks whose differences all lie in the first 16 segments; the
 //! NEON loop (AArch64) keeps the bases and slopes in eight and reads the entries' bytes with
 //! `tbl`/`tbx`, 8 lanes at a time. All give the same bits: the table, the AVX-512 and the AVX2
 //! forms are checked exhaustively against the function on x86-64 hosts, the NEON form by the

@@ -112,16 +112,19 @@ fn table_and_avx512_equal_the_function_exhaustively() {
             #[cfg(target_arch = "x86_64")]
             if crate::cpu::has_avx2() {
                 layouts.insert(avx2::Tables::new(&fx).map(|t| t.two_byte_nodes()));
-                // Four consecutive blocks of 16 differences (the small ones take the form's
-                // first-quarter path), and each block beside three from elsewhere in the range.
+                // Each block of 16 differences alone (four copies: it takes the form's
+                // first-quarter path exactly when all its segments are below 16), four
+                // consecutive blocks, and each block beside three from elsewhere in the range
+                // (slot k runs through every block with the odd step (2k + 1)·7919).
                 let all: Vec<i16> = (i16::MIN..=i16::MAX).collect();
                 let blocks: Vec<[i16; 16]> = all.chunks_exact(16).filter_map(|c| c.try_into().ok()).collect();
                 let n = blocks.len();
                 let want = |x: [i16; 16]| x.map(|d| t.flux(i32::from(d)) as i16);
                 for i in 0..n {
+                    let alone = [blocks[i]; 4];
                     let consecutive = [0, 1, 2, 3].map(|k| blocks[(4 * i + k) % n]);
-                    let mixed = [0, 1, 2, 3].map(|k| blocks[(i + k * (i * 7919 + 1234)) % n]);
-                    for x in [consecutive, mixed].into_iter().skip(usize::from(4 * i >= n)) {
+                    let mixed = [0, 1, 2, 3].map(|k| blocks[(i * (2 * k + 1) * 7919 + k * 1234) % n]);
+                    for x in [alone, mixed, consecutive].into_iter().take(if 4 * i < n { 3 } else { 2 }) {
                         // SAFETY: the CPU has AVX2 (checked above).
                         let got = unsafe { avx2::flux_four(&fx, x) };
                         // Every parameter's rises fit the AVX2 form's bytes.
@@ -217,7 +220,7 @@ fn select_form(d: &mut Diffusion, form: u8) -> bool {
     #[cfg(target_arch = "x86_64")]
     {
         d.avx512 = form == 1 && crate::cpu::has_avx512bw();
-        d.avx2 = form == 2 && crate::cpu::has_avx2();
+        d.avx2 = form == 2 && crate::cpu::has_avx2() && d.avx2_tables.is_some();
     }
     #[cfg(all(target_arch = "aarch64", target_feature = "neon"))]
     {

@@ -9,8 +9,7 @@
 use super::{COV_CHUNK, STATE_BITS};
 use core::arch::x86_64::*;
 
-/// The first `N` bytes of `s`, zero-extended into 16-bit lanes (`N` = 16) or 32-bit ones
-/// (`N` = 8), by `load`; `None` past the end.
+/// The `N` bytes of `s` from `at`; `None` past the end.
 #[target_feature(enable = "avx2")]
 #[inline]
 fn bytes<const N: usize>(s: &[u8], at: usize) -> Option<[u8; N]> {

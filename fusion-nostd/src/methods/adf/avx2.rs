@@ -16,10 +16,10 @@ fn bytes<const N: usize>(s: &[u8], at: usize) -> Option<[u8; N]> {
     s.get(at..at + N)?.try_into().ok()
 }
 
-/// Eight words at `s[at..at + 8]`.
+/// Eight words at `s[at..at + 8]` (unaligned; also the diffusion's AVX2 row loop's load).
 #[target_feature(enable = "avx2")]
 #[inline]
-fn words(s: &[i32], at: usize) -> Option<__m256i> {
+pub(super) fn words(s: &[i32], at: usize) -> Option<__m256i> {
     let v: &[i32; 8] = s.get(at..at + 8)?.try_into().ok()?;
     // SAFETY: reads the 32 bytes of `v`.
     Some(unsafe { _mm256_loadu_si256(v.as_ptr().cast()) })

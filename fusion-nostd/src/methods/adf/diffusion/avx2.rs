@@ -15,18 +15,10 @@
 //! gives a uniform-noise frame's). The same values as the portable loop, so the same bits (checked by
 //! `simd_rows_equal_the_portable_rows` and `table_and_avx512_equal_the_function_exhaustively`).
 
+use super::super::avx2::words as load;
 use super::simd::{Lanes, row_blocks as blocks};
 use super::{FluxFn, RowCarry, SEGMENTS};
 use core::arch::x86_64::*;
-
-/// Eight words at `s[at..at + 8]`.
-#[target_feature(enable = "avx2")]
-#[inline]
-fn load(s: &[i32], at: usize) -> Option<__m256i> {
-    let v: &[i32; 8] = s.get(at..at + 8)?.try_into().ok()?;
-    // SAFETY: reads the 32 bytes of `v` (unaligned load).
-    Some(unsafe { _mm256_loadu_si256(v.as_ptr().cast()) })
-}
 
 /// Stores eight words to `s[at..at + 8]`.
 #[target_feature(enable = "avx2")]

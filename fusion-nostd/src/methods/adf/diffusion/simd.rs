@@ -1,8 +1,9 @@
 //! The row loop of the SIMD forms (AVX2, AVX-512, NEON), written once for any register width: [`Lanes`] is
 //! what a form provides (its register type, its loads and stores, its 16-bit lane arithmetic
 //! and its flux), [`row_blocks`] the loop over whole blocks of `Lanes::WORDS` pixels (both
-//! bands per 32-bit word, so `2·WORDS` lanes of `i16`). `avx2.rs` (8 pixels), `avx512.rs` (16 pixels) and
-//! `neon.rs` (4 pixels), each with the flux function's segments in registers, each implement [`Lanes`] and call [`row_blocks`] from a function compiled for their
+//! bands per 32-bit word, so `2·WORDS` lanes of `i16`). `avx2.rs` (8 pixels), `avx512.rs`
+//! (16 pixels) and `neon.rs` (4 pixels), each with the flux function's segments in registers,
+//! each implement [`Lanes`] and call [`row_blocks`] from a function compiled for their
 //! instruction set, where every method here is inlined.
 //!
 //! Every sum in the loop is one of the portable loop's (`update_band` and the north sums) in

@@ -130,14 +130,27 @@ unsafe fn blocks_neon(
 ) -> usize {
     // SAFETY: NEON register operations only.
     let mut four = unsafe { Four::new(k, *sum) };
+    // Every slice cut to the blocks' length once, so that the loop's bounds checks are its
+    // condition (about ten instructions per step fewer on the A53).
+    let blocks = blocks / 8 * 8;
+    let (Some(enter), Some(leave), Some(iv), Some(ii), Some(sd), Some(out)) = (
+        ch.enter.get(..blocks),
+        ch.leave.get(..blocks),
+        ch.iv.get(..blocks),
+        ch.ii.get(..blocks),
+        sd.get(..blocks + 2),
+        out.get_mut(..blocks),
+    ) else {
+        return 0;
+    };
     let mut i = 0;
     while i + 8 <= blocks {
         let (Some(e), Some(l), Some(cols), Some(iv), Some(ii), Some(o)) = (
-            ch.enter.get(i..i + 8).and_then(|s| <&[i32; 8]>::try_from(s).ok()),
-            ch.leave.get(i..i + 8).and_then(|s| <&[i32; 8]>::try_from(s).ok()),
+            enter.get(i..i + 8).and_then(|s| <&[i32; 8]>::try_from(s).ok()),
+            leave.get(i..i + 8).and_then(|s| <&[i32; 8]>::try_from(s).ok()),
             sd.get(i..i + 10).and_then(|s| <&[[u32; 2]; 10]>::try_from(s).ok()),
-            ch.iv.get(i..i + 8).and_then(|s| <&[u8; 8]>::try_from(s).ok()),
-            ch.ii.get(i..i + 8).and_then(|s| <&[u8; 8]>::try_from(s).ok()),
+            iv.get(i..i + 8).and_then(|s| <&[u8; 8]>::try_from(s).ok()),
+            ii.get(i..i + 8).and_then(|s| <&[u8; 8]>::try_from(s).ok()),
             out.get_mut(i..i + 8).and_then(|s| <&mut [u8; 8]>::try_from(s).ok()),
         ) else {
             break;
@@ -247,11 +260,11 @@ impl Four {
             );
             let gy = vabsq_s16(vsubq_s16(vreinterpretq_s16_u16(gy), vdupq_n_s16(4096)));
             let wts = vreinterpretq_u32_s16(vaddq_s16(gx, gy));
-            let (gv, gi) = (vandq_u32(wts, vdupq_n_u32(0xFFFF)), vshrq_n_u32::<16>(wts));
-            let flat = vceqq_u32(vaddq_u32(gv, gi), vdupq_n_u32(0));
+            // Both weights 0 (the word is 0): both become 1 (`flat` is all ones, −1).
+            let flat = vceqzq_u32(wts);
             self.flat = vorrq_u32(self.flat, flat);
-            let one = vandq_u32(flat, vdupq_n_u32(1));
-            let (gv, gi) = (vorrq_u32(gv, one), vorrq_u32(gi, one));
+            let gv = vsubq_u32(vandq_u32(wts, vdupq_n_u32(0xFFFF)), flat);
+            let gi = vsubq_u32(vshrq_n_u32::<16>(wts), flat);
             let sigma = vaddq_u32(gv, gi);
             // `output`: f = ⌊(w_VIS·rt + w_IR·(2c − rt) + ⌊taps·σ/2¹⁶⌋)/c⌋, then ⌊(…)/σ⌋ − 128.
             let num = vmlaq_u32(vmulq_u32(gv, rt), gi, vsubq_u32(self.c2, rt));

@@ -16,6 +16,8 @@
 //! `simd_rows_equal_the_portable_rows` and `table_and_avx512_equal_the_function_exhaustively`).
 
 use super::super::avx2::words as load;
+#[cfg(doc)]
+use super::ByteTables;
 use super::simd::{Lanes, row_blocks as blocks};
 use super::{FluxFn, RowCarry, SEGMENTS};
 use core::arch::x86_64::*;
@@ -88,14 +90,14 @@ impl Bytes {
     }
 }
 
-/// The flux function as the AVX2 loop's byte tables ([`Chained`]), built once per call: the nodes `n_j`
-/// (low bytes; high bytes when some node does not fit an `i8`) and the rises `ρ_j` scaled by
-/// `2^max(7 − k, 0)`, so that a rise byte moved to a lane's high byte is the slope
-/// `ρ_j·2^(15−k)` after an arithmetic shift right by `max(k − 7, 0)`.
+/// The flux function as the AVX2 loop's byte tables, built once per call: [`ByteTables`]
+/// ([`Chained`]) and the first 16 bases and slopes.
 #[derive(Debug, Clone, Copy)]
 pub(super) struct Tables {
     limit: i16,
     shift: u32,
+    /// `max(k − 7, 0)` ([`ByteTables`]).
+    rise_shift: u32,
     node_lo: Chained,
     node_hi: Option<Chained>,
     rise: Chained,
@@ -105,17 +107,9 @@ pub(super) struct Tables {
 }
 
 impl Tables {
-    /// The tables of `fx`, `None` when a scaled rise does not fit a byte (never with the
-    /// parameters' ranges: `|ρ_j| ≤ Δt/2·2ᵏ + 1`, so `|ρ_j|·2^(7−k) ≤ 32` for `k ≤ 7` and
-    /// `|ρ_j| ≤ 65` for `k ≤ 9`; the row loop then takes the table).
+    /// The tables of `fx` ([`FluxFn::byte_tables`], chained), `None` as those.
     pub(super) fn new(fx: &FluxFn) -> Option<Self> {
-        let (node, rise) = fx.nodes_and_rises();
-        let scale = 7u32.saturating_sub(fx.shift);
-        let mut bytes = [0u8; SEGMENTS];
-        for (b, &r) in bytes.iter_mut().zip(&rise) {
-            *b = i8::try_from(i32::from(r) << scale).ok()? as u8;
-        }
-        let narrow = node.iter().all(|&n| i8::try_from(n).is_ok());
+        let b = fx.byte_tables()?;
         // The low (`high` false) or high bytes of segments 0..16 of `t`.
         let first = |t: &[i16; SEGMENTS], high: bool| {
             let mut out = [0u8; 16];
@@ -133,9 +127,10 @@ impl Tables {
             ],
             limit: fx.limit as i16,
             shift: fx.shift,
-            node_lo: chained(&node.map(|n| n.to_le_bytes()[0])),
-            node_hi: (!narrow).then(|| chained(&node.map(|n| n.to_le_bytes()[1]))),
-            rise: chained(&bytes),
+            rise_shift: b.rise_shift,
+            node_lo: chained(&b.node_lo),
+            node_hi: b.node_hi.as_ref().map(chained),
+            rise: chained(&b.rise),
         })
     }
 
@@ -172,7 +167,7 @@ impl<const WIDE: bool> Flux<WIDE> {
         Flux {
             limit: _mm256_set1_epi16(t.limit),
             shift: _mm_cvtsi32_si128(t.shift as i32),
-            rise_shift: _mm_cvtsi32_si128(t.shift.saturating_sub(7) as i32),
+            rise_shift: _mm_cvtsi32_si128(t.rise_shift as i32),
             low_bits: _mm256_set1_epi16(((1u32 << t.shift) - 1) as i16),
             node_lo: Bytes::new(&t.node_lo),
             node_hi: Bytes::new(&t.node_hi.unwrap_or_default()),
@@ -343,9 +338,9 @@ impl<const WIDE: bool> Lanes for Flux<WIDE> {
     }
 
     #[inline(always)]
-    fn flux4(&self, d: [__m256i; 4]) -> [__m256i; 4] {
+    fn flux4(&self, x: [__m256i; 4], c: __m256i) -> [__m256i; 4] {
         // SAFETY: see above.
-        unsafe { self.apply4(d) }
+        unsafe { self.apply4(x.map(|x| _mm256_sub_epi16(x, c))) }
     }
 
     #[inline(always)]

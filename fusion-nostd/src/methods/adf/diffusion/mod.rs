@@ -185,6 +185,25 @@ pub(super) struct FluxFn {
     slope: [i16; SEGMENTS],
 }
 
+/// [`FluxFn`] as byte tables ([`FluxFn::byte_tables`]): `F(m) = n_j + ⌊(q·ρ_j + 2^(k−1)) /
+/// 2ᵏ⌋` for `m = j·2ᵏ + q` (the rounded Q15 product `mulhrs(q, ρ_j·2^(15−k))`; the same value
+/// as [`FluxFn::magnitude`]'s `base_j + mulhrs(m, slope_j)`, since `j·ρ_j·2¹⁵` is a multiple
+/// of 2¹⁵).
+#[cfg(any(target_arch = "x86_64", all(target_arch = "aarch64", target_feature = "neon")))]
+#[derive(Debug, Clone, Copy)]
+struct ByteTables {
+    /// The nodes' low bytes (the whole node, as `i8`, when `node_hi` is `None`).
+    node_lo: [u8; SEGMENTS],
+    /// The nodes' high bytes, when some node does not fit an `i8`.
+    node_hi: Option<[u8; SEGMENTS]>,
+    /// The rises `ρ_j·2^max(7 − k, 0)` as `i8`: moved to a 16-bit lane's high byte and shifted
+    /// right (arithmetic) by `rise_shift`, the slope `ρ_j·2^(15−k)` (exact: `k ≤ 9`, and the
+    /// shift drops zero bits).
+    rise: [u8; SEGMENTS],
+    /// `max(k − 7, 0)`.
+    rise_shift: u32,
+}
+
 impl FluxFn {
     pub(super) fn new(params: &AdfParams) -> Self {
         let (shift, node) = Self::nodes(params);
@@ -230,20 +249,28 @@ impl FluxFn {
         if d < 0 { -f } else { f }
     }
 
-    /// The nodes `n_j` and rises `ρ_j` of the segments (`ρ_j` from the slope, `n_j = base_j +
-    /// j·ρ_j`; both fit `i16`: `|n_j| ≤ MAX_FLUX`, `|ρ_j| ≤ 2¹³`), for the AVX2 loop's byte
-    /// tables.
-    #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
-    fn nodes_and_rises(&self) -> ([i16; SEGMENTS], [i16; SEGMENTS]) {
-        let mut node = [0i16; SEGMENTS];
-        let mut rise = [0i16; SEGMENTS];
-        for (j, ((n, r), (&b, &s))) in
-            node.iter_mut().zip(rise.iter_mut()).zip(self.base.iter().zip(&self.slope)).enumerate()
+    /// The function as 64-entry byte tables for the forms that read them with a byte shuffle
+    /// (AVX2 `vpshufb`, NEON `tbl`): segment `j`'s node `n_j = base_j + j·ρ_j` and rise `ρ_j`
+    /// (from the slope; `|n_j| ≤ MAX_FLUX`, `|ρ_j| ≤ 2¹³`). `None` when a scaled rise does not
+    /// fit a byte (never with the parameters' ranges: `|ρ_j| ≤ Δt/2·2ᵏ + 1`, so
+    /// `|ρ_j|·2^(7−k) ≤ 32` for `k ≤ 7` and `|ρ_j| ≤ 65` for `k ≤ 9`); those forms then leave
+    /// the row to the table.
+    #[cfg(any(target_arch = "x86_64", all(target_arch = "aarch64", target_feature = "neon")))]
+    fn byte_tables(&self) -> Option<ByteTables> {
+        let rise_shift = self.shift.saturating_sub(7);
+        let scale = 7u32.saturating_sub(self.shift);
+        let (mut node_lo, mut node_hi, mut rise) = ([0u8; SEGMENTS], [0u8; SEGMENTS], [0u8; SEGMENTS]);
+        let mut narrow = true;
+        let entries = self.base.iter().zip(&self.slope).enumerate();
+        for ((j, (&b, &s)), ((lo, hi), r)) in entries.zip(node_lo.iter_mut().zip(&mut node_hi).zip(&mut rise))
         {
             let rho = i32::from(s) >> (15 - self.shift);
-            (*n, *r) = ((i32::from(b) + j as i32 * rho) as i16, rho as i16);
+            let node = i32::from(b) + j as i32 * rho;
+            [*lo, *hi] = (node as i16).to_le_bytes();
+            narrow &= i8::try_from(node).is_ok();
+            *r = i8::try_from(rho << scale).ok()? as u8;
         }
-        (node, rise)
+        Some(ByteTables { node_lo, node_hi: (!narrow).then_some(node_hi), rise, rise_shift })
     }
 
     /// `F` for `|∇| = m`: with `m` clamped to `limit`, `j = m >> k` and `q = m − j·2ᵏ` the
@@ -339,9 +366,13 @@ pub(super) struct Diffusion {
     /// The AVX2 loop's byte tables of `fx`.
     #[cfg(target_arch = "x86_64")]
     avx2_tables: Option<avx2::Tables>,
-    /// Use the NEON row loop (AArch64, unless `cpu::limit_isa` capped it).
+    /// Use the NEON row loop (AArch64, unless `cpu::limit_isa` capped it, and `neon_tables`
+    /// built).
     #[cfg(all(target_arch = "aarch64", target_feature = "neon"))]
     neon: bool,
+    /// The NEON loop's byte tables of `fx`.
+    #[cfg(all(target_arch = "aarch64", target_feature = "neon"))]
+    neon_tables: Option<ByteTables>,
 }
 
 /// One band's part of the row update: the step `Σ = 2·(h + v − h_prev) + (dr + dl − north)`
@@ -387,6 +418,8 @@ impl Diffusion {
         let fx = FluxFn::new(params);
         #[cfg(target_arch = "x86_64")]
         let avx2_tables = avx2::Tables::new(&fx);
+        #[cfg(all(target_arch = "aarch64", target_feature = "neon"))]
+        let neon_tables = fx.byte_tables();
         Self {
             fx,
             border: params.border(),
@@ -397,7 +430,9 @@ impl Diffusion {
             #[cfg(target_arch = "x86_64")]
             avx2_tables,
             #[cfg(all(target_arch = "aarch64", target_feature = "neon"))]
-            neon: crate::cpu::has_neon(),
+            neon: crate::cpu::has_neon() && neon_tables.is_some(),
+            #[cfg(all(target_arch = "aarch64", target_feature = "neon"))]
+            neon_tables,
         }
     }
 
@@ -510,7 +545,12 @@ impl Diffusion {
             None => 0,
         };
         #[cfg(all(target_arch = "aarch64", target_feature = "neon"))]
-        let done = if self.neon { neon::row_blocks(&self.fx, p, q, north, out, &mut carry) } else { 0 };
+        let done = match (self.neon, &self.neon_tables) {
+            (true, Some(t)) => {
+                neon::row_blocks(t, (self.fx.limit, self.fx.shift), p, q, north, out, &mut carry)
+            }
+            _ => 0,
+        };
         #[cfg(not(any(
             target_arch = "x86_64",
             fusion_arm_dsp,

@@ -1,94 +1,126 @@
 //! The NEON form of the row loop (AArch64: Cortex-A53/A72 class, Arm hosts): [`Lanes`] on four
-//! pixels × two bands (8 lanes of `i16`) for the loop of `simd.rs`. The flux function's two
-//! 64-entry tables (base and slope, 128 bytes each) sit in eight registers and are read with
-//! `tbl`/`tbx` on the bytes of each entry, so a flux is [`FluxFn::magnitude`] step by step in
-//! registers, as the AVX-512 form does with `vpermi2w`: `|∇|` clamped to the limit, the segment
-//! `j = m >> k`, base and slope of segment `j`, one rounding doubling multiply-high (`sqrdmulh`:
-//! `⌊(m·s + 2¹⁴) / 2¹⁵⌋`, the portable `mulhrs`; `m ≤ 32767`, `|s| ≤ 2¹³`, so it never
-//! saturates), the sign of `∇` back. The same values as the portable loop, so the same bits
-//! (checked on the emulated Cortex-A53 by `fusion budget --target a53` against the host).
+//! pixels × two bands (8 lanes of `i16`) for the loop of `simd.rs`. The flux function is held
+//! as its 64-entry byte tables ([`ByteTables`]: the nodes, their high bytes when a node does
+//! not fit an `i8`, the scaled rises), four registers each, read by `tbl` for two registers of
+//! differences at once (their segment indices narrowed into the 16 bytes of one register):
+//! `m = |x − c|` by one absolute difference (`sabd`; the states' differences are below 2¹⁵),
+//! clamped to the limit, the segment `j = m >> k`, node and rise of segment `j`, one rounding
+//! doubling multiply-high of `q = m mod 2ᵏ` (`sqrdmulh`: `⌊(q·s + 2¹⁴) / 2¹⁵⌋`, the portable
+//! `mulhrs`; `q < 2⁹`, `|s| ≤ 2¹³`, so it never saturates), the sign of `x − c` back (`x < c`:
+//! `(f ⊕ −1) + 1 = −f`). The same values as the portable loop, so the same bits (unit tests
+//! `table_and_avx512_equal_the_function_exhaustively` and `simd_rows_equal_the_portable_rows`
+//! under `qemu-aarch64` in CI; every fused frame of the emulated Cortex-A53 by
+//! `fusion budget --target a53` against the host).
 
 use super::simd::{Lanes, row_blocks as blocks};
-use super::{FluxFn, RowCarry, SEGMENTS};
+use super::{ByteTables, RowCarry, SEGMENTS};
 use core::arch::aarch64::*;
 
-/// A 64-entry `i16` table as two 64-byte halves for `tbl`/`tbx` (entries 0–31 and 32–63,
-/// little-endian bytes).
-#[derive(Clone, Copy)]
-struct Table([uint8x16x4_t; 2]);
-
-impl Table {
-    fn new(t: &[i16; SEGMENTS]) -> Self {
-        let mut bytes = [0u8; 2 * SEGMENTS];
-        for (b, v) in bytes.chunks_exact_mut(2).zip(t) {
-            b.copy_from_slice(&v.to_le_bytes());
-        }
-        let half = |h: usize| {
-            let quarter = |q: usize| {
-                let at = 64 * h + 16 * q;
-                let chunk: [u8; 16] =
-                    bytes.get(at..at + 16).and_then(|c| c.try_into().ok()).unwrap_or([0; 16]);
-                // SAFETY: reads the 16 bytes of `chunk`.
-                unsafe { vld1q_u8(chunk.as_ptr()) }
-            };
-            uint8x16x4_t(quarter(0), quarter(1), quarter(2), quarter(3))
-        };
-        Table([half(0), half(1)])
-    }
-
-    /// Entry `j` of every 16-bit lane (`j` in 0..64): the byte indices `2j` and `2j + 1`, the
-    /// first half by `tbl` (indices ≥ 64 give 0), the second by `tbx` on the index less 64
-    /// (indices below 64 wrap past 191 and keep the first half's byte).
-    #[inline(always)]
-    fn lookup(&self, j: uint16x8_t) -> int16x8_t {
-        // SAFETY: NEON is part of every AArch64 target this module is compiled for.
-        unsafe {
-            let idx = vreinterpretq_u8_u16(vmlaq_n_u16(vdupq_n_u16(0x0100), j, 0x0202));
-            let lo = vqtbl4q_u8(self.0[0], idx);
-            let both = vqtbx4q_u8(lo, self.0[1], vsubq_u8(idx, vdupq_n_u8(64)));
-            vreinterpretq_s16_u8(both)
-        }
-    }
-}
-
-/// The constants of [`FluxFn`] in registers.
-pub(super) struct Flux {
+/// The flux function in NEON registers ([`ByteTables`] read by `tbl`); `WIDE`: the nodes take
+/// two bytes.
+struct Flux<const WIDE: bool> {
     limit: uint16x8_t,
     /// `−k`: `ushl` by a negative count shifts right.
     shift: int16x8_t,
-    base: Table,
-    slope: Table,
+    /// `−max(k − 7, 0)`: the rise byte in a lane's high byte, shifted right (arithmetic) by
+    /// `max(k − 7, 0)`, is the slope of the Q15 product.
+    rise_shift: int16x8_t,
+    /// `2ᵏ − 1`: `q = m mod 2ᵏ`.
+    low_bits: int16x8_t,
+    node_lo: int8x16x4_t,
+    /// The nodes' high bytes (`WIDE` only).
+    node_hi: int8x16x4_t,
+    rise: int8x16x4_t,
 }
 
-impl Flux {
-    pub(super) fn new(fx: &FluxFn) -> Self {
-        // SAFETY: NEON is part of every AArch64 target this module is compiled for.
+/// A 64-entry byte table in four registers.
+fn table(t: &[u8; SEGMENTS]) -> int8x16x4_t {
+    let quarter = |q: usize| {
+        let chunk: [u8; 16] = t.get(16 * q..16 * q + 16).and_then(|c| c.try_into().ok()).unwrap_or([0; 16]);
+        // SAFETY: NEON (every AArch64 target this module is compiled for); reads the 16 bytes
+        // of `chunk`.
+        unsafe { vld1q_s8(chunk.as_ptr().cast()) }
+    };
+    int8x16x4_t(quarter(0), quarter(1), quarter(2), quarter(3))
+}
+
+impl<const WIDE: bool> Flux<WIDE> {
+    fn new(t: &ByteTables, limit: i32, shift: u32) -> Self {
+        // SAFETY: NEON register operations only.
         unsafe {
             Flux {
-                limit: vdupq_n_u16(fx.limit as u16),
-                shift: vdupq_n_s16(-(fx.shift as i16)),
-                base: Table::new(&fx.base),
-                slope: Table::new(&fx.slope),
+                limit: vdupq_n_u16(limit as u16),
+                shift: vdupq_n_s16(-(shift as i16)),
+                rise_shift: vdupq_n_s16(-(t.rise_shift as i16)),
+                low_bits: vdupq_n_s16(((1u32 << shift) - 1) as i16),
+                node_lo: table(&t.node_lo),
+                node_hi: table(&t.node_hi.unwrap_or([0; SEGMENTS])),
+                rise: table(&t.rise),
             }
         }
     }
 
-    /// [`FluxFn::eval`] on eight differences.
+    /// [`FluxFn::eval`](super::FluxFn::eval) of `a − c` and `b − c` (differences of states,
+    /// below 2¹⁵ in magnitude), eight lanes each.
     #[inline(always)]
-    fn apply(&self, d: int16x8_t) -> int16x8_t {
-        // SAFETY: NEON is part of every AArch64 target this module is compiled for.
+    fn apply2(&self, [a, b]: [int16x8_t; 2], c: int16x8_t) -> [int16x8_t; 2] {
+        // SAFETY: NEON register operations only.
         unsafe {
-            // |−32768| is 0x8000 as u16, clamped to the limit like −32767's.
-            let m = vminq_u16(vreinterpretq_u16_s16(vabsq_s16(d)), self.limit);
-            let j = vshlq_u16(m, self.shift);
-            let m = vreinterpretq_s16_u16(m);
-            let g = vaddq_s16(self.base.lookup(j), vqrdmulhq_s16(m, self.slope.lookup(j)));
-            vbslq_s16(vcltzq_s16(d), vnegq_s16(g), g)
+            let magnitude = |x: int16x8_t| vminq_u16(vreinterpretq_u16_s16(vabdq_s16(x, c)), self.limit);
+            let (ma, mb) = (magnitude(a), magnitude(b));
+            // The segments (below 64) as bytes: `a`'s in bytes 0..8, `b`'s in 8..16.
+            let j = vuzp1q_u8(
+                vreinterpretq_u8_u16(vshlq_u16(ma, self.shift)),
+                vreinterpretq_u8_u16(vshlq_u16(mb, self.shift)),
+            );
+            let node = vqtbl4q_s8(self.node_lo, j);
+            let (na, nb) = if WIDE {
+                let hi = vqtbl4q_s8(self.node_hi, j);
+                (vreinterpretq_s16_s8(vzip1q_s8(node, hi)), vreinterpretq_s16_s8(vzip2q_s8(node, hi)))
+            } else {
+                (vmovl_s8(vget_low_s8(node)), vmovl_high_s8(node))
+            };
+            let rise = vqtbl4q_s8(self.rise, j);
+            let (ra, rb) = (vshll_n_s8::<8>(vget_low_s8(rise)), vshll_high_n_s8::<8>(rise));
+            let flux = |x: int16x8_t, m: uint16x8_t, node: int16x8_t, rise: int16x8_t| {
+                let q = vandq_s16(vreinterpretq_s16_u16(m), self.low_bits);
+                let f = vaddq_s16(node, vqrdmulhq_s16(q, vshlq_s16(rise, self.rise_shift)));
+                // All ones where `x < c`: `(f ⊕ −1) − (−1) = −f`.
+                let negative = vreinterpretq_s16_u16(vcgtq_s16(c, x));
+                vsubq_s16(veorq_s16(f, negative), negative)
+            };
+            [flux(a, ma, na, ra), flux(b, mb, nb, rb)]
         }
     }
 }
 
-impl Lanes for Flux {
+/// [`FluxFn::eval`](super::FluxFn::eval) by the NEON form on pairs of registers of eight
+/// values `x − c`, into `out` (for the tests); `None` as
+/// [`FluxFn::byte_tables`](super::FluxFn::byte_tables).
+#[cfg(test)]
+pub(super) fn flux_pairs(
+    fx: &super::FluxFn,
+    x: &[[[i16; 8]; 2]],
+    c: [i16; 8],
+    out: &mut [[[i16; 8]; 2]],
+) -> Option<()> {
+    let t = fx.byte_tables()?;
+    let (narrow, wide) =
+        (Flux::<false>::new(&t, fx.limit, fx.shift), Flux::<true>::new(&t, fx.limit, fx.shift));
+    for (x, o) in x.iter().zip(out) {
+        // SAFETY: NEON; reads the 16 bytes of each `x[i]` and of `c`, writes those of each `o[i]`.
+        unsafe {
+            let (c, x) = (vld1q_s16(c.as_ptr()), x.map(|x| vld1q_s16(x.as_ptr())));
+            let f = if t.node_hi.is_some() { wide.apply2(x, c) } else { narrow.apply2(x, c) };
+            for (o, f) in o.iter_mut().zip(f) {
+                vst1q_s16(o.as_mut_ptr(), f);
+            }
+        }
+    }
+    Some(())
+}
+
+impl<const WIDE: bool> Lanes for Flux<WIDE> {
     type V = int16x8_t;
     const WORDS: usize = 4;
 
@@ -133,7 +165,14 @@ impl Lanes for Flux {
 
     #[inline(always)]
     fn flux(&self, d: int16x8_t) -> int16x8_t {
-        self.apply(d)
+        self.apply2([d, d], self.zero())[0]
+    }
+
+    #[inline(always)]
+    fn flux4(&self, [a, b, c, d]: [int16x8_t; 4], centre: int16x8_t) -> [int16x8_t; 4] {
+        let [fa, fb] = self.apply2([a, b], centre);
+        let [fc, fd] = self.apply2([c, d], centre);
+        [fa, fb, fc, fd]
     }
 
     #[inline(always)]
@@ -174,14 +213,19 @@ impl Lanes for Flux {
 }
 
 /// Runs the row loop of `Diffusion::row` (`simd.rs`) on whole blocks of four pixels from the
-/// start of the row, updating `carry`; returns the pixels done.
+/// start of the row with the flux function's byte tables `t` (limit and shift `k` as
+/// [`FluxFn`](super::FluxFn)'s), updating `carry`; returns the pixels done.
 pub(super) fn row_blocks(
-    fx: &FluxFn,
+    t: &ByteTables,
+    (limit, shift): (i32, u32),
     p: &[i32],
     q: &[i32],
     north: &mut [i32],
     out: &mut [i32],
     carry: &mut RowCarry,
 ) -> usize {
-    blocks(&Flux::new(fx), p, q, north, out, carry)
+    match t.node_hi {
+        Some(_) => blocks(&Flux::<true>::new(t, limit, shift), p, q, north, out, carry),
+        None => blocks(&Flux::<false>::new(t, limit, shift), p, q, north, out, carry),
+    }
 }

@@ -34,10 +34,11 @@ pub(super) trait Lanes {
     fn word(&self, x: Self::V, i: usize) -> i32;
     /// The flux of every lane's difference (in `−32768..=32767`).
     fn flux(&self, d: Self::V) -> Self::V;
-    /// The fluxes of four registers (the AVX2 form reads its tables once per pair).
+    /// The fluxes of `x[i] − c` (the AVX2 and NEON forms read their tables once per pair; the
+    /// NEON form takes `|x − c|` and its sign from `x` and `c`).
     #[inline(always)]
-    fn flux4(&self, d: [Self::V; 4]) -> [Self::V; 4] {
-        d.map(|d| self.flux(d))
+    fn flux4(&self, x: [Self::V; 4], c: Self::V) -> [Self::V; 4] {
+        x.map(|x| self.flux(self.sub(x, c)))
     }
     /// Lane-wise wrapping difference (exact for the states' differences, `|d| < 2¹⁵`).
     fn sub(&self, a: Self::V, b: Self::V) -> Self::V;
@@ -65,6 +66,15 @@ pub(super) fn row_blocks<L: Lanes>(
     carry: &mut RowCarry,
 ) -> usize {
     let n = L::WORDS;
+    // Every slice cut to the blocks' reach once, so that the loop's bounds checks fold into its
+    // condition (six instructions per block fewer on the Cortex-A53).
+    let len = out.len().min(p.len().saturating_sub(2)).min(q.len().saturating_sub(2));
+    let len = len.min(north.len().saturating_sub(1));
+    let (Some(p), Some(q), Some(north), Some(out)) =
+        (p.get(..len + 2), q.get(..len + 2), north.get_mut(..len + 1), out.get_mut(..len))
+    else {
+        return 0;
+    };
     // The top word holds the carried value; the other words (and `v_prev`) are 0, so that the
     // first block writes the unused `north[0]` exactly as the portable loop does.
     let mut h_prev = l.top(carry.h_prev);
@@ -82,7 +92,7 @@ pub(super) fn row_blocks<L: Lanes>(
         let (pc, pr) = (l.load(from(ps, 1)), l.load(from(ps, 2)));
         let (ql, qc, qr) = (l.load(qs), l.load(from(qs, 1)), l.load(from(qs, 2)));
         let n_here = l.load(ns);
-        let [h, v, dr, dl] = l.flux4([l.sub(pr, pc), l.sub(qc, pc), l.sub(qr, pc), l.sub(ql, pc)]);
+        let [h, v, dr, dl] = l.flux4([pr, qc, qr, ql], pc);
         let west = l.up::<1>(h_prev, h);
         let t = l.subs(l.adds(h, v), west);
         let s = l.subs(l.adds(dr, dl), n_here);

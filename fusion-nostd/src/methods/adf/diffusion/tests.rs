@@ -88,7 +88,7 @@ fn flux_is_odd_bounded_and_zero_far_away() {
 fn table_and_avx512_equal_the_function_exhaustively() {
     let mut table = std::vec![0i32; TABLE_WORDS];
     // The AVX2 form's two table layouts (one-byte and two-byte nodes) both occur below.
-    #[cfg(target_arch = "x86_64")]
+    #[cfg(any(target_arch = "x86_64", all(target_arch = "aarch64", target_feature = "neon")))]
     let mut layouts = std::collections::BTreeSet::new();
     for kappa in [1u16, 2, 7, 16, 30, 63, 64, 65, 100, 128, 129, 200, 255] {
         for dt in [1u16, 150, 250] {
@@ -133,12 +133,38 @@ fn table_and_avx512_equal_the_function_exhaustively() {
                     }
                 }
             }
+            // The NEON form (under `qemu-aarch64` in CI): every difference `x − c` for two
+            // centres, each block of eight alone (both registers) and beside a block from
+            // elsewhere in the range; both table layouts occur.
+            #[cfg(all(target_arch = "aarch64", target_feature = "neon"))]
+            {
+                layouts.insert(fx.byte_tables().map(|b| b.node_hi.is_some()));
+                for c in [0i16, 16384] {
+                    let span = i32::from(c) - 32768..=i32::from(c) + 32767;
+                    let xs: Vec<i16> =
+                        (i16::MIN..=i16::MAX).filter(|&x| span.contains(&i32::from(x))).collect();
+                    let blocks: Vec<[i16; 8]> =
+                        xs.chunks_exact(8).filter_map(|b| b.try_into().ok()).collect();
+                    let n = blocks.len();
+                    let pairs: Vec<[[i16; 8]; 2]> = (0..n)
+                        .flat_map(|i| [[blocks[i]; 2], [blocks[i], blocks[(i * 7919 + 1234) % n]]])
+                        .collect();
+                    let want = |x: [i16; 8]| x.map(|x| t.flux(i32::from(x) - i32::from(c)) as i16);
+                    let mut got = std::vec![[[0i16; 8]; 2]; pairs.len()];
+                    // Every parameter's rises fit the NEON form's bytes.
+                    assert_eq!(neon::flux_pairs(&fx, &pairs, [c; 8], &mut got), Some(()));
+                    let want: Vec<[[i16; 8]; 2]> = pairs.iter().map(|p| p.map(want)).collect();
+                    assert!(got == want, "κ {kappa} Δt {dt} c {c}");
+                }
+            }
         }
     }
     #[cfg(target_arch = "x86_64")]
     if crate::cpu::has_avx2() {
         assert_eq!(layouts.into_iter().collect::<Vec<_>>(), [Some(false), Some(true)]);
     }
+    #[cfg(all(target_arch = "aarch64", target_feature = "neon"))]
+    assert_eq!(layouts.into_iter().collect::<Vec<_>>(), [Some(false), Some(true)]);
 }
 
 /// Every way to run the diffusion gives the same bits: the row pipeline in one group (with
@@ -225,7 +251,7 @@ fn select_form(d: &mut Diffusion, form: u8) -> bool {
     }
     #[cfg(all(target_arch = "aarch64", target_feature = "neon"))]
     {
-        d.neon = form == 3 && crate::cpu::has_neon();
+        d.neon = form == 3 && crate::cpu::has_neon() && d.neon_tables.is_some();
     }
     match form {
         #[cfg(target_arch = "x86_64")]

@@ -50,11 +50,12 @@
 //! (two, or three when a node needs two bytes) and reads them with `vpshufb`, 32 lanes (two
 //! fluxes of 8 pixels × 2 bands) at a time, and the first 16 bases and slopes as four more for
 //! the blocks whose differences all lie in the first 16 segments; the
-//! NEON loop (AArch64) keeps the bases and slopes in eight and reads the entries' bytes with
-//! `tbl`/`tbx`, 8 lanes at a time. All give the same bits: the table, the AVX-512 and the AVX2
-//! forms are checked exhaustively against the function on x86-64 hosts, the NEON form by the
-//! SIMD-forms test under `qemu-aarch64` and against the host's frames on the emulated
-//! Cortex-A53 (`fusion budget --target a53`).
+//! NEON loop (AArch64) keeps the same byte tables ([`FluxFn::byte_tables`]) in four 128-bit
+//! registers each and reads them with `tbl`, 16 lanes (two fluxes of 4 pixels × 2 bands) at a
+//! time. All give the same bits: the table, the AVX-512, AVX2 and NEON forms are checked
+//! exhaustively against the function (x86-64 hosts; the NEON form under `qemu-aarch64` in
+//! CI), the NEON loop also against the host's frames on the emulated Cortex-A53 (`fusion
+//! budget --target a53`).
 //!
 //! **Both bands at once.** A work word holds one pixel of both bands; the Armv7E-M loop takes
 //! both differences with one `ssub16` and sums both bands' fluxes with `qadd16`/`qsub16`
@@ -167,7 +168,8 @@ fn mulhrs(a: i32, b: i32) -> i32 {
 }
 
 /// Segments of the piecewise-linear flux function (the AVX-512 loop holds each of its two
-/// 64-entry tables in two 512-bit registers, the NEON loop in four 128-bit ones).
+/// 64-entry tables in two 512-bit registers, the NEON loop each 64-entry byte table in four
+/// 128-bit ones).
 const SEGMENTS: usize = 64;
 
 /// The flux function's per-call constants (see the module docs): a piecewise-linear `F(|∇|)`

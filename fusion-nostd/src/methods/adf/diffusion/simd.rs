@@ -66,14 +66,20 @@ pub(super) fn row_blocks<L: Lanes>(
     carry: &mut RowCarry,
 ) -> usize {
     let n = L::WORDS;
-    // Every slice cut to the blocks' reach once, so that the loop's bounds checks fold into its
-    // condition (six instructions per block fewer on the Cortex-A53).
-    let len = out.len().min(p.len().saturating_sub(2)).min(q.len().saturating_sub(2));
-    let len = len.min(north.len().saturating_sub(1));
-    let (Some(p), Some(q), Some(north), Some(out)) =
-        (p.get(..len + 2), q.get(..len + 2), north.get_mut(..len + 1), out.get_mut(..len))
-    else {
-        return 0;
+    // On AArch64 every slice is cut to the blocks' reach once, so that the loop's bounds checks
+    // fold into its condition (six instructions per block fewer on the Cortex-A53). Not on
+    // x86-64: there the AVX2 loop ran 3.7 % fewer instructions with the cut but 8 % slower on
+    // smooth frames and 4 % on noise (`row_loop_times`, BENCHMARKS.md).
+    #[cfg(target_arch = "aarch64")]
+    let (p, q, north, out) = {
+        let len = out.len().min(p.len().saturating_sub(2)).min(q.len().saturating_sub(2));
+        let len = len.min(north.len().saturating_sub(1));
+        let (Some(p), Some(q), Some(north), Some(out)) =
+            (p.get(..len + 2), q.get(..len + 2), north.get_mut(..len + 1), out.get_mut(..len))
+        else {
+            return 0;
+        };
+        (p, q, north, out)
     };
     // The top word holds the carried value; the other words (and `v_prev`) are 0, so that the
     // first block writes the unused `north[0]` exactly as the portable loop does.

@@ -81,13 +81,16 @@ fn flux_is_odd_bounded_and_zero_far_away() {
     }
 }
 
-/// The table, (on x86-64 with AVX-512) the thirty-two-lane form and (with AVX2) the form
-/// that reads two sixteen-lane registers at once give the function's value for every difference and every κ class (the
-/// AVX2 form: every 16-bit difference, −32768 read as −32767 like the table).
+/// The table, (on x86-64 with AVX-512) the thirty-two-lane form, (with AVX2) the form that
+/// reads two sixteen-lane registers at once and (on AArch64, under `qemu-aarch64` in CI) the
+/// NEON form that reads two eight-lane registers at once give the function's value for every
+/// difference and every κ class (the AVX2 form: every 16-bit difference, −32768 read as −32767
+/// like the table; the NEON form: every difference `x − c` the table covers, for two centres).
 #[test]
 fn table_and_avx512_equal_the_function_exhaustively() {
     let mut table = std::vec![0i32; TABLE_WORDS];
-    // The AVX2 form's two table layouts (one-byte and two-byte nodes) both occur below.
+    // The byte tables' two layouts (one-byte and two-byte nodes) both occur below (the AVX2
+    // form's on x86-64, the NEON form's on AArch64).
     #[cfg(any(target_arch = "x86_64", all(target_arch = "aarch64", target_feature = "neon")))]
     let mut layouts = std::collections::BTreeSet::new();
     for kappa in [1u16, 2, 7, 16, 30, 63, 64, 65, 100, 128, 129, 200, 255] {

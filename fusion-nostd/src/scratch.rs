@@ -11,7 +11,7 @@ pub const SCRATCH_PLANES: usize = 3;
 /// the fusion methods plus one `u8` plane for the rescaled band of the pipeline.
 ///
 /// `Scratch<{ 1024 * 1024 }>` is 13 MiB; place it in a `static` (firmware) or on the heap
-/// (host: `host_harness::CoreScratch`), never on a small stack.
+/// (host: `fusion_engine::CoreScratch`), never on a small stack.
 #[derive(Debug, Clone)]
 #[repr(C)]
 pub struct Scratch<const PIXELS: usize> {

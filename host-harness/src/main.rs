@@ -1,4 +1,13 @@
-//! `fusion`: the host command-line tool of the VIS/TIR fusion project.
+//! `fusion`: the host command-line tool of the VIS/TIR fusion project. Flags and verbs only:
+//! each verb (`cli/`) parses its options and calls the library crates (`fusion-io`,
+//! `fusion-engine`, `fusion-metrics`, `fusion-reference`, `fusion-report`, `render-host`,
+//! `fusion-navbench`, `fusion-budget`), which hold the work.
+
+// `out!`, `outln!`, `note!`: printing that returns errors instead of panicking.
+#[macro_use]
+extern crate fusion_io;
+
+mod cli;
 
 use clap::Parser;
 use std::process::ExitCode;
@@ -14,25 +23,25 @@ fn main() -> ExitCode {
             .or_else(|| info.payload().downcast_ref::<String>().cloned())
             .unwrap_or_default();
         let at = info.location().map(|l| format!(" at {}:{}", l.file(), l.line())).unwrap_or_default();
-        render_host::output::stderr_note(format_args!(
+        fusion_io::console::stderr_note(format_args!(
             "fusion: internal error: {}{at}",
             msg.replace('\n', " ")
         ));
         if std::env::var_os("FUSION_BACKTRACE").is_some_and(|v| v == "1") {
-            render_host::output::stderr_line(format_args!("{}", std::backtrace::Backtrace::force_capture()));
+            fusion_io::console::stderr_line(format_args!("{}", std::backtrace::Backtrace::force_capture()));
         }
     }));
     // SIGINT/SIGTERM remove the outputs being written (render_host::output).
-    render_host::output::remove_in_flight_on_signal();
-    let cli = host_harness::cli::Cli::parse();
-    render_host::output::set_quiet(cli.quiet);
-    match host_harness::cli::run(cli) {
+    fusion_io::output::remove_in_flight_on_signal();
+    let cli = cli::Cli::parse();
+    fusion_io::console::set_quiet(cli.quiet);
+    match cli::run(cli) {
         // A note that could not reach standard error fails the run too.
-        Ok(()) if render_host::output::stderr_failed() => ExitCode::FAILURE,
+        Ok(()) if fusion_io::console::stderr_failed() => ExitCode::FAILURE,
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             // One line, whatever the underlying messages hold.
-            render_host::output::stderr_note(format_args!(
+            fusion_io::console::stderr_note(format_args!(
                 "fusion: error: {}",
                 format!("{e:#}").replace('\n', " ")
             ));

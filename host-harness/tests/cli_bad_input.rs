@@ -4,7 +4,7 @@
 //! backtrace), and leaves no output file and no temporary file behind; each accepted image is
 //! converted to 8-bit grey as documented.
 
-use host_harness::io::{ColorPolicy, Gray, load_gray_u8, save_gray_u8};
+use fusion_io::{ColorPolicy, Gray, load_gray_u8, save_gray_u8};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 

@@ -1,6 +1,6 @@
 //! `fusion demo` end to end on one frame: every promised output exists and makes sense.
 
-use host_harness::io::{ColorPolicy, load_gray_u8};
+use fusion_io::{ColorPolicy, load_gray_u8};
 use std::process::Command;
 
 #[test]

@@ -1,10 +1,10 @@
 //! `fusion eval` prints the library's metrics in full precision; sources on another grid are
 //! rescaled first; colour is scored per channel by the VIFB suite.
 
-use host_harness::cli::eval::study_metrics;
-use host_harness::io::{Channels, Gray, save_gray_u8};
-use host_harness::metrics::noise_metrics;
-use host_harness::metrics::vifb::{KEYS, vifb_metrics};
+use fusion_io::{Channels, Gray, save_gray_u8};
+use fusion_metrics::noise_metrics;
+use fusion_metrics::table::study_metrics;
+use fusion_metrics::vifb::{KEYS, vifb_metrics};
 use std::path::Path;
 use std::process::Command;
 

@@ -1,6 +1,7 @@
 //! `fusion fuse` end to end: every method and engine, `--raw`, rescale policies, bad input.
 
-use host_harness::io::{ColorPolicy, Gray, load_gray_u8, read_npy_2d, save_gray_u8};
+use fusion_io::npy::read_npy_2d;
+use fusion_io::{ColorPolicy, Gray, load_gray_u8, save_gray_u8};
 use std::path::Path;
 use std::process::{Command, Output};
 

@@ -1,7 +1,7 @@
 //! What used to be accepted silently is now explicit (issue 24, item 4): refused with one line,
 //! or done with a one-line note on standard error that `--quiet` silences; guards print as names.
 
-use host_harness::io::{Gray, save_gray_u8};
+use fusion_io::{Gray, save_gray_u8};
 use std::path::Path;
 use std::process::{Command, Output};
 

@@ -2,11 +2,11 @@
 //! thermal counts through the core AGC (PNG and TIFF), outputs by extension, whole folders with
 //! a summary.
 
-use fusion_nostd::{Agc, AgcParams, agc_frame};
-use host_harness::color::rgb_to_ycbcr;
-use host_harness::io::{
+use fusion_engine::color::rgb_to_ycbcr;
+use fusion_io::{
     Channels, ColorPolicy, Gray, Picture, load_gray_u8, load_picture, save_gray_u8, save_gray_u16,
 };
+use fusion_nostd::{Agc, AgcParams, agc_frame};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
@@ -23,7 +23,7 @@ fn ok(o: &Output) {
 }
 
 fn jpeg(band: &str, name: &str) -> PathBuf {
-    host_harness::testdata::file(&format!("vifb_jpeg/{band}/{name}.jpg"))
+    fusion_io::testdata::file(&format!("vifb_jpeg/{band}/{name}.jpg"))
 }
 
 fn rgb(path: &Path) -> Channels {
@@ -211,13 +211,13 @@ fn a_rendered_16_bit_sequence_fuses_directly() {
     assert!(String::from_utf8_lossy(&o.stdout).contains("fused 3 of 3 pairs"));
     // The same as the AGC carried through the frames in order by hand, then one pair at a time.
     let params = AgcParams { smoothing: 3, ..AgcParams::linear() };
-    let mut agc = host_harness::agc::fresh();
+    let mut agc = fusion_engine::agc::fresh();
     for i in 0..3 {
         let name = format!("frame_{i:03}.png");
         let Picture::Gray16(counts) = load_picture(&seq.join("tir16").join(&name)).unwrap() else {
             panic!("tir16 is 16-bit")
         };
-        let mapped = host_harness::agc::map_counts(&mut agc, &counts, &params).unwrap();
+        let mapped = fusion_engine::agc::map_counts(&mut agc, &counts, &params).unwrap();
         let t8 = dir.path().join(format!("t8-{i}.png"));
         save_gray_u8(&t8, &mapped).unwrap();
         let single = dir.path().join(format!("single-{i}.png"));

@@ -1,7 +1,7 @@
 //! `fusion report` end to end on a tiny rendered dataset (VIS 128², TIR 64² and 128², 2 frames):
 //! the core's four method rows and the study's four host-only ones (gff, mgff, tepgfl, drif).
 
-use host_harness::io::{ColorPolicy, load_gray_u8};
+use fusion_io::{ColorPolicy, load_gray_u8};
 use std::process::Command;
 
 fn fusion(args: &[&str]) {

@@ -1,6 +1,6 @@
 //! `fusion rescale` end to end: output equals the core, bad input gives one line and exit 1.
 
-use host_harness::io::{ColorPolicy, Gray, GrayInput, load_image, save_gray_u8, save_gray_u16};
+use fusion_io::{ColorPolicy, Gray, GrayInput, load_image, save_gray_u8, save_gray_u16};
 use std::path::Path;
 use std::process::{Command, Output};
 

@@ -18,10 +18,10 @@ fn quick_stress_passes_and_writes_the_table() {
     assert!(!stderr.contains("panicked"), "{stderr}");
     assert!(stdout.contains("0 failures"), "{stdout}");
     let doc = std::fs::read_to_string(&table).unwrap();
-    for case in host_harness::cli::stress::cases() {
+    for case in fusion_engine::stress::cases() {
         assert!(doc.contains(&format!("| {} |", case.name)), "case {} missing from the table", case.name);
     }
     // 13 cases × 4 geometries × 6 methods, every one deterministic.
     let runs = doc.lines().filter(|l| l.ends_with("| ok |")).count();
-    assert_eq!(runs, host_harness::cli::stress::cases().len() * 4 * 6, "{doc}");
+    assert_eq!(runs, fusion_engine::stress::cases().len() * 4 * 6, "{doc}");
 }

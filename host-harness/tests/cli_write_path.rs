@@ -1,7 +1,7 @@
 //! The one write path (`render_host::output`): outputs are all or nothing, never redirected,
 //! only regular files are replaced, long names work, a failing standard output is an error.
 
-use host_harness::io::{Gray, save_gray_u8};
+use fusion_io::{Gray, save_gray_u8};
 use std::path::Path;
 use std::process::{Command, Output};
 

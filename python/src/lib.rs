@@ -10,10 +10,10 @@ use anyhow::{Context, bail};
 use clap::ValueEnum;
 use fusion_nostd::pipeline::{FuseConfig, FuseReport};
 use fusion_nostd::{AgcParams, FrameMut, FrameRef};
-use host_harness::cli::eval::Suite;
-use host_harness::cli::rescale::FilterArg;
-use host_harness::io::{Channels, Gray};
-use host_harness::methods::{AgcArg, MethodArg, RescaleArg, SkipArg, VariantArg, method_for};
+use fusion_metrics::table::Suite;
+use fusion_engine::methods::FilterArg;
+use fusion_io::{Channels, Gray};
+use fusion_engine::methods::{AgcArg, MethodArg, RescaleArg, SkipArg, VariantArg, method_for};
 use numpy::ndarray::ArrayView2;
 use numpy::{
     IntoPyArray, PyArray2, PyArrayMethods, PyReadonlyArray2, PyReadonlyArray3, PyUntypedArrayMethods,
@@ -142,7 +142,7 @@ fn agc_params(agc: &str, plateau: Option<u32>, pixels: usize) -> PyResult<AgcPar
     match (mode, plateau) {
         (AgcArg::Linear, Some(_)) => Err(PyValueError::new_err("plateau= is for agc=\"plateau\"")),
         (_, Some(0)) => Err(PyValueError::new_err("plateau must be at least 1 pixel per bin")),
-        _ => Ok(host_harness::agc::params(mode, plateau, 0, pixels)),
+        _ => Ok(fusion_engine::agc::params(mode, plateau, 0, pixels)),
     }
 }
 
@@ -157,7 +157,7 @@ fn fuse_gray(
 ) -> anyhow::Result<FuseReport> {
     let out = FrameMut::new(out, grid.0, grid.1)?;
     if let Some(rows) = strips {
-        let mut scratch = host_harness::strips::HostStripScratch::default();
+        let mut scratch = fusion_engine::strips::HostStripScratch::default();
         let (report, _) = fusion_nostd::strips::fuse_strips(
             vis.view()?,
             tir.view()?,
@@ -174,7 +174,7 @@ fn fuse_gray(
         // output never depends on what the scratch held: the core's contract).
         let scratch = match kept {
             Some(s) if s.pixels() >= pixels => s,
-            _ => kept.insert(host_harness::CoreScratch::new(pixels)),
+            _ => kept.insert(fusion_engine::CoreScratch::new(pixels)),
         };
         Ok(fusion_nostd::fuse(vis.view()?, tir.view()?, out, &mut scratch.view_mut(), pipeline)?)
     })
@@ -184,7 +184,7 @@ thread_local! {
     /// Each thread's work memory, kept between calls: allocating and zeroing 13 bytes per
     /// pixel on every call cost more than the fusion itself on small frames (IFEVIP's scratch
     /// covers at least its 512² normalisation grid). BENCHMARKS.md, "From C and Python".
-    static SCRATCH: std::cell::RefCell<Option<host_harness::CoreScratch>> = const { std::cell::RefCell::new(None) };
+    static SCRATCH: std::cell::RefCell<Option<fusion_engine::CoreScratch>> = const { std::cell::RefCell::new(None) };
 }
 
 /// The report as a dict (`report=True`).
@@ -250,7 +250,7 @@ fn fuse<'py>(
             ));
         }
         Image::Rgb8(a) => {
-            let [y, cb, cr] = host_harness::color::rgb_to_ycbcr(&channels_of(a).map_err(py_err)?);
+            let [y, cb, cr] = fusion_engine::color::rgb_to_ycbcr(&channels_of(a).map_err(py_err)?);
             (Plane { width: y.width, height: y.height, stride: y.width, data: y.data.into() }, Some([cb, cr]))
         }
     };
@@ -262,7 +262,7 @@ fn fuse<'py>(
             let params = agc_params(agc, plateau, counts.width * counts.height)?;
             let mut mapped = Gray::<u8>::new(counts.width, counts.height);
             py.detach(|| -> anyhow::Result<()> {
-                let mut state = host_harness::agc::fresh();
+                let mut state = fusion_engine::agc::fresh();
                 fusion_nostd::agc_frame(&mut state, counts.view()?, mapped.view_mut()?, &params)?;
                 Ok(())
             })
@@ -294,7 +294,7 @@ fn fuse<'py>(
         None => fused.into_any().unbind(),
         Some([cb, cr]) => {
             let y = Gray { width: grid.0, height: grid.1, data: fused.readonly().as_slice()?.to_vec() };
-            let rgb = py.detach(|| host_harness::color::fused_in_colour(&y, &cb, &cr)).map_err(py_err)?;
+            let rgb = py.detach(|| fusion_engine::color::fused_in_colour(&y, &cb, &cr)).map_err(py_err)?;
             rgb.interleaved().into_pyarray(py).reshape([grid.1, grid.0, 3])?.into_any().unbind()
         }
     };
@@ -371,7 +371,7 @@ fn eval_metrics<'py>(
 ) -> PyResult<Bound<'py, PyDict>> {
     let suite = named::<Suite>("suite", suite)?;
     let (v, t, f) = (channels_arg("vis", vis)?, channels_arg("tir", tir)?, channels_arg("fused", fused)?);
-    let table = py.detach(|| host_harness::cli::eval::score_images(suite, &v, &t, &f)).map_err(py_err)?;
+    let table = py.detach(|| fusion_metrics::table::score_images(suite, &v, &t, &f)).map_err(py_err)?;
     let d = PyDict::new(py);
     for (name, value) in &table.rows {
         d.set_item(name, *value)?;
@@ -382,15 +382,15 @@ fn eval_metrics<'py>(
 /// Reads an image file (PNG, JPEG, TIFF, PGM/PPM): uint8 (H, W) or (H, W, 3), or uint16 (H, W).
 #[pyfunction]
 fn load(py: Python<'_>, path: PathBuf) -> PyResult<Py<PyAny>> {
-    let picture = py.detach(|| host_harness::io::load_picture(&path)).map_err(py_err)?;
+    let picture = py.detach(|| fusion_io::load_picture(&path)).map_err(py_err)?;
     Ok(match picture {
-        host_harness::io::Picture::Gray8(g) => {
+        fusion_io::Picture::Gray8(g) => {
             g.data.into_pyarray(py).reshape([g.height, g.width])?.into_any().unbind()
         }
-        host_harness::io::Picture::Gray16(g) => {
+        fusion_io::Picture::Gray16(g) => {
             g.data.into_pyarray(py).reshape([g.height, g.width])?.into_any().unbind()
         }
-        host_harness::io::Picture::Rgb8(c) => {
+        fusion_io::Picture::Rgb8(c) => {
             c.interleaved().into_pyarray(py).reshape([c.height, c.width, 3])?.into_any().unbind()
         }
     })
@@ -403,28 +403,21 @@ fn save(py: Python<'_>, path: PathBuf, img: &Bound<'_, PyAny>) -> PyResult<()> {
     match Image::of("img", img)? {
         Image::Gray8(a) => {
             let g = Plane::of(a.as_array()).to_gray().map_err(py_err)?;
-            py.detach(|| host_harness::io::save_gray_u8(&path, &g)).map_err(py_err)
+            py.detach(|| fusion_io::save_gray_u8(&path, &g)).map_err(py_err)
         }
         Image::Gray16(a) => {
             let g = Plane::of(a.as_array()).to_gray().map_err(py_err)?;
-            py.detach(|| host_harness::io::save_gray_u16(&path, &g)).map_err(py_err)
+            py.detach(|| fusion_io::save_gray_u16(&path, &g)).map_err(py_err)
         }
         Image::Rgb8(a) => {
             let c = channels_of(&a).map_err(py_err)?;
             py.detach(|| -> anyhow::Result<()> {
-                let format = host_harness::io::OutFormat::of(&path)?;
-                host_harness::io::write_atomic(&path, |w| host_harness::io::encode_channels(w, format, &c))
+                let format = fusion_io::OutFormat::of(&path)?;
+                fusion_io::write_atomic(&path, |w| fusion_io::encode_channels(w, format, &c))
             })
             .map_err(py_err)
         }
     }
-}
-
-/// `fusion render`'s options, parsed by the CLI's own parser.
-#[derive(clap::Parser)]
-struct RenderCommand {
-    #[command(flatten)]
-    args: render_host::cli::RenderArgs,
 }
 
 /// Renders a dataset (`fusion render`) or a rendezvous sequence (sequence="approach" or
@@ -446,27 +439,21 @@ fn render<'py>(
     tir_sizes: Option<Vec<u32>>,
     tir16: bool,
 ) -> PyResult<Bound<'py, PyAny>> {
-    let mut argv: Vec<String> = vec!["render".into(), "--out".into(), out.display().to_string()];
-    argv.extend(["--seed".into(), seed.to_string(), "--vis-size".into(), vis_size.to_string()]);
-    if let Some(n) = frames {
-        argv.extend(["--frames".into(), n.to_string()]);
-    }
-    if let Some(s) = sequence {
-        argv.extend(["--sequence".into(), s.to_string()]);
-    }
-    if let Some(sizes) = tir_sizes {
-        let list: Vec<String> = sizes.iter().map(u32::to_string).collect();
-        argv.extend(["--tir-sizes".into(), list.join(",")]);
-    }
-    if tir16 {
-        argv.push("--tir16".into());
-    }
-    let command = <RenderCommand as clap::Parser>::try_parse_from(&argv)
-        .map_err(|e| PyValueError::new_err(e.to_string().trim().to_string()))?;
+    let defaults = render_host::RenderOptions::default();
+    let options = render_host::RenderOptions {
+        out: out.clone(),
+        frames,
+        sequence: sequence.map(|s| named::<render_host::sequence::SequenceName>("sequence", s)).transpose()?,
+        seed,
+        vis_size,
+        tir_sizes: tir_sizes.unwrap_or(defaults.tir_sizes.clone()),
+        tir16,
+        ..defaults
+    };
     let manifest = py
         .detach(|| -> anyhow::Result<String> {
-            render_host::output::set_quiet(true);
-            render_host::cli::run(&command.args)?;
+            fusion_io::console::set_quiet(true);
+            render_host::render(&options)?;
             let path = out.join("manifest.json");
             std::fs::read_to_string(&path).with_context(|| format!("cannot read {}", path.display()))
         })

@@ -3,13 +3,14 @@
 
 use crate::camera::{Camera, Pose};
 use crate::image::Image;
+use crate::image::{write_png8, write_png16};
 use crate::noise::{Band, NoiseParams, apply_sensor_noise, rng_for};
-use crate::output::{write_json, write_png8, write_png16};
 use crate::scene::{Material, Scene};
 use crate::thermal::{ThermalParams, eclipse_transient, face_temperatures, steady_state};
 use crate::tir::{TirParams, render_tir};
 use crate::vis::{Illumination, VisParams, render_vis};
 use anyhow::{Context, Result, bail};
+use fusion_io::output::write_json;
 use glam::{Mat3, Vec3};
 use indicatif::{ProgressBar, ProgressStyle};
 use rayon::prelude::*;

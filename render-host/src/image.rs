@@ -1,6 +1,8 @@
 //! A float grey image and its conversion to 8-/16-bit PNG buffers.
 
-use image::{GrayImage, ImageBuffer, Luma};
+use anyhow::Result;
+use image::{GrayImage, ImageBuffer, ImageFormat, Luma};
+use std::path::Path;
 
 /// A 16-bit grey image buffer from the `image` crate.
 pub type Gray16Image = ImageBuffer<Luma<u16>, Vec<u16>>;
@@ -113,4 +115,19 @@ impl Image {
         }
         out
     }
+}
+
+/// Writes an 8-bit grey PNG atomically (`fusion_io::output`).
+pub fn write_png8(path: &Path, img: &GrayImage) -> Result<()> {
+    fusion_io::write_atomic(path, |w| Ok(img.write_to(w, ImageFormat::Png)?))
+}
+
+/// Writes a 16-bit grey PNG atomically.
+pub fn write_png16(path: &Path, img: &Gray16Image) -> Result<()> {
+    fusion_io::write_atomic(path, |w| Ok(img.write_to(w, ImageFormat::Png)?))
+}
+
+/// Writes a float image as an 8-bit grey PNG atomically.
+pub fn save_gray8(path: &Path, img: &Image) -> Result<()> {
+    write_png8(path, &img.to_gray8())
 }

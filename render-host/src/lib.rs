@@ -1,11 +1,11 @@
 #![doc = include_str!("../README.md")]
 
 pub mod camera;
-pub mod cli;
 pub mod dataset;
 pub mod image;
+pub mod material;
 pub mod noise;
-pub mod output;
+pub mod render;
 pub mod scene;
 pub mod sequence;
 pub mod surface;
@@ -19,6 +19,7 @@ pub use dataset::{DatasetConfig, Manifest, render_dataset, trajectory};
 pub use glam;
 pub use image::Image;
 pub use noise::{Band, NoiseParams, apply_sensor_noise};
+pub use render::{RenderOptions, render};
 pub use scene::{Material, Scene};
 pub use surface::{SurfaceDetail, SurfacePoint};
 pub use thermal::{ThermalParams, eclipse_transient, face_temperatures, steady_state};

@@ -43,12 +43,37 @@ pub enum Band {
     Tir,
 }
 
-/// SplitMix64 finaliser: a well-mixed 64-bit hash.
+/// SplitMix64's increment (the golden ratio in 64 bits).
+const GOLDEN_GAMMA: u64 = 0x9E37_79B9_7F4A_7C15;
+
+/// SplitMix64's step as a hash (Steele, Lea & Flood 2014): `z` advanced by one increment, then
+/// finalised; a well-mixed 64-bit value of `z`.
 pub fn mix64(mut z: u64) -> u64 {
-    z = z.wrapping_add(0x9E37_79B9_7F4A_7C15);
+    z = z.wrapping_add(GOLDEN_GAMMA);
     z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
     z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
     z ^ (z >> 31)
+}
+
+/// The host side's one small seeded generator (SplitMix64): test frames, the stress study's
+/// patterns, the BRIEF test pattern. Its `k`-th output is [`mix64`] of `seed + k·γ`, so a
+/// stream can also be read at any position without stepping (as the stress patterns do).
+/// The renderer's image noise uses [`NoiseRng`] ([`rng_for`]), seeded through [`mix64`].
+#[derive(Debug, Clone)]
+pub struct SplitMix64(u64);
+
+impl SplitMix64 {
+    /// A generator whose first output is `mix64(seed)`.
+    pub fn new(seed: u64) -> Self {
+        Self(seed)
+    }
+
+    /// The next 64 random bits.
+    pub fn next_u64(&mut self) -> u64 {
+        let out = mix64(self.0);
+        self.0 = self.0.wrapping_add(GOLDEN_GAMMA);
+        out
+    }
 }
 
 /// A generator for one image: `seed` is the dataset seed, `stream` names the image.

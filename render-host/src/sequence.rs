@@ -31,14 +31,15 @@
 use crate::camera::{Camera, Pose};
 use crate::dataset::{contact_sheet, noise_stream, rows_of};
 use crate::image::Image;
+use crate::image::{save_gray8, write_png8, write_png16};
 use crate::noise::{Band, NoiseParams, apply_sensor_noise, rng_for};
-use crate::output::{save_gray8, write_json, write_png8, write_png16};
 use crate::scene::Scene;
 use crate::thermal::{NodeBalance, ThermalParams, advance, face_temperatures, steady_state};
 use crate::tir::{TirParams, render_tir};
 use crate::truth::target_mask;
 use crate::vis::{VisParams, render_vis};
 use anyhow::{Context, Result, bail};
+use fusion_io::output::write_json;
 use glam::{Quat, Vec3};
 use image::GrayImage;
 use indicatif::{ProgressBar, ProgressStyle};
@@ -47,7 +48,8 @@ use serde::{Deserialize, Serialize};
 use std::path::Path;
 
 /// The named rendezvous trajectories.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize, clap::ValueEnum)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 #[serde(rename_all = "snake_case")]
 pub enum SequenceName {
     /// Closing from 50 m to 5 m in sunlight, the target tumbling.

@@ -30,9 +30,10 @@
 //! noise octaves and per-cell variations fade out as their size falls below two footprints, so
 //! a far target shows the mean albedo instead of Moiré.
 
-use crate::scene::{Material, Scene};
+use crate::material::{Face, Material};
 use glam::Vec3;
 use noise::{NoiseFn, Perlin};
+use obvhs::triangle::Triangle;
 
 /// Per-pixel surface properties at one hit.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -60,7 +61,7 @@ struct FaceFrame {
     v_range: (f32, f32),
 }
 
-/// Procedural surface detail for a [`Scene`] (see the module docs).
+/// Procedural surface detail for a scene's faces (see the module docs).
 #[derive(Clone)]
 pub struct SurfaceDetail {
     frames: Vec<FaceFrame>,
@@ -98,14 +99,14 @@ const MOUNT_PULL: f64 = 0.35;
 impl SurfaceDetail {
     /// Detail for `scene` with the given seed (the seed moves the noise, the per-cell values and
     /// the electronics boxes; the grids are fixed by the hardware's layout).
-    pub fn new(scene: &Scene, seed: u64) -> SurfaceDetail {
+    pub fn new(faces: &[Face], triangles: &[Triangle], triangle_face: &[u32], seed: u64) -> SurfaceDetail {
         let mut acc: Vec<(Vec3, f32, [f32; 4])> =
             vec![
                 (Vec3::ZERO, 0.0, [f32::INFINITY, f32::NEG_INFINITY, f32::INFINITY, f32::NEG_INFINITY]);
-                scene.faces.len()
+                faces.len()
             ];
-        let axes: Vec<(Vec3, Vec3)> = scene.faces.iter().map(|f| tangent_axes(f.normal)).collect();
-        for (tri, &face) in scene.triangles.iter().zip(&scene.triangle_face) {
+        let axes: Vec<(Vec3, Vec3)> = faces.iter().map(|f| tangent_axes(f.normal)).collect();
+        for (tri, &face) in triangles.iter().zip(triangle_face) {
             let (u_axis, v_axis) = axes[face as usize];
             let a = &mut acc[face as usize];
             for v in [tri.v0, tri.v1, tri.v2] {
@@ -135,13 +136,13 @@ impl SurfaceDetail {
     /// `footprint` metres; `node_temperature` is the face's node temperature (K).
     pub fn at(
         &self,
-        scene: &Scene,
+        faces: &[Face],
         face: u32,
         point: Vec3,
         footprint: f32,
         node_temperature: f64,
     ) -> SurfacePoint {
-        let f = &scene.faces[face as usize];
+        let f = &faces[face as usize];
         let props = f.material.props();
         let mut s = SurfacePoint {
             albedo: props.diffuse_albedo,

@@ -24,7 +24,8 @@ use serde::{Deserialize, Serialize};
 use std::f64::consts::PI;
 
 /// How a pixel's value follows from the temperature of the face it sees.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize, clap::ValueEnum)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 #[serde(rename_all = "snake_case")]
 pub enum Radiometry {
     /// Radiance `εσT⁴/π` with `cos⁴` fall-off (physically right).
@@ -34,7 +35,8 @@ pub enum Radiometry {
 }
 
 /// How radiance becomes a [0, 1] value.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize, clap::ValueEnum)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 #[serde(rename_all = "snake_case")]
 pub enum DnMapping {
     /// Linear in radiance between `L(T_min)` and `L(T_max)` (a raw microbolometer signal is
@@ -127,7 +129,7 @@ pub fn render_tir(scene: &Scene, camera: &Camera, face_temperatures: &[f32], par
             let t = f64::from(face_temperatures.get(hit.face as usize).copied().unwrap_or(0.0));
             let (t, eps, reflected) = match &scene.detail {
                 Some(detail) => {
-                    let s = detail.at(scene, hit.face, hit.point, hit.t / camera.focal_px, t);
+                    let s = detail.at(&scene.faces, hit.face, hit.point, hit.t / camera.focal_px, t);
                     // The relief's mirror image of the Earth: (1 − ε) of its radiance where the
                     // reflected ray points inside the Earth's disc (soft limb).
                     let n = if s.normal.dot(d) > 0.0 { -s.normal } else { s.normal };

@@ -9,7 +9,8 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 /// Illumination of a VIS frame.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize, clap::ValueEnum)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 #[serde(rename_all = "snake_case")]
 pub enum Illumination {
     /// In sunlight.
@@ -106,7 +107,7 @@ fn shade(scene: &Scene, camera: &Camera, p: &VisParams, x: u32, y: u32) -> f32 {
     let props = scene.faces[hit.face as usize].material.props();
     let (albedo, specular, shading_normal) = match &scene.detail {
         Some(detail) => {
-            let s = detail.at(scene, hit.face, hit.point, hit.t / camera.focal_px, 0.0);
+            let s = detail.at(&scene.faces, hit.face, hit.point, hit.t / camera.focal_px, 0.0);
             (s.albedo, s.specular, s.normal)
         }
         None => (props.diffuse_albedo, props.specular, hit.normal),

@@ -7,9 +7,9 @@ use render_host::noise::{NoiseRng, pink_noise, radial_power_spectrum, rng_for};
 use render_host::scene::{Material, MeshBuilder};
 use render_host::thermal::sunlit_fractions;
 use render_host::{
-    Band, Camera, DatasetConfig, DnMapping, Image, NoiseParams, Pose, Radiometry, Scene, ThermalParams,
-    TirParams, VisParams, apply_sensor_noise, face_temperatures, render_dataset, render_tir, render_vis,
-    steady_state, trajectory,
+    Band, Camera, DatasetConfig, DnMapping, Image, NoiseParams, Pose, Radiometry, RenderOptions, Scene,
+    ThermalParams, TirParams, VisParams, apply_sensor_noise, face_temperatures, render_dataset, render_tir,
+    render_vis, steady_state, trajectory,
 };
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -501,47 +501,40 @@ fn tir_and_vis_at_both_sizes_align() {
     }
 }
 
-/// `fusion render`'s arguments drive the dataset: sizes, frames, the mesh and the sheet.
+/// The render options drive the dataset: sizes, frames, radiometry and the sheet; bad options
+/// are refused before anything is written.
 #[test]
-fn cli_arguments_render_a_dataset() {
-    use clap::Parser;
-    #[derive(Parser)]
-    struct Cli {
-        #[command(flatten)]
-        args: render_host::cli::RenderArgs,
-    }
+fn render_options_render_a_dataset() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("ds");
-    let parse = |extra: &[&str]| {
-        render_host::output::set_quiet(true);
-        let mut argv = vec!["render", "--out", out.to_str().unwrap()];
-        argv.extend_from_slice(extra);
-        Cli::try_parse_from(argv).map(|c| c.args)
+    fusion_io::console::set_quiet(true);
+    let a = RenderOptions {
+        out: out.clone(),
+        frames: Some(2),
+        vis_size: 48,
+        tir_sizes: vec![24, 48],
+        sheet_frames: 0,
+        radiometry: Radiometry::Study,
+        ..RenderOptions::default()
     };
-    let a = parse(&[
-        "--frames",
-        "2",
-        "--vis-size",
-        "48",
-        "--tir-sizes",
-        "24,48",
-        "--sheet-frames",
-        "0",
-        "--radiometry",
-        "study",
-    ])
-    .unwrap();
     let cfg = a.config().unwrap();
     assert_eq!((cfg.frames, cfg.vis_size, cfg.tir_sizes.clone()), (2, 48, vec![24, 48]));
     assert_eq!(cfg.tir.radiometry, Radiometry::Study);
-    render_host::cli::run(&a).unwrap();
+    let summary = render_host::render(&a).unwrap();
+    assert!(summary.starts_with("wrote 20 images in 5 sets x 2 frames"), "{summary}");
     let m: Manifest = serde_json::from_slice(&std::fs::read(out.join("manifest.json")).unwrap()).unwrap();
     assert_eq!(m.frames.len(), 2);
     assert_eq!(m.contact_sheet_columns, [0, 1]);
     assert!(out.join("tir24/noisy/frame_001.png").is_file());
     assert!(out.join("vis_eclipse/clean/frame_000.png").is_file());
-    for bad in [&["--frames", "0"][..], &["--t-min", "400", "--t-max", "300"], &["--tir-sizes", "0"]] {
-        assert!(parse(bad).unwrap().config().is_err(), "{bad:?} should be refused");
+    let bad = [
+        RenderOptions { frames: Some(0), ..a.clone() },
+        RenderOptions { t_min: 400.0, t_max: 300.0, ..a.clone() },
+        RenderOptions { tir_sizes: vec![0], ..a.clone() },
+        RenderOptions { out: dir.path().join("never"), exposure: f32::NAN, ..a.clone() },
+    ];
+    for b in &bad {
+        assert!(b.config().is_err() && render_host::render(b).is_err(), "{b:?} should be refused");
     }
-    assert!(parse(&["--radiometry", "nonsense"]).is_err());
+    assert!(!dir.path().join("never").exists(), "a refused render writes nothing");
 }

@@ -20,10 +20,10 @@ fn far_away_the_cells_average_to_their_area_weighted_albedo() {
     let expected = (1.0 - gap - bar) * 0.08 + gap * 0.45 + bar * 0.70;
     for k in 0..50 {
         let p = Vec3::new(-0.3 + 0.012 * k as f32, 0.2 - 0.007 * k as f32, z);
-        let s = detail.at(&scene, top, p, 1.0, 330.0);
+        let s = detail.at(&scene.faces, top, p, 1.0, 330.0);
         assert!((s.albedo - expected).abs() < 0.002, "point {k}: albedo {} not {expected}", s.albedo);
         // Up close the same points see one of the three surfaces exactly.
-        let near = detail.at(&scene, top, p, 1e-5, 330.0).albedo;
+        let near = detail.at(&scene.faces, top, p, 1e-5, 330.0).albedo;
         assert!(near < 0.1 || (near - 0.45).abs() < 1e-3 || (near - 0.70).abs() < 1e-3, "{near}");
     }
 }

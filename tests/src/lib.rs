@@ -1,24 +1,22 @@
 //! Shared helpers for the cross-crate integration tests in `tests/tests/`.
 
-use host_harness::io::Gray;
+use fusion_io::Gray;
+use render_host::noise::SplitMix64;
 
-/// A small deterministic generator (SplitMix64) for test images; no external RNG needed.
+/// Random test images from the host's one seeded generator
+/// ([`render_host::noise::SplitMix64`]).
 #[derive(Debug, Clone)]
-pub struct TestRng(u64);
+pub struct TestRng(SplitMix64);
 
 impl TestRng {
     /// A generator from a seed.
     pub fn new(seed: u64) -> Self {
-        Self(seed)
+        Self(SplitMix64::new(seed))
     }
 
     /// The next 64 random bits.
     pub fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
+        self.0.next_u64()
     }
 
     /// A uniform random u8 image.

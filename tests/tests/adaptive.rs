@@ -4,14 +4,14 @@
 //! black band, and the pipeline's decision taken from the input frames.
 
 use anyhow::Result;
+use fusion_engine::CoreScratch;
+use fusion_engine::methods::{fuse_core, fuse_reference};
+use fusion_engine::study::Dataset;
+use fusion_io::Gray;
 use fusion_nostd::methods::adaptive::{AdaptiveParams, Decision, decide_frame};
 use fusion_nostd::pipeline::{FuseConfig, Method, RescalePolicy, adaptive_decision, fuse_method_decided};
 use fusion_nostd::scene::SceneParams;
 use fusion_nostd::{Filter, Guards, rescale};
-use host_harness::CoreScratch;
-use host_harness::io::Gray;
-use host_harness::methods::{fuse_core, fuse_reference};
-use host_harness::study::Dataset;
 use render_host::{DatasetConfig, render_dataset};
 
 fn adaptive() -> FuseConfig {

@@ -3,14 +3,16 @@
 //!
 //! Run with `cargo test -p fusion-tests --test adf_tsifsd -- --nocapture` to see the numbers.
 
+use fusion_engine::CoreScratch;
+use fusion_io::npy::read_npy_2d;
+use fusion_io::testdata;
+use fusion_io::{ColorPolicy, Gray, load_gray_u8};
 use fusion_nostd::methods::adf::{AdfParams, fuse_adf, fuse_adf_raw};
 use fusion_nostd::methods::tsifsd::{TsifsdParams, fuse_tsifsd, fuse_tsifsd_raw};
 use fusion_nostd::methods::{Guards, Variant};
 use fusion_nostd::{Error, FrameMut, FrameRef};
+use fusion_reference as reference;
 use fusion_tests::{TestRng, scene};
-use host_harness::io::{ColorPolicy, Gray, load_gray_u8, read_npy_2d};
-use host_harness::reference;
-use host_harness::{CoreScratch, testdata};
 
 const PAIRS: [&str; 4] = ["fight", "manWalking", "kettle", "peopleshadow"];
 
@@ -549,7 +551,7 @@ mod properties {
 #[test]
 #[ignore = "measurement, prints a table"]
 fn flight_saliency_choice_measurement() {
-    use host_harness::reference::tsifsd::{box_mean, scharr_l1};
+    use fusion_reference::tsifsd::{box_mean, scharr_l1};
     fn gradients(img: &Gray<f64>) -> (Gray<f64>, Gray<f64>) {
         let (w, h) = (img.width as isize, img.height as isize);
         let at = |x: isize, y: isize| img.at(x.clamp(0, w - 1) as usize, y.clamp(0, h - 1) as usize);

@@ -9,10 +9,10 @@
 //! checksums the firmware self-test prints (release, fat LTO, Cortex-M7 and RV32 under QEMU)
 //! with this test build's (x86-64, debug assertions on) when the images and QEMU are there.
 
+use fusion_io::Gray;
 use fusion_nostd::pipeline::{FuseConfig, Method, RescalePolicy, fuse};
 use fusion_nostd::{AdaptiveParams, AdfParams, FrameMut, FrameRef, IfevipParams, ScratchMut, TsifsdParams};
 use fusion_tests::{TestRng, scene};
-use host_harness::io::Gray;
 
 fn methods() -> Vec<Method> {
     Method::all().to_vec()
@@ -193,7 +193,7 @@ fn fw_selftest_matches_the_host() {
         ("adaptive", Method::Adaptive(AdaptiveParams::default())),
     ] {
         let p = FuseConfig { rescale: RescalePolicy::TirUp, method, ..Default::default() };
-        let fused = host_harness::methods::fuse_core(&vis, &tir, &p, false).unwrap();
+        let fused = fusion_engine::methods::fuse_core(&vis, &tir, &p, false).unwrap();
         host.push(format!(
             "@fw selftest {name} guards 0x{:02x} fnv1a {:08x}",
             fused.guards.0,

@@ -1,13 +1,14 @@
 //! IFEVIP: the f64 reference against the published outputs, the integer core against both.
 
+use fusion_engine::CoreScratch;
+use fusion_io::npy::read_npy_2d;
+use fusion_io::testdata;
+use fusion_io::{ColorPolicy, Gray, load_gray_u8};
 use fusion_nostd::methods::ifevip::{IfevipParams, fuse_ifevip, scratch_pixels};
 use fusion_nostd::methods::{Guards, Variant};
 use fusion_nostd::{Error, FrameMut, FrameRef};
+use fusion_reference as reference;
 use fusion_tests::{TestRng, scene};
-use host_harness::CoreScratch;
-use host_harness::io::{ColorPolicy, Gray, load_gray_u8, read_npy_2d};
-use host_harness::reference;
-use host_harness::testdata;
 
 const PAIRS: [&str; 4] = ["fight", "kettle", "manWalking", "peopleshadow"];
 

@@ -11,14 +11,14 @@
 use std::sync::Mutex;
 
 use anyhow::Result;
+use fusion_engine::skip::fuse_once;
+use fusion_engine::strips::{HostStripScratch, fuse_strips_once};
+use fusion_engine::study::Dataset;
+use fusion_io::Gray;
 use fusion_nostd::cpu::{Isa, isa, limit_isa};
 use fusion_nostd::pipeline::{FuseConfig, Method, RescalePolicy, SkipPolicy};
 use fusion_nostd::{Filter, rescale};
 use fusion_tests::scene;
-use host_harness::io::Gray;
-use host_harness::skip::fuse_once;
-use host_harness::strips::{HostStripScratch, fuse_strips_once};
-use host_harness::study::Dataset;
 use render_host::{DatasetConfig, render_dataset};
 
 /// The tests here change the process-wide cap: one at a time.

@@ -2,9 +2,9 @@
 //! triples: `tests/data/vifb/vifb_metrics.csv`, see `tests/data/README.md`): every value to
 //! 1e-6 relative.
 
-use host_harness::io::load_channels_u8;
-use host_harness::metrics::vifb::{KEYS, vifb_metrics};
-use host_harness::testdata;
+use fusion_io::load_channels_u8;
+use fusion_io::testdata;
+use fusion_metrics::vifb::{KEYS, vifb_metrics};
 
 const TOLERANCE: f64 = 1e-6;
 

@@ -2,7 +2,7 @@
 //! the trajectories and phases the manifest promises, ground truth that agrees with the
 //! renders, and the benchmark's measures where physics fixes their order.
 
-use host_harness::nav::bench::{run_sequence, streams, summary};
+use fusion_navbench::bench::{run_sequence, streams, summary};
 use render_host::sequence::{Phase, SequenceConfig, SequenceName, read_manifest, render_sequence};
 use render_host::{Camera, Scene};
 

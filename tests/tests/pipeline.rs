@@ -1,13 +1,13 @@
 //! The pipeline entry (`fusion_nostd::pipeline`): rescale policy + method, against the same
 //! steps composed by hand (core rescaler, then the method), and against the f64 references.
 
+use fusion_engine::CoreScratch;
+use fusion_engine::methods::{fuse_core, fuse_reference};
+use fusion_io::Gray;
 use fusion_nostd::methods::{Guards, round_away_sat_u8};
 use fusion_nostd::pipeline::{FuseConfig, Method, RescalePolicy, fuse, fuse_raw, fusion_grid};
 use fusion_nostd::{AdaptiveParams, AdfParams, Error, Filter, IfevipParams, TsifsdParams, Variant, rescale};
 use fusion_tests::{assert_same, scene};
-use host_harness::CoreScratch;
-use host_harness::io::Gray;
-use host_harness::methods::{fuse_core, fuse_reference};
 
 fn methods() -> [Method; 7] {
     Method::all()

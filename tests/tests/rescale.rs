@@ -1,10 +1,10 @@
 //! The core's rescalers against the f64 reference and the properties of
-//! `shared/reference/rescale-semantics.md`.
+//! `docs/reference/rescale-semantics.md`.
 
+use fusion_io::{ColorPolicy, Gray, load_gray_u8};
 use fusion_nostd::{Filter, FrameMut, FrameRef, rescale};
+use fusion_reference::rescale as reference;
 use fusion_tests::{TestRng, assert_same, diff, flip_lr, flip_ud, transpose};
-use host_harness::io::{ColorPolicy, Gray, load_gray_u8};
-use host_harness::reference::rescale as reference;
 use proptest::prelude::*;
 
 fn core_u8(src: &Gray<u8>, dw: usize, dh: usize, filter: Filter) -> Gray<u8> {
@@ -67,7 +67,7 @@ fn full_size_frames_are_exact() {
 fn real_photos_of_odd_sizes_are_exact() {
     for pair in ["fight", "manWalking", "kettle", "peopleshadow"] {
         for band in ["VIS", "IR"] {
-            let path = host_harness::testdata::file(&format!("vifb/{pair}_{band}.png"));
+            let path = fusion_io::testdata::file(&format!("vifb/{pair}_{band}.png"));
             let img = load_gray_u8(&path, ColorPolicy::Refuse).unwrap();
             let (w, h) = (img.width, img.height);
             for filter in FILTERS {

@@ -2,6 +2,8 @@
 //! documented `Err` (or, where the input is valid however unusual, a correct `Ok`), never a
 //! panic. The table of cases and outcomes is in `fusion-nostd`'s crate docs ("Robustness").
 
+use fusion_engine::CoreScratch;
+use fusion_io::Gray;
 use fusion_nostd::methods::adf::{fuse_adf, fuse_adf_raw};
 use fusion_nostd::methods::ifevip::{self, fuse_ifevip};
 use fusion_nostd::methods::tsifsd::{fuse_tsifsd, fuse_tsifsd_raw};
@@ -12,8 +14,6 @@ use fusion_nostd::{
     TsifsdParams, Variant, rescale,
 };
 use fusion_tests::{TestRng, scene};
-use host_harness::CoreScratch;
-use host_harness::io::Gray;
 
 fn methods() -> [Method; 7] {
     let (c, f) = (Variant::Classic, Variant::Flight);

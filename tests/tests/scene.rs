@@ -4,12 +4,12 @@
 //! eclipse; bad input is still an `Err`.
 
 use anyhow::Result;
+use fusion_engine::skip::{first_difference_in, fuse_once, skip_error};
+use fusion_engine::study::Dataset;
+use fusion_io::{Gray, vifb_pairs};
 use fusion_nostd::pipeline::{FuseConfig, Method, RescalePolicy, SkipPolicy, Skips};
 use fusion_nostd::scene::{Decline, Illumination, Rect, SceneParams, analyze};
 use fusion_nostd::{AdaptiveParams, AdfParams, Error, IfevipParams, TsifsdParams, Variant};
-use host_harness::io::{Gray, vifb_pairs};
-use host_harness::skip::{first_difference_in, fuse_once, skip_error};
-use host_harness::study::Dataset;
 use render_host::{DatasetConfig, render_dataset};
 
 fn methods() -> Vec<(&'static str, Method)> {
@@ -204,7 +204,7 @@ fn rendered_frames_roi_is_bit_identical_for_every_method() -> Result<()> {
                 for (name, method) in methods() {
                     for skip in [SkipPolicy::Roi, SkipPolicy::All] {
                         let o = check(
-                            &format!("{set} {frame} {} {name}", host_harness::study::version(noisy)),
+                            &format!("{set} {frame} {} {name}", fusion_engine::study::version(noisy)),
                             &vis,
                             &tir,
                             method,
@@ -230,7 +230,7 @@ fn rendered_frames_roi_is_bit_identical_for_every_method() -> Result<()> {
 #[test]
 fn vifb_pairs_decline_and_stay_identical() -> Result<()> {
     let mut pairs = 0;
-    for (name, vis, tir) in vifb_pairs(&host_harness::testdata::vifb_dir())? {
+    for (name, vis, tir) in vifb_pairs(&fusion_io::testdata::vifb_dir())? {
         let scene = analyze(vis.view()?, tir.view()?, (vis.width, vis.height), &SceneParams::default())?;
         assert!(scene.decline.is_some(), "{name}: the analysis must decline a real scene: {scene:?}");
         for (m, method) in methods() {
@@ -269,7 +269,7 @@ fn black_vis_is_an_eclipse_and_adf_skips_its_side() -> Result<()> {
 fn bad_input_is_still_an_error() -> Result<()> {
     let vis = synthetic(64, 64, Rect { x0: 20, y0: 20, x1: 40, y1: 40 }, 80, 0, 7);
     let tir = synthetic(32, 32, Rect { x0: 10, y0: 10, x1: 20, y1: 20 }, 80, 0, 8);
-    let mut scratch = host_harness::CoreScratch::new(64 * 64);
+    let mut scratch = fusion_engine::CoreScratch::new(64 * 64);
     for skip in [SkipPolicy::Roi, SkipPolicy::All] {
         let p = pipeline(Method::default(), RescalePolicy::TirUp, skip);
         let mut small = Gray::<u8>::new(32, 32);
@@ -282,7 +282,7 @@ fn bad_input_is_still_an_error() -> Result<()> {
         );
         assert_eq!(r.err(), Some(Error::SizeMismatch { expected: (64, 64), got: (32, 32) }));
         let mut out = Gray::<u8>::new(64, 64);
-        let mut tiny = host_harness::CoreScratch::new(16);
+        let mut tiny = fusion_engine::CoreScratch::new(16);
         let r =
             fusion_nostd::pipeline::fuse(vis.view()?, tir.view()?, out.view_mut()?, &mut tiny.view_mut(), &p);
         assert!(matches!(r, Err(Error::ScratchTooSmall { .. })), "{r:?}");
@@ -294,7 +294,7 @@ fn bad_input_is_still_an_error() -> Result<()> {
         let same = FuseConfig { rescale: RescalePolicy::None, ..p };
         let mut out160 = Gray::<u8>::new(160, 160);
         let n = 160 * 160;
-        let mut short = host_harness::CoreScratch::new(n - 1);
+        let mut short = fusion_engine::CoreScratch::new(n - 1);
         let r = fusion_nostd::pipeline::fuse(
             vis160.view()?,
             tir160.view()?,
@@ -303,7 +303,7 @@ fn bad_input_is_still_an_error() -> Result<()> {
             &same,
         );
         assert_eq!(r.err(), Some(Error::ScratchTooSmall { needed: n, capacity: n - 1 }));
-        let mut enough = host_harness::CoreScratch::new(n);
+        let mut enough = fusion_engine::CoreScratch::new(n);
         let r = fusion_nostd::pipeline::fuse(
             vis160.view()?,
             tir160.view()?,
@@ -366,9 +366,7 @@ fn noisy_sequence_windows_hold_every_target_pixel() -> Result<()> {
         render_sequence(&cfg, &d, false)?;
         let m = read_manifest(&d)?;
         for f in &m.frames {
-            let load = |rel: &str| {
-                host_harness::io::load_gray_u8(&d.join(rel), host_harness::io::ColorPolicy::Refuse)
-            };
+            let load = |rel: &str| fusion_io::load_gray_u8(&d.join(rel), fusion_io::ColorPolicy::Refuse);
             let (vis, tir) = (load(&f.files.vis)?, load(&f.files.tir)?);
             let (vm, tm) = (load(&f.files.vis_mask)?, load(&f.files.tir_mask)?);
             let label = format!("{} frame {} ({:?})", name.as_str(), f.index, f.phase);

@@ -6,13 +6,13 @@
 //! untouched.
 
 use anyhow::Result;
+use fusion_engine::skip::fuse_once;
+use fusion_engine::strips::{HostStripScratch, fuse_strips_once};
+use fusion_engine::study::Dataset;
+use fusion_io::{Gray, vifb_pairs};
 use fusion_nostd::pipeline::{FuseConfig, Method, RescalePolicy, SkipPolicy};
 use fusion_nostd::strips::{STRIP_SCRATCH_BYTES, StripScratchMut, fuse_strips};
 use fusion_nostd::{AdaptiveParams, AdfParams, Error, IfevipParams, TsifsdParams, Variant};
-use host_harness::io::{Gray, vifb_pairs};
-use host_harness::skip::fuse_once;
-use host_harness::strips::{HostStripScratch, fuse_strips_once};
-use host_harness::study::Dataset;
 use render_host::{DatasetConfig, render_dataset};
 
 fn methods() -> Vec<(&'static str, Method)> {
@@ -221,7 +221,7 @@ fn rendered_frames_are_bit_identical_in_strips() -> Result<()> {
 #[test]
 fn vifb_pairs_are_bit_identical_in_strips() -> Result<()> {
     let mut pairs = 0;
-    for (name, vis, tir) in vifb_pairs(&host_harness::testdata::vifb_dir())? {
+    for (name, vis, tir) in vifb_pairs(&fusion_io::testdata::vifb_dir())? {
         for (label, method) in methods() {
             let p = FuseConfig { rescale: RescalePolicy::None, method, ..FuseConfig::default() };
             for rows in [usize::MAX, 64, 17] {

@@ -1,10 +1,10 @@
 //! The rendered target gives a feature tracker something to hold on to (issue 20, item 1): with
 //! the procedural surface detail, the navigation front end's detector
-//! (`host_harness::nav::features::detect`) finds several times more corners on the target than
+//! (`fusion_navbench::features::detect`) finds several times more corners on the target than
 //! on the flat-shaded target of the same views: at least 3× in VIS, 2× in TIR in light and in
 //! eclipse.
 
-use host_harness::nav::features::{detect, grow_mask};
+use fusion_navbench::features::{detect, grow_mask};
 use render_host::dataset::trajectory;
 use render_host::truth::target_mask;
 use render_host::{

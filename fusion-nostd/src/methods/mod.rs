@@ -1,4 +1,4 @@
-//! Fusion methods: ADF, TSIFSD, IFEVIP (specs: `shared/reference/fusion-algorithms.md`) and
+//! Fusion methods: ADF, TSIFSD, IFEVIP (specs: `docs/reference/fusion-algorithms.md`) and
 //! the illumination-adaptive fusion for navigation ([`adaptive`]).
 //!
 //! Every method takes two aligned `u8` frames of the same size (VIS, TIR), writes a `u8`

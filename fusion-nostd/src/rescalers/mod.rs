@@ -9,7 +9,7 @@
 //! | `u16` | exact integer rule (cv2 itself is within ±1 of it) | as `u8` |
 //! | `f32` | `f32` evaluation, within `1e-6·max|input|` of the exact value | same |
 //!
-//! The integer paths use no floating point. See `shared/reference/rescale-semantics.md` and
+//! The integer paths use no floating point. See `docs/reference/rescale-semantics.md` and
 //! the module docs of `taps` (coordinates), `bicubic` and `area` (the 2× kernels).
 
 mod area;

@@ -1,7 +1,7 @@
 //! Per-axis resampling rules: which source samples an output sample reads, with what weight.
 //!
 //! Both filters are separable, so a 2-D rescale is one rule per axis. Coordinates follow
-//! OpenCV's `cv2.resize` (see `shared/reference/rescale-semantics.md`):
+//! OpenCV's `cv2.resize` (see `docs/reference/rescale-semantics.md`):
 //!
 //! * **Cubic** — centres aligned: output `d` sits at source `u = (d + ½)·n_src/n_dst − ½`;
 //!   `i = ⌊u⌋`, `t = u − i`; taps `i−1 … i+2` with Keys weights (a = −¾)

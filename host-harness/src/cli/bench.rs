@@ -8,15 +8,15 @@
 //!
 //! Inputs: frame 0 of a rendered dataset (`--data`, rendered at the study's sizes when empty).
 
-use crate::methods::fuse_reference;
-use crate::plot::{Labels, Series, Style, chart};
-use crate::skip::{SkipError, skip_error};
-use crate::study::{Dataset, fuse_timed, median};
 use anyhow::{Context, Result};
 use clap::Args;
+use fusion_engine::methods::fuse_reference;
+use fusion_engine::skip::{SkipError, skip_error};
+use fusion_engine::study::{Dataset, fuse_timed, median};
 use fusion_nostd::cpu::{Isa, isa, limit_isa};
 use fusion_nostd::pipeline::{FuseConfig, Method, RescalePolicy};
 use fusion_nostd::{AdfParams, IfevipParams, TsifsdParams, Variant};
+use fusion_report::plot::{Labels, Series, Style, chart};
 use render_host::{DatasetConfig, render_dataset};
 use std::fmt::Write as _;
 use std::path::PathBuf;
@@ -311,7 +311,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         let name = path.file_name().and_then(|n| n.to_str()).unwrap_or("");
         let _ = writeln!(md, "\n![{family}: time against error]({name})");
     }
-    let mut batch = crate::io::Batch::default();
+    let mut batch = fusion_io::Batch::default();
     batch.add_bytes(&args.out.join("bench.md"), md.as_bytes())?;
     batch.add_bytes(&args.out.join("bench.csv"), csv.as_bytes())?;
     batch.commit()?;
@@ -339,7 +339,7 @@ mod tests {
 
     #[test]
     fn psnr_of_identical_is_infinite() {
-        use crate::io::Gray;
+        use fusion_io::Gray;
         let a = Gray { width: 2, height: 1, data: vec![1u8, 2] };
         let same = skip_error(&a, &a);
         assert_eq!((same.psnr, same.max_abs), (f64::INFINITY, 0));

@@ -2,12 +2,12 @@
 //! instructions per pixel per stage and method, cycle and frame-rate estimates, the memory
 //! report, check the committed budget table and bit-exactness against the host.
 
-use crate::budget::fw::{Grid, Target};
-use crate::budget::table::Table;
-use crate::budget::{self, Options};
-use crate::methods::MethodArg;
 use anyhow::{Context, Result, bail};
 use clap::{Args, ValueEnum};
+use fusion_budget::fw::{Grid, Target};
+use fusion_budget::table::Table;
+use fusion_budget::{self as budget, Options};
+use fusion_engine::methods::MethodArg;
 use std::path::PathBuf;
 use std::time::Duration;
 
@@ -160,7 +160,7 @@ pub fn run(args: &BudgetArgs) -> Result<()> {
         methods,
         repeat: args.repeat.max(1),
         exactness: !args.no_exact,
-        vifb: args.vifb.clone().unwrap_or_else(|| crate::testdata::dir().join("vifb")),
+        vifb: args.vifb.clone().unwrap_or_else(|| fusion_io::testdata::dir().join("vifb")),
         budgets: args.budgets.clone(),
         write_budgets: args.write_budgets.clone(),
         timeout: Duration::from_secs(args.timeout),
@@ -177,7 +177,7 @@ pub fn run(args: &BudgetArgs) -> Result<()> {
     }
     outln!("{text}")?;
     let report_path = opts.out.join("report.md");
-    let mut batch = crate::io::Batch::default();
+    let mut batch = fusion_io::Batch::default();
     batch.add_bytes(&report_path, text.as_bytes())?;
     if let Some(path) = &opts.write_budgets {
         batch.add_bytes(

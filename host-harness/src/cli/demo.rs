@@ -8,15 +8,15 @@
 //!    method, cropped to the target) and `OUT/summary.md` / `OUT/summary.csv`: per method and
 //!    illumination the median core time and the mean fusion metrics.
 
-use crate::io::save_gray_u8;
-use crate::metrics::{average_gradient, mutual_information, rmse, ssim};
-use crate::study::{
-    Dataset, contact_sheet, core_methods, fuse_timed, grid, source_on_grid, target_square, tile,
-};
 use anyhow::{Context, Result};
 use clap::Args;
+use fusion_engine::study::{Dataset, core_methods, fuse_timed, grid};
+use fusion_io::save_gray_u8;
+use fusion_io::source_on_grid;
+use fusion_metrics::{average_gradient, mutual_information, rmse, ssim};
 use fusion_nostd::pipeline::{FuseConfig, RescalePolicy};
 use fusion_nostd::{Filter, Guards};
+use fusion_report::sheet::{contact_sheet, target_square, tile};
 use render_host::{DatasetConfig, render_dataset};
 use std::fmt::Write as _;
 use std::path::PathBuf;
@@ -74,7 +74,7 @@ pub fn run(args: &DemoArgs) -> Result<()> {
     // The published methods and the adaptive fusion for navigation (no published counterpart,
     // so not among the study's methods).
     let mut methods = core_methods();
-    methods.push(crate::study::NamedMethod {
+    methods.push(fusion_engine::study::NamedMethod {
         name: "adaptive",
         method: fusion_nostd::Method::Adaptive(fusion_nostd::AdaptiveParams::default()),
     });
@@ -147,7 +147,7 @@ pub fn run(args: &DemoArgs) -> Result<()> {
     for (ii, ill) in illuminations.iter().enumerate() {
         for (mi, m) in methods.iter().enumerate() {
             let row = &mut rows[ii][mi];
-            let ms = crate::study::median(&mut row.ms);
+            let ms = fusion_engine::study::median(&mut row.ms);
             let _ = writeln!(
                 md,
                 "| {ill} | {} | {ms:.1} | {:.3} | {:.3} | {:.3} | {:.3} | {} |",
@@ -160,7 +160,7 @@ pub fn run(args: &DemoArgs) -> Result<()> {
             );
         }
     }
-    let mut summary = crate::io::Batch::default();
+    let mut summary = fusion_io::Batch::default();
     summary.add_bytes(&args.out.join("summary.md"), md.as_bytes())?;
     summary.add_bytes(&args.out.join("summary.csv"), csv.as_bytes())?;
     summary.commit()?;

@@ -7,8 +7,8 @@ pub mod budget;
 pub mod demo;
 pub mod eval;
 pub mod fuse;
-pub mod fuse_folders;
 pub mod navbench;
+pub mod render;
 pub mod report;
 pub mod rescale;
 pub mod skip_study;
@@ -22,7 +22,7 @@ pub struct Cli {
     #[arg(long, global = true)]
     pub quiet: bool,
     /// Refuse runs whose estimated peak memory exceeds this (bytes, or K/M/G/T) [default: 8G].
-    #[arg(long, global = true, value_name = "SIZE", value_parser = crate::memory::parse_size)]
+    #[arg(long, global = true, value_name = "SIZE", value_parser = fusion_io::memory::parse_size)]
     pub max_memory: Option<u64>,
     /// What to do.
     #[command(subcommand)]
@@ -46,7 +46,7 @@ pub enum Command {
     /// colour kept, 14/16-bit thermal through the core's AGC.
     Fuse(fuse::FuseArgs),
     /// Render a dataset of aligned VIS/TIR pairs of a spacecraft target (ray traced).
-    Render(render_host::cli::RenderArgs),
+    Render(render::RenderArgs),
     /// Fusion metrics of a fused image (or three folders): the study's suite, VIFB's 13 (exactly
     /// as its code), or both; noise metrics with --ref.
     Eval(eval::EvalArgs),
@@ -68,7 +68,7 @@ pub enum Command {
 /// Runs one parsed command line.
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     if let Some(limit) = cli.max_memory {
-        crate::memory::set_limit(limit);
+        fusion_io::memory::set_limit(limit);
     }
     match cli.command {
         Command::Demo(args) => demo::run(&args),
@@ -82,9 +82,9 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::SkipStudy(args) => skip_study::run(&args),
         Command::Render(args) => {
             let px = (args.vis_size as u64).saturating_mul(args.vis_size as u64);
-            let bytes = crate::memory::estimate(px, crate::memory::per_pixel::RENDER);
-            crate::memory::check(&format!("--vis-size {}", args.vis_size), "rendering", bytes)?;
-            render_host::cli::run(&args)
+            let bytes = fusion_io::memory::estimate(px, fusion_io::memory::per_pixel::RENDER);
+            fusion_io::memory::check(&format!("--vis-size {}", args.vis_size), "rendering", bytes)?;
+            render::run(&args)
         }
         Command::Navbench(args) => navbench::run(&args),
     }

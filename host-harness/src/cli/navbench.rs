@@ -1,11 +1,11 @@
 //! `fusion navbench`: every image stream of the rendezvous sequences through one feature-based
-//! navigation front end, against the rendered ground truth (`crate::nav::bench`).
+//! navigation front end, against the rendered ground truth (`fusion_navbench::bench`).
 
-use crate::io::write_bytes;
-use crate::nav::bench::{FrameResult, PhaseSummary, Summary, run_sequence, selected, summary};
-use crate::plot::{Labels, Series, Style, chart_shaded};
 use anyhow::{Result, bail};
 use clap::Args;
+use fusion_io::write_bytes;
+use fusion_navbench::bench::{FrameResult, PhaseSummary, Summary, run_sequence, selected, summary};
+use fusion_report::plot::{Labels, Series, Style, chart_shaded};
 use render_host::sequence::{Phase, SequenceConfig, SequenceName, render_sequence};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};

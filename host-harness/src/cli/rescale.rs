@@ -1,28 +1,11 @@
 //! `fusion rescale`: the core's rescalers on an image file (PNG, JPEG, TIFF or PGM in; PNG, TIFF or PGM out).
 
-use crate::io::{ColorPolicy, Gray, GrayInput, load_image, save_gray_u8, save_gray_u16};
 use anyhow::{Result, bail};
-use clap::{Args, ValueEnum};
+use clap::Args;
+use fusion_engine::methods::FilterArg;
+use fusion_io::{ColorPolicy, Gray, GrayInput, load_image, save_gray_u8, save_gray_u16};
 use fusion_nostd::{Filter, rescale};
 use std::path::PathBuf;
-
-/// The interpolation filter, as named on the command line.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-pub enum FilterArg {
-    /// Keys bicubic, a = −0.75 (`cv2.INTER_CUBIC`).
-    Cubic,
-    /// Pixel area (`cv2.INTER_AREA`).
-    Area,
-}
-
-impl From<FilterArg> for Filter {
-    fn from(f: FilterArg) -> Self {
-        match f {
-            FilterArg::Cubic => Filter::Cubic,
-            FilterArg::Area => Filter::Area,
-        }
-    }
-}
 
 /// Arguments of `fusion rescale`.
 #[derive(Debug, Args)]
@@ -55,7 +38,7 @@ fn rescaled<T: fusion_nostd::Sample + Default>(
 
 /// Runs `fusion rescale`.
 pub fn run(args: &RescaleArgs) -> Result<()> {
-    crate::io::OutFormat::of(&args.output)?;
+    fusion_io::OutFormat::of(&args.output)?;
     if args.width == 0 || args.height == 0 {
         bail!("the requested size {}x{} has a zero side", args.width, args.height);
     }
@@ -71,8 +54,8 @@ pub fn run(args: &RescaleArgs) -> Result<()> {
     // The output (and its encoded copy) at up to 2 bytes a sample; the input is judged by its
     // header when it is decoded.
     let out_px = (args.width as u64).saturating_mul(args.height as u64);
-    let bytes = crate::memory::estimate(out_px, 2 * crate::memory::per_pixel::DECODE);
-    crate::memory::check(&args.input.display().to_string(), "rescaling to this size", bytes)?;
+    let bytes = fusion_io::memory::estimate(out_px, 2 * fusion_io::memory::per_pixel::DECODE);
+    fusion_io::memory::check(&args.input.display().to_string(), "rescaling to this size", bytes)?;
     match load_image(&args.input, ColorPolicy::Refuse)? {
         GrayInput::U8(src) => save_gray_u8(&args.output, &rescaled(&src, args.width, args.height, filter)?),
         GrayInput::U16(src) => save_gray_u16(&args.output, &rescaled(&src, args.width, args.height, filter)?),

@@ -2,16 +2,17 @@
 //! method and skip level, host time, window (ROI + halo) fraction and the error against the
 //! unskipped result; a Markdown table, a CSV and a chart.
 
-use crate::io::Gray;
-use crate::plot::{Labels, Series, Style, chart};
-use crate::skip::{fuse_once, skip_error};
-use crate::study::{Dataset, core_methods, source_on_grid, version};
 use anyhow::{Result, bail};
 use clap::Args;
+use fusion_engine::skip::{fuse_once, skip_error};
+use fusion_engine::study::{Dataset, core_methods, version};
+use fusion_io::Gray;
+use fusion_io::source_on_grid;
 use fusion_nostd::Filter;
 use fusion_nostd::pipeline::{FuseConfig, RescalePolicy, SkipPolicy, Skips};
 use fusion_nostd::scene::Rect;
 use fusion_nostd::scene::{SceneParams, analyze};
+use fusion_report::plot::{Labels, Series, Style, chart};
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
@@ -265,7 +266,7 @@ pub fn run(args: &SkipStudyArgs) -> Result<()> {
             )?;
         }
     }
-    let mut batch = crate::io::Batch::default();
+    let mut batch = fusion_io::Batch::default();
     batch.add_bytes(&args.out.join("skip_study.md"), md.as_bytes())?;
     batch.add_bytes(&args.out.join("skip_study.csv"), csv.as_bytes())?;
     batch.commit()?;

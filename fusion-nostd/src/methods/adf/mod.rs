@@ -1,5 +1,5 @@
 //! ADF — anisotropic diffusion + Karhunen–Loève fusion (Bavirisetti & Dhuli, IEEE Sensors J.
-//! 16(1), 2016), integer core. Spec: `shared/reference/fusion-algorithms.md`, ADF.
+//! 16(1), 2016), integer core. Spec: `docs/reference/fusion-algorithms.md`, ADF.
 //!
 //! # Steps and number formats
 //!

@@ -1,6 +1,6 @@
 //! IFEVIP — infrared feature extraction and visual information preservation (Zhang, Zhang,
 //! Bai, Zhang, Infrared Phys. Technol. 83, 2017), integer core. Spec:
-//! `shared/reference/fusion-algorithms.md`, IFEVIP (Part B) and Part A's guards.
+//! `docs/reference/fusion-algorithms.md`, IFEVIP (Part B) and Part A's guards.
 //!
 //! # Steps and number formats
 //!

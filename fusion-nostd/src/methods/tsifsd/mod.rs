@@ -1,6 +1,6 @@
 //! TSIFSD — two-scale image fusion with saliency detection (Bavirisetti & Dhuli, Infrared
 //! Phys. Technol. 76, 2016; VIFB "TIF"), integer core. Spec:
-//! `shared/reference/fusion-algorithms.md`, TSIFSD.
+//! `docs/reference/fusion-algorithms.md`, TSIFSD.
 //!
 //! # Steps and number formats
 //!

@@ -13,7 +13,7 @@ pub(super) fn write_csvs(cells: &Cells, out: &Path) -> Result<()> {
         }
         let _ = writeln!(means, "{t},{r},{c},{},{},{}", cells.mean(t, r, c), cells.median(t, r, c), v.len());
     }
-    let mut tables = crate::io::Batch::default();
+    let mut tables = fusion_io::Batch::default();
     tables.add_bytes(&out.join("per_frame.csv"), per_frame.as_bytes())?;
     tables.add_bytes(&out.join("tables.csv"), means.as_bytes())?;
     tables.commit()?;

@@ -14,7 +14,7 @@
 //!   inputs: VIS down (compared with the reference area-downscaled to 512²), TIR up, same res.
 //! * **Table 7** — median core time per method on both grids (one thread).
 //!
-//! The study's four other methods (GFF, MGFF, TEPGFL, DRIF; [`crate::study_methods`]) have no
+//! The study's four other methods (GFF, MGFF, TEPGFL, DRIF; [`fusion_reference::study_methods`]) have no
 //! core path: they run on the host in f64, one thread, and are timed that way (once per frame).
 //! DRIF fuses VIS 1024² with TIR 512² as they are and outputs on the VIS grid: it has a row in
 //! Table 4 (compared with the same sources as the others), none in Table 5, and one Table 6 row
@@ -26,20 +26,19 @@
 //! Everything goes to `OUT/`: `report.md` (our tables beside the study's numbers and the
 //! conclusions), one CSV per table, per-frame CSV and charts, and a contact sheet.
 
-use crate::io::{Gray, save_gray_u8};
-use crate::metrics::{FusionMetrics, NoiseMetrics, format_psnr, fusion_metrics, noise_metrics};
-use crate::plot::{Labels, Series, Style, chart};
-use crate::reference::rescale::lanczos3_u8;
-use crate::study::{
-    Dataset, NamedMethod, contact_sheet, core_methods, fuse_timed, median, source_on_grid, target_square,
-    tile,
-};
-use crate::study_methods::guided_filter::box_mean;
-use crate::study_methods::{HostMethod, fuse_host_u8};
 use anyhow::{Context, Result};
 use clap::Args;
+use fusion_engine::study::{Dataset, NamedMethod, core_methods, fuse_timed, median};
+use fusion_io::source_on_grid;
+use fusion_io::{Gray, save_gray_u8};
+use fusion_metrics::{FusionMetrics, NoiseMetrics, format_psnr, fusion_metrics, noise_metrics};
 use fusion_nostd::Filter;
 use fusion_nostd::pipeline::{FuseConfig, RescalePolicy};
+use fusion_reference::rescale::lanczos3_u8;
+use fusion_reference::study_methods::guided_filter::box_mean;
+use fusion_reference::study_methods::{HostMethod, fuse_host_u8};
+use fusion_report::plot::{Labels, Series, Style, chart};
+use fusion_report::sheet::{contact_sheet, target_square, tile};
 use rayon::prelude::*;
 use render_host::{
     Camera, DatasetConfig, Illumination, Scene, VisParams, render_dataset, render_vis, trajectory,
@@ -441,7 +440,7 @@ pub fn run(args: &ReportArgs) -> Result<()> {
     let md =
         markdown(&cells, &methods, frames, &dataset, &charts, started.elapsed().as_secs_f64(), (small, big));
     let report = args.out.join("report.md");
-    crate::io::write_bytes(&report, md.as_bytes())?;
+    fusion_io::write_bytes(&report, md.as_bytes())?;
     outln!("{md}")?;
     outln!("report: {}", report.display())?;
     Ok(())

@@ -3,7 +3,7 @@
 #[allow(unused_imports)]
 use super::*;
 
-/// The study's numbers (shared/reference/study-results.md) for the rows we have.
+/// The study's numbers (docs/reference/study-results.md) for the rows we have.
 pub(super) fn study_t2(r: &str) -> (f64, f64, f64) {
     match r {
         "area" => (0.0065, 22.13, 0.48),

@@ -1,0 +1,786 @@
+//! Building the firmware image and the Arm counting plugin, writing a job, running QEMU and
+//! reading back what the image reported (protocol: `fw/src/main.rs`, `fw/src/job.rs`).
+
+use super::elf::Elf;
+use anyhow::{Context, Result, bail, ensure};
+use fusion_engine::methods::{MethodArg, RescaleArg, SkipArg, VariantArg};
+use fusion_io::Gray;
+use std::fmt;
+use std::fs;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+/// The emulated flight targets.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum Target {
+    /// Cortex-M7, `thumbv7em-none-eabihf`, QEMU `mps2-an500`.
+    Arm,
+    /// RV32IMAC, `riscv32imac-unknown-none-elf`, QEMU `virt`.
+    Riscv,
+    /// Cortex-A53 (AArch64 with NEON), `aarch64-unknown-none`, QEMU `virt -cpu cortex-a53`: the
+    /// application processor class of on-board vision processing (Zynq UltraScale+ and the like).
+    A53,
+}
+
+impl Target {
+    /// Every target.
+    pub const ALL: [Target; 3] = [Target::Arm, Target::Riscv, Target::A53];
+
+    /// Rust target triple.
+    pub fn triple(self) -> &'static str {
+        match self {
+            Target::Arm => "thumbv7em-none-eabihf",
+            Target::Riscv => "riscv32imac-unknown-none-elf",
+            Target::A53 => "aarch64-unknown-none",
+        }
+    }
+
+    /// Short name (also the first key of the budget table).
+    pub fn name(self) -> &'static str {
+        match self {
+            Target::Arm => "arm",
+            Target::Riscv => "riscv",
+            Target::A53 => "a53",
+        }
+    }
+
+    /// Core the estimate is for, as printed.
+    pub fn core(self) -> &'static str {
+        match self {
+            Target::Arm => "Cortex-M7",
+            Target::Riscv => "RV32 in-order",
+            Target::A53 => "Cortex-A53",
+        }
+    }
+
+    /// Stated cycles-per-instruction range used to turn counts into cycle estimates (QEMU has
+    /// no timing model): Cortex-M7 dual-issue 1.0–1.3, a simple in-order RV32 about 1.5, the
+    /// dual-issue in-order Cortex-A53 1.0–1.5 (its NEON pipe issues one 128-bit operation a
+    /// cycle; loads that miss its 32 KiB L1 and the external memory raise the CPI).
+    pub fn cpi(self) -> (f64, f64) {
+        match self {
+            Target::Arm => (1.0, 1.3),
+            Target::Riscv => (1.5, 1.5),
+            Target::A53 => (1.0, 1.5),
+        }
+    }
+
+    /// The stated clock of the estimates: 400 MHz for the microcontrollers (a Cortex-M7 at its
+    /// usual rating), 1.2 GHz for the Cortex-A53 (Zynq UltraScale+ APU class).
+    pub fn clock_hz(self) -> f64 {
+        match self {
+            Target::Arm | Target::Riscv => 400e6,
+            Target::A53 => 1.2e9,
+        }
+    }
+
+    /// Whether instructions are counted by the TCG plugin between the marker functions (Arm and
+    /// AArch64) rather than read by the guest (`minstret` on RV32).
+    pub fn counts_with_plugin(self) -> bool {
+        matches!(self, Target::Arm | Target::A53)
+    }
+
+    /// The QEMU command line before the image (`-kernel` follows).
+    fn qemu(self) -> (&'static str, &'static [&'static str]) {
+        match self {
+            Target::Arm => ("qemu-system-arm", &["-machine", "mps2-an500", "-cpu", "cortex-m7"]),
+            Target::Riscv => (
+                "qemu-system-riscv32",
+                &["-machine", "virt", "-bios", "none", "-m", "64M", "-icount", "shift=0,sleep=off"],
+            ),
+            Target::A53 => ("qemu-system-aarch64", &["-machine", "virt", "-cpu", "cortex-a53", "-m", "128M"]),
+        }
+    }
+
+    /// The linker map that defines the target's memory regions.
+    pub fn linker_map(self) -> PathBuf {
+        match self {
+            Target::Arm => fw_dir().join("../memory.x"),
+            Target::Riscv => fw_dir().join("riscv-virt.ld"),
+            Target::A53 => fw_dir().join("aarch64-virt.ld"),
+        }
+    }
+}
+
+impl fmt::Display for Target {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// Which static buffer sizes the image is built with.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum Grid {
+    /// 512² fusion grid (VIS 1024² area-downscaled onto the 512² TIR grid): feature `grid512`.
+    G512,
+    /// 1024² fusion grid (TIR 512² bicubic-upscaled onto the 1024² VIS grid): the default.
+    G1024,
+}
+
+impl Grid {
+    /// Side of the fusion grid.
+    pub fn side(self) -> usize {
+        match self {
+            Grid::G512 => 512,
+            Grid::G1024 => 1024,
+        }
+    }
+
+    /// How the budget pair (VIS 1024², TIR 512²) reaches this grid.
+    pub fn policy(self) -> RescaleArg {
+        match self {
+            Grid::G512 => RescaleArg::VisDown,
+            Grid::G1024 => RescaleArg::TirUp,
+        }
+    }
+}
+
+/// The firmware sources (`fw/` beside this crate).
+pub fn fw_dir() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../fw")
+}
+
+/// Builds the image for `target` and `grid` (release) and copies it to
+/// `out/fusion-fw-<target>-<side>.elf` (every feature set writes the same cargo output path).
+pub fn build_image(target: Target, grid: Grid, out: &Path) -> Result<PathBuf> {
+    let fw = fw_dir();
+    let mut cmd = Command::new(std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into()));
+    cmd.current_dir(&fw)
+        .args(["build", "--release", "--quiet", "--target", target.triple(), "--target-dir"])
+        .arg(fw.join("target"));
+    if grid == Grid::G512 {
+        cmd.args(["--features", "grid512"]);
+    }
+    let status = cmd.status().context("cannot run cargo to build the firmware")?;
+    ensure!(status.success(), "firmware build failed for {target} ({}²)", grid.side());
+    let built = fw.join("target").join(target.triple()).join("release/fusion-fw");
+    let dst = out.join(format!("fusion-fw-{target}-{}.elf", grid.side()));
+    fs::copy(&built, &dst).with_context(|| format!("cannot copy {}", built.display()))?;
+    Ok(dst)
+}
+
+/// Builds the Arm instruction-counting plugin (`fw/plugin/insn_count.c`) with the host C
+/// compiler (`$CC`, default `gcc`) into `out/libinsn_count.so`.
+pub fn build_plugin(out: &Path) -> Result<PathBuf> {
+    let src = fw_dir().join("plugin/insn_count.c");
+    let dst = out.join("libinsn_count.so");
+    let cc = std::env::var_os("CC").unwrap_or_else(|| "gcc".into());
+    let status = Command::new(&cc)
+        .args(["-shared", "-fPIC", "-O2", "-Wall", "-Wextra", "-Werror", "-o"])
+        .arg(&dst)
+        .arg(&src)
+        .status()
+        .with_context(|| format!("cannot run the C compiler {cc:?} for the QEMU plugin"))?;
+    ensure!(status.success(), "building {} failed", src.display());
+    Ok(dst)
+}
+
+/// The thermal AGC's two mappings, as an AGC run of a job measures them.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum AgcKind {
+    /// `AgcParams::plateau(pixels)`.
+    Plateau,
+    /// `AgcParams::linear()`.
+    Linear,
+}
+
+impl AgcKind {
+    /// Both, in table order.
+    pub const ALL: [AgcKind; 2] = [AgcKind::Plateau, AgcKind::Linear];
+
+    /// Name (the budget key's stage).
+    pub fn name(self) -> &'static str {
+        match self {
+            AgcKind::Plateau => "plateau",
+            AgcKind::Linear => "linear",
+        }
+    }
+
+    /// The core parameters the image uses for a frame of `pixels`.
+    pub fn params(self, pixels: usize) -> fusion_nostd::AgcParams {
+        match self {
+            AgcKind::Plateau => fusion_nostd::AgcParams::plateau(pixels),
+            AgcKind::Linear => fusion_nostd::AgcParams::linear(),
+        }
+    }
+}
+
+/// One run of a job: a method on the job's pair (or, with `agc`, the thermal AGC on the job's
+/// 16-bit TIR frame; the other fields are then unused).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct RunSpec {
+    /// Fusion method.
+    pub method: MethodArg,
+    /// Variant.
+    pub variant: VariantArg,
+    /// Rescale policy.
+    pub policy: RescaleArg,
+    /// Scene skip level (the scene thresholds are `SceneParams::default()` on both sides).
+    pub skip: SkipArg,
+    /// Measure the stages too (the staged run repeats the work).
+    pub stages: bool,
+    /// Make the image raise a fault instead (tests that a fault ends the run with status 1).
+    pub fault: bool,
+    /// Fuse strip by strip in the image's 512 KiB strip scratch (`fusion_nostd::strips`); the
+    /// output must equal the host's whole-frame `fuse`.
+    pub strips: bool,
+    /// An AGC run instead of a fusion.
+    pub agc: Option<AgcKind>,
+}
+
+impl RunSpec {
+    /// A whole-pipeline run (no stages, no fault, no skipping).
+    pub fn plain(method: MethodArg, variant: VariantArg, policy: RescaleArg) -> Self {
+        RunSpec {
+            method,
+            variant,
+            policy,
+            skip: SkipArg::None,
+            stages: false,
+            fault: false,
+            strips: false,
+            agc: None,
+        }
+    }
+
+    /// An AGC run on the job's 16-bit TIR frame.
+    pub fn agc(kind: AgcKind) -> Self {
+        RunSpec {
+            agc: Some(kind),
+            ..RunSpec::plain(MethodArg::Tsifsd, VariantArg::Classic, RescaleArg::None)
+        }
+    }
+
+    /// The core configuration the image builds for this run (`fw/src/job.rs`), for the host's
+    /// comparison run.
+    pub fn pipeline(&self) -> fusion_nostd::pipeline::FuseConfig {
+        fusion_nostd::pipeline::FuseConfig {
+            rescale: self.policy.into(),
+            method: fusion_engine::methods::method_for(self.method, self.variant),
+            skip: self.skip.into(),
+            scene: fusion_nostd::scene::SceneParams::default(),
+        }
+    }
+
+    /// The four bytes of this run in `job.bin`.
+    pub fn encode(&self) -> [u8; 4] {
+        if let Some(kind) = self.agc {
+            return [4, u8::from(kind == AgcKind::Linear), 2, u8::from(self.fault) << 1];
+        }
+        let method = match self.method {
+            MethodArg::Adf => 0,
+            MethodArg::Tsifsd => 1,
+            MethodArg::Ifevip => 2,
+            MethodArg::Adaptive => 3,
+        };
+        let variant = match self.variant {
+            VariantArg::Classic => 0,
+            VariantArg::Flight => 1,
+        };
+        let policy = match self.policy {
+            RescaleArg::TirUp => 0,
+            RescaleArg::VisDown => 1,
+            RescaleArg::None => 2,
+        };
+        let skip = match self.skip {
+            SkipArg::None => 0u8,
+            SkipArg::Roi => 1,
+            SkipArg::All => 2,
+        };
+        let flags =
+            u8::from(self.stages) | (u8::from(self.fault) << 1) | (skip << 2) | (u8::from(self.strips) << 4);
+        [method, variant, policy, flags]
+    }
+
+    /// The inverse of [`RunSpec::encode`], with the image's checks (`fw/src/job.rs`).
+    pub fn decode([method, variant, policy, flags]: [u8; 4]) -> Result<Self> {
+        if method == 4 {
+            ensure!(
+                policy == 2 && flags & !2 == 0,
+                "an AGC run takes policy 2 and no flag but the fault bit"
+            );
+            let kind = match variant {
+                0 => AgcKind::Plateau,
+                1 => AgcKind::Linear,
+                _ => bail!("bad AGC mapping {variant}"),
+            };
+            return Ok(RunSpec { fault: flags & 2 != 0, ..RunSpec::agc(kind) });
+        }
+        let method = match method {
+            0 => MethodArg::Adf,
+            1 => MethodArg::Tsifsd,
+            2 => MethodArg::Ifevip,
+            3 => MethodArg::Adaptive,
+            _ => bail!("bad method {method}"),
+        };
+        let variant = match variant {
+            0 => VariantArg::Classic,
+            1 => VariantArg::Flight,
+            _ => bail!("bad variant {variant}"),
+        };
+        let policy = match policy {
+            0 => RescaleArg::TirUp,
+            1 => RescaleArg::VisDown,
+            2 => RescaleArg::None,
+            _ => bail!("bad rescale policy {policy}"),
+        };
+        let skip = match (flags >> 2) & 3 {
+            0 => SkipArg::None,
+            1 => SkipArg::Roi,
+            2 => SkipArg::All,
+            s => bail!("bad skip level {s}"),
+        };
+        ensure!(flags >> 5 == 0, "unknown flags {flags:#x}");
+        let (stages, fault, strips) = (flags & 1 != 0, flags & 2 != 0, flags & 0x10 != 0);
+        ensure!(!(stages && skip != SkipArg::None), "a staged run cannot skip");
+        ensure!(!(strips && (stages || skip != SkipArg::None)), "a strip run cannot be staged or skip");
+        Ok(RunSpec { method, variant, policy, skip, stages, fault, strips, agc: None })
+    }
+}
+
+/// What the image reported about a run's scene skipping (`@fw skip` line).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct SkipOut {
+    /// Skip level as printed (`none`, `roi`, `all`).
+    pub level: String,
+    /// `Skips` bits taken.
+    pub taken: u32,
+    /// Why the skip was declined (`-`: it was not).
+    pub declined: String,
+    /// The window the method ran on: x0, y0, x1, y1.
+    pub computed: [usize; 4],
+}
+
+/// A job: one VIS/TIR pair and the runs on it.
+#[derive(Debug, Clone)]
+pub struct Job {
+    /// Visible frame.
+    pub vis: Gray<u8>,
+    /// Thermal frame.
+    pub tir: Gray<u8>,
+    /// Runs, in order (at most 32).
+    pub runs: Vec<RunSpec>,
+    /// 16-bit TIR counts of the AGC runs (the TIR size), written as `tir16.gray`.
+    pub tir16: Option<Gray<u16>>,
+}
+
+impl Job {
+    /// The `job.bin` bytes.
+    pub fn encode(&self) -> Result<Vec<u8>> {
+        ensure!((1..=32).contains(&self.runs.len()), "a job has 1 to 32 runs");
+        let tir_size = (self.tir.width, self.tir.height);
+        ensure!(
+            self.runs.iter().all(|r| r.agc.is_none())
+                || self.tir16.as_ref().is_some_and(|t| (t.width, t.height) == tir_size),
+            "AGC runs need 16-bit TIR counts of the TIR size"
+        );
+        let mut b = b"FWJ1".to_vec();
+        for v in [self.vis.width, self.vis.height, self.tir.width, self.tir.height, self.runs.len()] {
+            b.extend_from_slice(&u32::try_from(v)?.to_le_bytes());
+        }
+        for r in &self.runs {
+            b.extend_from_slice(&r.encode());
+        }
+        Ok(b)
+    }
+}
+
+/// What one run reported.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RunOut {
+    /// Measured regions in order: label and instruction count.
+    pub regions: Vec<(String, u64)>,
+    /// Guard bits of the pipeline's report.
+    pub guards: u32,
+    /// Whether a band was rescaled.
+    pub rescaled: bool,
+    /// FNV-1a of the fused frame, as computed on the target.
+    pub fnv1a: u32,
+    /// Fused frame size.
+    pub size: (usize, usize),
+    /// The fused frame, read back from the file the image wrote.
+    pub image: Option<Gray<u8>>,
+    /// The scene-skip report (images before the skip level print none).
+    pub skip: Option<SkipOut>,
+    /// The strip report of a strip run (`@fw strips` line).
+    pub strips: Option<fusion_nostd::strips::StripReport>,
+}
+
+impl RunOut {
+    /// Count of the region with this label.
+    pub fn region(&self, label: &str) -> Option<u64> {
+        self.regions.iter().find(|(l, _)| l == label).map(|&(_, c)| c)
+    }
+}
+
+/// Everything one emulator run reported.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FwReport {
+    /// Instructions of an empty region (marker overhead, included in every region count).
+    pub overhead: u64,
+    /// One entry per run of the job.
+    pub runs: Vec<RunOut>,
+    /// Stack high-water mark, bytes.
+    pub stack_bytes: u64,
+    /// Wall time of the emulator process.
+    pub wall: Duration,
+}
+
+fn parse_hex(s: &str) -> Result<u32> {
+    Ok(u32::from_str_radix(s.trim_start_matches("0x"), 16)?)
+}
+
+/// Reads the image's console lines (and, on Arm, the plugin's `insn_count` lines, which
+/// supply the region counts in the same order).
+pub fn parse_report(console: &str, plugin_log: Option<&str>) -> Result<FwReport> {
+    let plugin_counts: Option<Vec<u64>> = plugin_log.map(|log| {
+        log.lines()
+            .filter_map(|l| l.strip_prefix("insn_count "))
+            .filter(|l| !l.starts_with("total") && !l.starts_with("error"))
+            .filter_map(|l| l.split_whitespace().nth(1)?.parse().ok())
+            .collect()
+    });
+    if let Some(log) = plugin_log
+        && let Some(line) = log.lines().find(|l| l.starts_with("insn_count error"))
+    {
+        bail!("counting plugin: {line}");
+    }
+    let mut overhead = None;
+    let mut runs: Vec<RunOut> = Vec::new();
+    let mut stack_bytes = None;
+    let mut done = false;
+    let mut seq = 0usize;
+    for line in console.lines() {
+        let Some(rest) = line.strip_prefix("@fw ") else { continue };
+        let f: Vec<&str> = rest.split_whitespace().collect();
+        match f.as_slice() {
+            ["region", n, label, count] => {
+                ensure!(n.parse::<usize>()? == seq, "region numbers out of order: {line}");
+                let count = match (&plugin_counts, *count) {
+                    (Some(pc), "-") => {
+                        *pc.get(seq).with_context(|| format!("plugin has no count for {line}"))?
+                    }
+                    (None, c) => c.parse().with_context(|| format!("no count in {line}"))?,
+                    (Some(_), _) => bail!("unexpected count from the guest on Arm: {line}"),
+                };
+                seq += 1;
+                if *label == "overhead" && runs.is_empty() {
+                    overhead = Some(count);
+                } else {
+                    runs.last_mut()
+                        .with_context(|| format!("region outside a run: {line}"))?
+                        .regions
+                        .push((label.to_string(), count));
+                }
+            }
+            ["run", i, _method, _variant, _policy, size] => {
+                ensure!(i.parse::<usize>()? == runs.len(), "runs out of order: {line}");
+                let (w, h) = size.split_once('x').context("bad run size")?;
+                runs.push(RunOut {
+                    regions: Vec::new(),
+                    guards: 0,
+                    rescaled: false,
+                    fnv1a: 0,
+                    size: (w.parse()?, h.parse()?),
+                    image: None,
+                    skip: None,
+                    strips: None,
+                });
+            }
+            ["result", i, "guards", g, "rescaled", r, "fnv1a", sum, "file", _] => {
+                let run = runs.get_mut(i.parse::<usize>()?).context("result for an unknown run")?;
+                run.guards = parse_hex(g)?;
+                run.rescaled = *r == "1";
+                run.fnv1a = parse_hex(sum)?;
+            }
+            ["skip", i, "level", level, "taken", taken, "declined", declined, "computed", x0, y0, x1, y1] => {
+                let run = runs.get_mut(i.parse::<usize>()?).context("skip report for an unknown run")?;
+                run.skip = Some(SkipOut {
+                    level: level.to_string(),
+                    taken: parse_hex(taken)?,
+                    declined: declined.to_string(),
+                    computed: [x0.parse()?, y0.parse()?, x1.parse()?, y1.parse()?],
+                });
+            }
+            [
+                "strips",
+                i,
+                "count",
+                count,
+                "rows",
+                rows,
+                "halo",
+                halo,
+                "passes",
+                passes,
+                "method_rows",
+                method_rows,
+                "band_rows",
+                band_rows,
+                "work_words",
+                words,
+                "band_bytes",
+                band_bytes,
+            ] => {
+                let run = runs.get_mut(i.parse::<usize>()?).context("strip report for an unknown run")?;
+                run.strips = Some(fusion_nostd::strips::StripReport {
+                    strips: count.parse()?,
+                    strip_rows: rows.parse()?,
+                    halo_rows: halo.parse()?,
+                    passes: passes.parse()?,
+                    method_rows: method_rows.parse()?,
+                    band_rows: band_rows.parse()?,
+                    work_words: words.parse()?,
+                    band_bytes: band_bytes.parse()?,
+                });
+            }
+            ["stack", n] => stack_bytes = Some(n.parse()?),
+            ["done", "ok"] => done = true,
+            ["error", ..] | ["fault", ..] | ["panic", ..] | ["done", ..] => bail!("firmware: {rest}"),
+            _ => {}
+        }
+    }
+    ensure!(done, "the firmware did not finish (no `@fw done ok` line)");
+    if let Some(pc) = &plugin_counts {
+        ensure!(pc.len() == seq, "plugin counted {} regions, the firmware reported {seq}", pc.len());
+    }
+    Ok(FwReport {
+        overhead: overhead.context("no overhead region")?,
+        runs,
+        stack_bytes: stack_bytes.context("no stack line")?,
+        wall: Duration::ZERO,
+    })
+}
+
+/// What a finished emulator process left behind.
+struct Finished {
+    status: std::process::ExitStatus,
+    console: String,
+    plugin_log: Option<String>,
+    wall: Duration,
+}
+
+/// Writes `job` into a fresh folder `dir` and runs `image` there under QEMU (console and plugin
+/// logs stay there); kills the emulator after `timeout`.
+fn emulate(
+    target: Target,
+    image: &Path,
+    plugin: Option<&Path>,
+    job: &Job,
+    dir: &Path,
+    timeout: Duration,
+) -> Result<Finished> {
+    if dir.exists() {
+        fs::remove_dir_all(dir).with_context(|| format!("cannot clear {}", dir.display()))?;
+    }
+    fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    // The job's three files for the emulator, through the one write path. (The emulator's own
+    // console and log files below are its streams, captured where it runs.)
+    let mut files = fusion_io::Batch::default();
+    files.add_bytes(&dir.join("job.bin"), &job.encode()?)?;
+    files.add_bytes(&dir.join("vis.gray"), &job.vis.data)?;
+    files.add_bytes(&dir.join("tir.gray"), &job.tir.data)?;
+    if let Some(t) = &job.tir16 {
+        let bytes: Vec<u8> = t.data.iter().flat_map(|v| v.to_le_bytes()).collect();
+        files.add_bytes(&dir.join("tir16.gray"), &bytes)?;
+    }
+    files.commit()?;
+    let (qemu, machine) = target.qemu();
+    let mut cmd = Command::new(qemu);
+    cmd.current_dir(dir)
+        .args(machine)
+        .args(["-nographic", "-semihosting-config", "enable=on,target=native", "-kernel"])
+        .arg(image);
+    if target.counts_with_plugin() {
+        let plugin = plugin.with_context(|| format!("the {target} run needs the counting plugin"))?;
+        let elf = Elf::read(image)?;
+        let sym = |n: &str| elf.symbol(n).with_context(|| format!("{n} not found in {}", image.display()));
+        let (begin, end) = (sym("fw_region_begin")?, sym("fw_region_end")?);
+        cmd.arg("-plugin").arg(format!("{},begin={begin:#x},end={end:#x}", plugin.display())).args([
+            "-d",
+            "plugin",
+            "-D",
+            "plugin.log",
+        ]);
+    }
+    let console_path = dir.join("console.txt");
+    cmd.stdin(Stdio::null())
+        .stdout(fs::File::create(&console_path)?)
+        .stderr(fs::File::create(dir.join("stderr.txt"))?);
+    let start = Instant::now();
+    let mut child = cmd.spawn().with_context(|| format!("cannot start {qemu} (is QEMU installed?)"))?;
+    let status = loop {
+        if let Some(s) = child.try_wait()? {
+            break s;
+        }
+        if start.elapsed() > timeout {
+            let _ = child.kill();
+            let _ = child.wait();
+            bail!("{qemu} timed out after {} s (logs in {})", timeout.as_secs(), dir.display());
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    };
+    let wall = start.elapsed();
+    let console = fs::read_to_string(&console_path)?;
+    let plugin_log =
+        target.counts_with_plugin().then(|| fs::read_to_string(dir.join("plugin.log")).unwrap_or_default());
+    Ok(Finished { status, console, plugin_log, wall })
+}
+
+/// Runs `job` on `image` in a fresh folder `dir` (inputs, outputs, console and plugin logs stay
+/// there) and reads back the report and the fused frames. `plugin` is required on Arm. The
+/// emulator is killed after `timeout`.
+pub fn run_job(
+    target: Target,
+    image: &Path,
+    plugin: Option<&Path>,
+    job: &Job,
+    dir: &Path,
+    timeout: Duration,
+) -> Result<FwReport> {
+    let done = emulate(target, image, plugin, job, dir, timeout)?;
+    let mut report = parse_report(&done.console, done.plugin_log.as_deref())
+        .with_context(|| format!("{target} run in {}", dir.display()))?;
+    ensure!(done.status.success(), "QEMU exited with {} (logs in {})", done.status, dir.display());
+    ensure!(
+        report.runs.len() == job.runs.len(),
+        "the firmware reported {} of {} runs",
+        report.runs.len(),
+        job.runs.len()
+    );
+    for (i, run) in report.runs.iter_mut().enumerate() {
+        let data = fs::read(dir.join(format!("out{i}.gray")))?;
+        let (w, h) = run.size;
+        ensure!(data.len() == w * h, "out{i}.gray has {} bytes, expected {}", data.len(), w * h);
+        run.image = Some(Gray { width: w, height: h, data });
+    }
+    report.wall = done.wall;
+    Ok(report)
+}
+
+/// Runs a job whose first run raises a fault and checks that the image reported it and QEMU
+/// exited with a failure status (the contract for faults and panics on the flight targets).
+pub fn check_fault_exit(
+    target: Target,
+    image: &Path,
+    plugin: Option<&Path>,
+    dir: &Path,
+    timeout: Duration,
+) -> Result<()> {
+    let spec =
+        RunSpec { fault: true, ..RunSpec::plain(MethodArg::Tsifsd, VariantArg::Flight, RescaleArg::None) };
+    let job = Job { vis: Gray::new(8, 8), tir: Gray::new(8, 8), runs: vec![spec], tir16: None };
+    let done = emulate(target, image, plugin, &job, dir, timeout)?;
+    ensure!(
+        !done.status.success(),
+        "{target}: a fault ended the emulation with status 0 (logs in {})",
+        dir.display()
+    );
+    ensure!(
+        done.console.lines().any(|l| l.starts_with("@fw fault ")),
+        "{target}: the fault handler did not report (logs in {})",
+        dir.display()
+    );
+    ensure!(
+        parse_report(&done.console, done.plugin_log.as_deref()).is_err(),
+        "a fault must not parse as a finished run"
+    );
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const CONSOLE: &str = "noise from the serial port\n\
+        @fw start arm grid1024\n\
+        @fw job 4x4 2x2 runs 1\n\
+        @fw region 0 overhead -\n\
+        @fw run 0 tsifsd flight tir-up 4x4\n\
+        @fw region 1 rescale -\n\
+        @fw region 2 pipeline -\n\
+        @fw result 0 guards 0x88 rescaled 1 fnv1a 61d855a2 file out0.gray\n\
+        @fw stack 11968\n\
+        @fw done ok\n";
+
+    #[test]
+    fn merges_plugin_counts_in_order() -> Result<()> {
+        let log = "insn_count 0 8\ninsn_count 1 100\ninsn_count 2 250\ninsn_count total 999 regions 3 open 0 errors 0\n";
+        let r = parse_report(CONSOLE, Some(log))?;
+        assert_eq!(r.overhead, 8);
+        assert_eq!(r.runs.len(), 1);
+        assert_eq!(r.runs[0].regions, vec![("rescale".to_string(), 100), ("pipeline".to_string(), 250)]);
+        assert_eq!((r.runs[0].guards, r.runs[0].rescaled, r.runs[0].fnv1a), (0x88, true, 0x61d8_55a2));
+        assert_eq!(r.runs[0].region("pipeline"), Some(250));
+        assert_eq!(r.stack_bytes, 11968);
+        Ok(())
+    }
+
+    #[test]
+    fn guest_counts_on_riscv() -> Result<()> {
+        let c = CONSOLE
+            .replace("overhead -", "overhead 16")
+            .replace("rescale -", "rescale 7")
+            .replace("pipeline -", "pipeline 9");
+        let r = parse_report(&c, None)?;
+        assert_eq!((r.overhead, r.runs[0].regions[1].1), (16, 9));
+        Ok(())
+    }
+
+    #[test]
+    fn failures_are_errors() {
+        // Plugin and firmware disagree on the number of regions.
+        assert!(parse_report(CONSOLE, Some("insn_count 0 8\ninsn_count 1 100\n")).is_err());
+        // A fault line, or no final `done ok`.
+        let fault = CONSOLE.replace("@fw done ok", "@fw fault HardFault pc 0x00001234 cause 0x0");
+        assert!(parse_report(&fault, Some("insn_count 0 8\ninsn_count 1 1\ninsn_count 2 2\n")).is_err());
+        let cut = CONSOLE.replace("@fw done ok\n", "");
+        assert!(parse_report(&cut, Some("insn_count 0 8\ninsn_count 1 1\ninsn_count 2 2\n")).is_err());
+        // A count missing on RISC-V.
+        assert!(parse_report(CONSOLE, None).is_err());
+    }
+
+    #[test]
+    fn job_encoding_matches_the_firmware_layout() -> Result<()> {
+        let job = Job {
+            vis: Gray::new(6, 4),
+            tir: Gray::new(3, 2),
+            runs: vec![RunSpec {
+                method: MethodArg::Ifevip,
+                variant: VariantArg::Classic,
+                policy: RescaleArg::VisDown,
+                skip: SkipArg::None,
+                stages: true,
+                fault: true,
+                strips: false,
+                agc: None,
+            }],
+            tir16: None,
+        };
+        let b = job.encode()?;
+        assert_eq!(&b[..4], b"FWJ1");
+        assert_eq!(b.len(), 24 + 4);
+        assert_eq!(&b[4..8], &6u32.to_le_bytes());
+        assert_eq!(&b[16..20], &2u32.to_le_bytes());
+        assert_eq!(&b[20..24], &1u32.to_le_bytes());
+        assert_eq!(&b[24..], &[2, 0, 1, 3]);
+        let empty = Job { runs: Vec::new(), ..job.clone() };
+        assert!(empty.encode().is_err());
+        // AGC runs: method 4, the mapping in the variant byte, policy 2; they need the counts.
+        for (kind, byte) in [(AgcKind::Plateau, 0), (AgcKind::Linear, 1)] {
+            let spec = RunSpec::agc(kind);
+            assert_eq!(spec.encode(), [4, byte, 2, 0]);
+            assert_eq!(RunSpec::decode(spec.encode())?, spec);
+            let fault = RunSpec { fault: true, ..spec };
+            assert_eq!(RunSpec::decode(fault.encode())?, fault);
+        }
+        assert!(RunSpec::decode([4, 0, 0, 0]).is_err());
+        assert!(RunSpec::decode([4, 0, 2, 1]).is_err());
+        let agc = Job { runs: vec![RunSpec::agc(AgcKind::Linear)], ..job.clone() };
+        assert!(agc.encode().is_err(), "no counts");
+        let agc = Job { tir16: Some(Gray::new(3, 2)), ..agc };
+        assert_eq!(&agc.encode()?[24..], &[4, 1, 2, 0]);
+        Ok(())
+    }
+}

@@ -1,0 +1,85 @@
+//! The budget's inputs: the rendered budget pair, synthetic pairs, and the 16-bit counts and
+//! host AGC the firmware's AGC runs are compared with.
+
+#[allow(unused_imports)]
+use super::*;
+
+/// The committed budget pair: a rendered Tango-like target in light (VIS 1024², TIR 512², noisy),
+/// see `fw/README.md`.
+pub fn budget_pair() -> Result<(Gray<u8>, Gray<u8>)> {
+    let dir = fw::fw_dir().join("data");
+    let vis = load_gray_u8(&dir.join("tango_vis_light_1024.png"), ColorPolicy::Refuse)?;
+    let tir = load_gray_u8(&dir.join("tango_tir_512.png"), ColorPolicy::Refuse)?;
+    ensure!(
+        (vis.width, vis.height, tir.width, tir.height) == (1024, 1024, 512, 512),
+        "budget pair has the wrong size"
+    );
+    Ok((vis, tir))
+}
+
+/// A synthetic pair at sizes that are not a factor of two apart (VIS `w×h`, TIR about half),
+/// with black background, a gradient "bus", a saturated glint, stripes and hashed noise, so the
+/// general rescale path and the saturation guards are exercised.
+pub fn synthetic_pair(w: usize, h: usize) -> (Gray<u8>, Gray<u8>) {
+    let hash = |x: usize, y: usize, s: u32| {
+        let mut v = (x as u32).wrapping_mul(0x9E37_79B1) ^ (y as u32).wrapping_mul(0x85EB_CA77) ^ s;
+        v ^= v >> 15;
+        v = v.wrapping_mul(0x2C1B_3C6D);
+        v ^= v >> 12;
+        v
+    };
+    let mut vis = Gray::new(w, h);
+    for y in 0..h {
+        for x in 0..w {
+            let (u, v) = (x * 1000 / w, y * 1000 / h);
+            let noise = (hash(x, y, 1) % 9) as i32 - 4;
+            let base: i32 = if (300..700).contains(&u) && (350..650).contains(&v) {
+                if (550..600).contains(&u) && (400..430).contains(&v) {
+                    255
+                } else {
+                    60 + (u as i32 - 300) / 3
+                }
+            } else if (100..900).contains(&u) && (480..520).contains(&v) {
+                if (u / 40) % 2 == 0 { 30 } else { 140 }
+            } else {
+                2
+            };
+            vis.data[y * w + x] = (base + noise).clamp(0, 255) as u8;
+        }
+    }
+    let (tw, th) = (w.div_ceil(2) + 1, h.div_ceil(2) - 1);
+    let mut tir = Gray::new(tw, th);
+    for y in 0..th {
+        for x in 0..tw {
+            let (u, v) = (x * 1000 / tw, y * 1000 / th);
+            let noise = (hash(x, y, 2) % 7) as i32 - 3;
+            let base: i32 = if (300..700).contains(&u) && (350..650).contains(&v) {
+                170 + ((u + v) / 50) as i32
+            } else if (100..900).contains(&u) && (480..520).contains(&v) {
+                230
+            } else {
+                12
+            };
+            tir.data[y * tw + x] = (base + noise).clamp(0, 255) as u8;
+        }
+    }
+    (vis, tir)
+}
+
+/// The host's AGC of `counts` with a fresh state, as an AGC run of the image computes it.
+pub fn agc_host(counts: &Gray<u16>, kind: fw::AgcKind) -> Result<Gray<u8>> {
+    fusion_engine::agc::map_counts(&mut fusion_engine::agc::fresh(), counts, &kind.params(counts.data.len()))
+}
+
+/// The budget pair's TIR frame as 14-bit counts, the input of the AGC runs: each 8-bit level
+/// times 64 plus a deterministic 6-bit dither (the AGC's cost does not depend on the values
+/// beyond the histogram's spread).
+pub fn counts_of(tir: &Gray<u8>) -> Gray<u16> {
+    let data = tir
+        .data
+        .iter()
+        .enumerate()
+        .map(|(i, &v)| (u16::from(v) << 6) | ((i as u32).wrapping_mul(2_654_435_761) >> 26) as u16)
+        .collect();
+    Gray { width: tir.width, height: tir.height, data }
+}

@@ -1,0 +1,187 @@
+//! `fusion fuse`'s options and their checks.
+
+use anyhow::{Result, bail};
+use clap::{Args, ValueEnum};
+use fusion_engine::methods::{AgcArg, EngineArg, MethodArg, RescaleArg, SkipArg, VariantArg};
+use fusion_io::OutFormat;
+use fusion_reference::study_methods::HostMethod;
+use std::path::PathBuf;
+
+/// Every method `fusion fuse` knows: the core's three and the study's four host-only ones.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum FuseMethod {
+    /// Anisotropic diffusion + KL transform (core or f64 reference).
+    Adf,
+    /// Two-scale fusion with saliency detection (core or f64 reference).
+    Tsifsd,
+    /// Infrared feature extraction + visual information preservation (core or f64 reference).
+    Ifevip,
+    /// Illumination-adaptive fusion for navigation (core or f64 reference).
+    Adaptive,
+    /// Guided-filter fusion, Li et al. 2013 (host f64 only).
+    Gff,
+    /// Multi-scale guided-filter fusion, Bavirisetti et al. 2019 (host f64 only).
+    Mgff,
+    /// Fast-global-smoother decomposition + Gaussian fuzzy logic, Duan et al. 2022 (host f64 only).
+    Tepgfl,
+    /// Different-resolution TV fusion with FISTA, Du et al. 2018 (host f64 only): VIS and TIR at
+    /// their own sizes (VIS an integer multiple of TIR), output on the VIS grid, no rescale.
+    Drif,
+}
+
+impl FuseMethod {
+    /// The core method, or the host-only method.
+    pub fn split(self) -> Result<MethodArg, HostMethod> {
+        match self {
+            FuseMethod::Adf => Ok(MethodArg::Adf),
+            FuseMethod::Tsifsd => Ok(MethodArg::Tsifsd),
+            FuseMethod::Ifevip => Ok(MethodArg::Ifevip),
+            FuseMethod::Adaptive => Ok(MethodArg::Adaptive),
+            FuseMethod::Gff => Err(HostMethod::Gff),
+            FuseMethod::Mgff => Err(HostMethod::Mgff),
+            FuseMethod::Tepgfl => Err(HostMethod::Tepgfl),
+            FuseMethod::Drif => Err(HostMethod::Drif),
+        }
+    }
+}
+
+/// Arguments of `fusion fuse`.
+#[derive(Debug, Args)]
+pub struct FuseArgs {
+    /// Fusion method. gff, mgff, tepgfl and drif are the study's host-only methods (f64 engine
+    /// only); drif fuses the two frames at their own resolutions (VIS an integer multiple of
+    /// TIR, output on the VIS grid) and takes no --rescale.
+    #[arg(long, value_enum, default_value_t = FuseMethod::Tsifsd)]
+    pub method: FuseMethod,
+    /// Method variant (adf, tsifsd, ifevip only) [default: flight].
+    #[arg(long, value_enum)]
+    pub variant: Option<VariantArg>,
+    /// Implementation to run [default: core; reference for gff, mgff, tepgfl, drif].
+    #[arg(long, value_enum)]
+    pub engine: Option<EngineArg>,
+    /// How the two bands are brought onto one grid [default: tir-up; not for drif].
+    #[arg(long, value_enum)]
+    pub rescale: Option<RescaleArg>,
+    /// Also write the real-valued result before the 8-bit cast as a float32 `.npy` (0..255 units).
+    #[arg(long, value_name = "OUT.npy")]
+    pub raw: Option<PathBuf>,
+    /// Scene skipping (core engine, ADF/TSIFSD/IFEVIP): none fuses every pixel; roi fuses a
+    /// window around the target and writes the background elsewhere (pixels of the reported
+    /// ROI are bit-identical to none); all adds the eclipse plan. The report is printed.
+    #[arg(long, value_enum, default_value_t = SkipArg::None)]
+    pub skip: SkipArg,
+    /// Fuse strip by strip in the flight core's 512 KiB strip scratch (core engine, every
+    /// method and variant; no --skip, no --raw): bit-identical to the whole-frame run. The value
+    /// caps the strip height in grid rows (`max`: as tall as the scratch allows). The strip
+    /// report is printed.
+    #[arg(long, value_name = "ROWS|max")]
+    pub strips: Option<StripRows>,
+    /// Thermal AGC for a 14/16-bit thermal image (its counts to 8 bits, in the core:
+    /// `fusion_nostd::agc`) [default: linear]. An 8-bit thermal image is used as it is.
+    #[arg(long, value_enum)]
+    pub agc: Option<AgcArg>,
+    /// The plateau of plateau equalisation, in pixels per histogram bin (bins of 4 counts); given
+    /// alone it asks for --agc plateau [default: the thermal frame's pixels / 2^18, at least 1].
+    #[arg(long, value_name = "PIXELS")]
+    pub plateau: Option<u32>,
+    /// Folders as sequences: smooth the AGC mapping over the thermal frames in name order, each
+    /// frame's mapping moving 1/2^K of the way to its own (0..=8; 0: none) so the level does not
+    /// flicker. Needs two folders and 14/16-bit thermal frames; the mapped thermal frames are
+    /// held in memory (one byte per pixel) before the pairs are fused.
+    #[arg(long, value_name = "K")]
+    pub agc_smoothing: Option<u8>,
+    /// A colour visible image: keep its colour (fuse the luminance, restore the chroma; RGB
+    /// out) or fuse its grey [default: keep].
+    #[arg(long, value_enum)]
+    pub color: Option<ColorArg>,
+    /// Folders: pairs fused at once [default: every core].
+    #[arg(long, value_name = "N")]
+    pub jobs: Option<usize>,
+    /// Folders: the outputs' format [default: png] (one output's format follows its extension).
+    #[arg(long, value_enum)]
+    pub format: Option<OutFormat>,
+    /// Visible image (PNG, JPEG, TIFF or PGM/PPM; 8-bit grey or colour), or a folder of them.
+    pub vis: PathBuf,
+    /// Thermal-infrared image (PNG, JPEG, TIFF or PGM; 8-bit, or 14/16-bit counts through --agc;
+    /// colour is converted with BT.601 weights), or a folder of them (paired with the visible
+    /// folder's files by name without extension).
+    pub tir: PathBuf,
+    /// Fused output (.png, .tif/.tiff, or .pgm for grey; RGB when the visible image is colour and --color
+    /// keep), or a folder for the pairs of two folders.
+    pub output: PathBuf,
+}
+
+/// `--strips` value: a strip height cap in grid rows, or `max`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct StripRows(pub usize);
+
+impl std::str::FromStr for StripRows {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        if s == "max" {
+            return Ok(StripRows(usize::MAX));
+        }
+        match s.parse::<usize>() {
+            Ok(n) if n > 0 => Ok(StripRows(n)),
+            _ => Err(format!("`{s}` is not a positive number of rows or `max`")),
+        }
+    }
+}
+
+/// `--color` values.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum ColorArg {
+    /// Fuse the luminance (YCbCr, BT.601 full range) and restore the visible frame's chroma:
+    /// RGB out.
+    Keep,
+    /// Convert the visible frame to grey (MATLAB `rgb2gray` weights): grey out.
+    Gray,
+}
+
+/// Refuses option combinations that cannot run, before anything is read.
+pub(super) fn check_options(args: &FuseArgs) -> Result<()> {
+    match args.method.split() {
+        Ok(_) => {
+            let engine = args.engine.unwrap_or(EngineArg::Core);
+            if args.strips.is_some()
+                && (engine != EngineArg::Core || args.raw.is_some() || args.skip != SkipArg::None)
+            {
+                bail!(
+                    "--strips works with the core engine's 8-bit output only (no --engine reference, no --raw, no --skip)"
+                );
+            }
+            if args.skip != SkipArg::None && (engine != EngineArg::Core || args.raw.is_some()) {
+                bail!(
+                    "--skip works with the core engine's 8-bit output only (no --engine reference, no --raw)"
+                );
+            }
+        }
+        Err(host) => {
+            if args.strips.is_some() || args.skip != SkipArg::None {
+                bail!("{} is a host-only method (f64): --strips and --skip are core options", host.name());
+            }
+            if args.variant.is_some() {
+                bail!("{} has one variant (the study's, f64): drop --variant", host.name());
+            }
+            if args.engine == Some(EngineArg::Core) {
+                bail!(
+                    "{} is a host-only method (f64): it has no core engine; use --engine reference",
+                    host.name()
+                );
+            }
+            if host.different_resolution() && args.rescale.is_some() {
+                bail!("drif fuses the two frames at their own resolutions: drop --rescale");
+            }
+        }
+    }
+    if let (Some(AgcArg::Linear), Some(_)) = (args.agc, args.plateau) {
+        bail!("--plateau sets the plateau of --agc plateau; drop it with --agc linear");
+    }
+    if args.agc_smoothing.is_some_and(|k| k > fusion_nostd::agc::AGC_MAX_SMOOTHING) {
+        bail!("--agc-smoothing is at most {}", fusion_nostd::agc::AGC_MAX_SMOOTHING);
+    }
+    if args.plateau == Some(0) {
+        bail!("--plateau must be at least 1 pixel per bin");
+    }
+    Ok(())
+}

@@ -1,0 +1,79 @@
+//! `fusion fuse [options] VIS_DIR TIR_DIR OUT_DIR`: every pair of two folders, paired by name
+//! without extension, fused in parallel into `OUT_DIR/NAME.png` (or `.tif`, `--format`).
+//!
+//! A pair that fails (unreadable, wrong size, no partner) is reported and the others go on; the
+//! run ends with a summary on standard output and exit status 1 when any pair failed. Each
+//! output is written atomically; the folder is created when missing.
+
+use super::args::FuseArgs;
+use super::pair::{agc_map, fuse_pair_quietly};
+use anyhow::{Context, Result, bail};
+use fusion_io::folders::{pair_by_stem, run_all, split_results};
+use fusion_io::{Gray, OutFormat, Picture};
+
+/// A pair's two files and its thermal frame already through the AGC (`--agc-smoothing`), or
+/// why that failed.
+type PairFiles<'a> = (&'a [std::path::PathBuf], Option<Result<Gray<u8>, String>>);
+
+/// The thermal frames through the AGC in natural name order (frame_99 before frame_100), one
+/// state carried from frame to frame (`--agc-smoothing`): the one sequential step of a folder
+/// run. A frame that is not 16-bit gets `None` (its pair reads it as it is); one that cannot be
+/// read or mapped gets the reason, and its pair fails with it.
+fn smoothed_thermal(
+    args: &FuseArgs,
+    pairs: &[(String, Vec<std::path::PathBuf>)],
+) -> Vec<Option<Result<Gray<u8>, String>>> {
+    let mut agc = fusion_engine::agc::fresh();
+    pairs
+        .iter()
+        .map(|(_, files)| match fusion_io::load_picture(&files[1]) {
+            Ok(Picture::Gray16(counts)) => {
+                Some(agc_map(args, &mut agc, &counts, &files[1]).map_err(|e| format!("{e:#}")))
+            }
+            Ok(_) => None,
+            Err(e) => Some(Err(format!("thermal image: {e:#}"))),
+        })
+        .collect()
+}
+
+/// Runs the folder form of `fusion fuse`.
+pub fn run(args: &FuseArgs) -> Result<()> {
+    if args.raw.is_some() {
+        bail!("--raw names one file: it works with one pair, not with folders");
+    }
+    if args.output.exists() && !args.output.is_dir() {
+        bail!("{} is not a folder: the pairs of two folders go into a folder", args.output.display());
+    }
+    fusion_io::folders::check_output_folder(&args.output, &[&args.vis, &args.tir])?;
+    let (pairs, unpaired) = pair_by_stem(&[(&args.vis, "visible"), (&args.tir, "thermal")])?;
+    std::fs::create_dir_all(&args.output)
+        .with_context(|| format!("cannot create {}", args.output.display()))?;
+    let ext = args.format.unwrap_or(OutFormat::Png).extension();
+    let jobs = args.jobs.unwrap_or(0);
+    let mapped = match args.agc_smoothing {
+        Some(k) if k > 0 => smoothed_thermal(args, &pairs),
+        _ => vec![None; pairs.len()],
+    };
+    let items: Vec<(String, PairFiles)> =
+        pairs.iter().zip(mapped).map(|((stem, files), m)| (stem.clone(), (files.as_slice(), m))).collect();
+    let results = run_all(&items, jobs, "fuse", |stem, (files, mapped)| {
+        let out = args.output.join(format!("{stem}.{ext}"));
+        let mapped = match mapped {
+            Some(Err(why)) => bail!("{why}"),
+            Some(Ok(g)) => Some(g.clone()),
+            None => None,
+        };
+        fuse_pair_quietly(args, &files[0], &files[1], mapped, &out)
+    })?;
+    let (done, failed) = split_results(&items, results, unpaired);
+    let fused = done.len();
+    let total = fused + failed.len();
+    outln!("fused {fused} of {total} pairs into {}", args.output.display())?;
+    for (stem, why) in &failed {
+        outln!("failed {stem}: {why}")?;
+    }
+    if !failed.is_empty() {
+        bail!("{} of {total} pairs failed (listed above)", failed.len());
+    }
+    Ok(())
+}

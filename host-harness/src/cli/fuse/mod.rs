@@ -1,0 +1,46 @@
+//! `fusion fuse`: fuse one VIS/TIR pair with a chosen method, engine and rescale policy.
+//!
+//! The core's three methods run on either engine; the study's four host-only methods (GFF,
+//! MGFF, TEPGFL, DRIF; [`fusion_reference::study_methods`]) run on the host f64 engine only.
+
+mod args;
+mod folders;
+mod pair;
+
+pub use args::FuseArgs;
+
+use anyhow::{Result, bail};
+use fusion_nostd::methods::Guards;
+use pair::fuse_files;
+
+/// Runs `fusion fuse`: one pair, or two folders of pairs.
+pub fn run(args: &FuseArgs) -> Result<()> {
+    args::check_options(args)?;
+    match (args.vis.is_dir(), args.tir.is_dir()) {
+        (false, false) => {
+            if args.agc_smoothing.is_some() {
+                bail!("--agc-smoothing smooths over a sequence: give two folders of frames");
+            }
+            if args.jobs.is_some() || args.format.is_some() {
+                bail!("--jobs and --format are for folders; one output's format follows its extension");
+            }
+            let (report, guards) = fuse_files(args, &args.vis, &args.tir, None, &args.output)?;
+            out!("{report}")?;
+            if guards != Guards::NONE {
+                note!("fusion: guards: {guards} (fusion_nostd::Guards)");
+            }
+            Ok(())
+        }
+        (true, true) => folders::run(args),
+        (true, false) => bail!(
+            "visible image: {} is a folder and the thermal image {} is not: give two files or two folders",
+            args.vis.display(),
+            args.tir.display()
+        ),
+        (false, true) => bail!(
+            "thermal image: {} is a folder and the visible image {} is not: give two files or two folders",
+            args.tir.display(),
+            args.vis.display()
+        ),
+    }
+}

@@ -1,0 +1,117 @@
+//! `fusion render`: the flags of [`render_host::render`] (a dataset in the study's layout or a
+//! rendezvous sequence), its summary line printed.
+
+use anyhow::Result;
+use clap::Args;
+use render_host::RenderOptions;
+use render_host::sequence::SequenceName;
+use render_host::tir::{DnMapping, Radiometry};
+use std::path::PathBuf;
+
+#[derive(Args, Debug, Clone, PartialEq)]
+pub struct RenderArgs {
+    /// Output folder (created if missing).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Frames per set [default: 20, or 4 with --demo; 120 with --sequence].
+    #[arg(long)]
+    pub frames: Option<usize>,
+    /// Render a rendezvous sequence instead of the study's layout: `approach` (50 m → 5 m in
+    /// light, the target tumbling) or `flyaround` (a circumnavigation at 8 m through an
+    /// eclipse), at 1 Hz, VIS `--vis-size`², TIR the first of `--tir-sizes`, with per-frame
+    /// ground truth (`render_host::sequence`).
+    #[arg(long, value_enum, value_name = "NAME")]
+    pub sequence: Option<SequenceName>,
+    /// Seed of every random draw (same seed, same bytes).
+    #[arg(long, default_value_t = RenderOptions::default().seed)]
+    pub seed: u64,
+    /// VIS image size (square), px.
+    #[arg(long, default_value_t = RenderOptions::default().vis_size, value_name = "PX")]
+    pub vis_size: u32,
+    /// TIR image sizes (square), px, one set each (comma separated).
+    #[arg(long, value_delimiter = ',', default_values_t = RenderOptions::default().tir_sizes, value_name = "PX,PX")]
+    pub tir_sizes: Vec<u32>,
+    /// Render this OBJ mesh instead of the procedural Tango-like target.
+    #[arg(long, value_name = "FILE.obj")]
+    pub mesh: Option<PathBuf>,
+    /// Scale from the OBJ's units to metres.
+    #[arg(long, default_value_t = RenderOptions::default().mesh_scale)]
+    pub mesh_scale: f32,
+    /// TIR radiometry: `radiometric` (εσT⁴/π with cos⁴ fall-off) or `study` (view-factor weighting).
+    #[arg(long, value_enum, default_value_t = RenderOptions::default().radiometry)]
+    pub radiometry: Radiometry,
+    /// TIR DN mapping over the temperature range: linear in `radiance` or in `temperature`.
+    #[arg(long, value_enum, default_value_t = RenderOptions::default().tir_dn)]
+    pub tir_dn: DnMapping,
+    /// TIR temperature mapped to DN 0, K.
+    #[arg(long, default_value_t = RenderOptions::default().t_min)]
+    pub t_min: f64,
+    /// TIR temperature mapped to full scale, K.
+    #[arg(long, default_value_t = RenderOptions::default().t_max)]
+    pub t_max: f64,
+    /// Also write 16-bit TIR PNGs (`clean16/`, `noisy16/`; with --sequence: `tir16/`, noisy).
+    #[arg(long)]
+    pub tir16: bool,
+    /// Also write TIR sets after this many minutes in eclipse (lumped transient).
+    #[arg(long, value_name = "MINUTES")]
+    pub eclipse_minutes: Option<f64>,
+    /// Leave out the specular lobe in VIS.
+    #[arg(long)]
+    pub no_specular: bool,
+    /// Flat faces: one albedo and one temperature per face, no cells, crinkles, bolts or
+    /// in-face gradients (the target as rendered before the surface detail).
+    #[arg(long)]
+    pub flat: bool,
+    /// VIS exposure: pixel value of a white Lambertian face lit by the sun at normal incidence.
+    #[arg(long, default_value_t = RenderOptions::default().exposure)]
+    pub exposure: f32,
+    /// Earthshine relative to the sun (VIS, also lights the eclipse set).
+    #[arg(long, default_value_t = RenderOptions::default().earthshine)]
+    pub earthshine: f32,
+    /// Contact-sheet tile size, px (0 = no contact sheet). Tiles crop the frame to the target.
+    #[arg(long, default_value_t = RenderOptions::default().sheet_thumb, value_name = "PX")]
+    pub sheet_thumb: u32,
+    /// Frames (columns) on the contact sheet, evenly spaced (0 = every frame).
+    #[arg(long, default_value_t = RenderOptions::default().sheet_frames, value_name = "N")]
+    pub sheet_frames: usize,
+    /// A quick demo: 4 frames unless --frames is given.
+    #[arg(long)]
+    pub demo: bool,
+}
+
+impl From<RenderArgs> for RenderOptions {
+    fn from(a: RenderArgs) -> Self {
+        RenderOptions {
+            out: a.out,
+            frames: a.frames,
+            sequence: a.sequence,
+            seed: a.seed,
+            vis_size: a.vis_size,
+            tir_sizes: a.tir_sizes,
+            mesh: a.mesh,
+            mesh_scale: a.mesh_scale,
+            radiometry: a.radiometry,
+            tir_dn: a.tir_dn,
+            t_min: a.t_min,
+            t_max: a.t_max,
+            tir16: a.tir16,
+            eclipse_minutes: a.eclipse_minutes,
+            no_specular: a.no_specular,
+            flat: a.flat,
+            exposure: a.exposure,
+            earthshine: a.earthshine,
+            sheet_thumb: a.sheet_thumb,
+            sheet_frames: a.sheet_frames,
+            demo: a.demo,
+        }
+    }
+}
+
+/// Runs `fusion render`: renders, then prints the summary unless `--quiet`.
+pub fn run(args: &RenderArgs) -> Result<()> {
+    let summary = render_host::render(&args.clone().into())?;
+    if !fusion_io::console::quiet() {
+        outln!("{summary}")?;
+    }
+    Ok(())
+}

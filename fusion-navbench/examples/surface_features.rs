@@ -4,7 +4,7 @@
 //! and writes a contact sheet.
 //!
 //! ```sh
-//! cargo run --release -p host-harness --example surface_features -- [--frames 5] [--out docs/surface]
+//! cargo run --release -p fusion-navbench --example surface_features -- [--frames 5] [--out docs/surface]
 //! ```
 //!
 //! Rows of `contact_sheet.png`: VIS light flat, VIS light detailed, TIR flat, TIR detailed,
@@ -14,7 +14,6 @@
 use anyhow::{Context, Result};
 use fusion_navbench::features::{FAST_THRESHOLD, PRESMOOTH_SIGMA, detect, grow_mask};
 use render_host::dataset::{contact_sheet, noise_stream, target_square, trajectory};
-use render_host::image::save_gray8;
 use render_host::noise::rng_for;
 use render_host::{
     Band, Camera, DatasetConfig, Scene, ThermalParams, apply_sensor_noise, eclipse_transient,
@@ -81,8 +80,10 @@ fn main() -> Result<()> {
         }
         per_frame.push(column);
     }
-    let sheet = contact_sheet(&per_frame, rows.len(), 200);
-    save_gray8(&out.join("contact_sheet.png"), &sheet)?;
+    let names: Vec<String> = picks.iter().map(|f| format!("frame {f}")).collect();
+    let row_names: Vec<String> = rows.iter().map(|r| r.to_string()).collect();
+    let sheet = contact_sheet(&per_frame, &names, &row_names);
+    fusion_io::save_gray_u8(&out.join("contact_sheet.png"), &sheet)?;
 
     let mut md = String::new();
     writeln!(

@@ -484,8 +484,9 @@ pub fn render_dataset(cfg: &DatasetConfig, out_dir: &Path, progress: bool) -> Re
         rows.push(format!("{}/noisy", s.name));
     }
     let contact_sheet = if thumb > 0 {
-        let sheet = contact_sheet(&thumbs, rows.len(), thumb);
-        write_png8(&out_dir.join("contact_sheet.png"), &sheet.to_gray8())?;
+        let names: Vec<String> = columns.iter().map(|f| format!("frame {f}")).collect();
+        let sheet = contact_sheet(&thumbs, &names, &rows);
+        fusion_io::save_gray_u8(&out_dir.join("contact_sheet.png"), &sheet)?;
         Some("contact_sheet.png".to_string())
     } else {
         None
@@ -528,23 +529,22 @@ pub(crate) fn rows_of(m: Mat3) -> [[f32; 3]; 3] {
     [t.x_axis.to_array(), t.y_axis.to_array(), t.z_axis.to_array()]
 }
 
-/// Tiles thumbnails into one image: `per_frame[c]` holds the `rows` thumbnails of column
-/// (frame) `c`, top to bottom; 2-px mid-grey gutters.
-pub fn contact_sheet(per_frame: &[Vec<Image>], rows: usize, thumb: u32) -> Image {
-    let gap = 2u32;
-    let cols = per_frame.len() as u32;
-    let w = cols * (thumb + gap) + gap;
-    let h = rows as u32 * (thumb + gap) + gap;
-    let mut sheet = Image { width: w, height: h, data: vec![0.25; (w * h) as usize] };
-    for (c, col) in per_frame.iter().enumerate() {
-        for (r, t) in col.iter().enumerate().take(rows) {
-            let (ox, oy) = (gap + c as u32 * (thumb + gap), gap + r as u32 * (thumb + gap));
-            for y in 0..t.height.min(thumb) {
-                for x in 0..t.width.min(thumb) {
-                    sheet.data[((oy + y) * w + ox + x) as usize] = t.at(x, y);
-                }
-            }
-        }
-    }
-    sheet
+/// Tiles thumbnails into one labelled sheet (`fusion_report::sheet::labelled_sheet`):
+/// `per_frame[c]` holds the thumbnails of column (frame) `c`, top to bottom; the columns are
+/// named `column_names`, the rows `row_names`; 2-px mid-grey gutters.
+pub fn contact_sheet(
+    per_frame: &[Vec<Image>],
+    column_names: &[String],
+    row_names: &[String],
+) -> fusion_io::Gray<u8> {
+    let rows = per_frame.iter().map(Vec::len).max().unwrap_or(0);
+    let to_gray = |img: &Image| {
+        let g = img.to_gray8();
+        fusion_io::Gray { width: g.width() as usize, height: g.height() as usize, data: g.into_raw() }
+    };
+    let tiles: Vec<Vec<fusion_io::Gray<u8>>> =
+        (0..rows).map(|r| per_frame.iter().filter_map(|col| col.get(r).map(to_gray)).collect()).collect();
+    let columns: Vec<&str> = column_names.iter().map(String::as_str).collect();
+    let rows: Vec<&str> = row_names.iter().map(String::as_str).collect();
+    fusion_report::sheet::labelled_sheet(&tiles, 2, &columns, &rows)
 }

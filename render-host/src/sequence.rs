@@ -31,7 +31,7 @@
 use crate::camera::{Camera, Pose};
 use crate::dataset::{contact_sheet, noise_stream, rows_of};
 use crate::image::Image;
-use crate::image::{save_gray8, write_png8, write_png16};
+use crate::image::{write_png8, write_png16};
 use crate::noise::{Band, NoiseParams, apply_sensor_noise, rng_for};
 use crate::scene::Scene;
 use crate::thermal::{NodeBalance, ThermalParams, advance, face_temperatures, steady_state};
@@ -528,7 +528,12 @@ pub fn render_sequence(cfg: &SequenceConfig, out_dir: &Path, progress: bool) -> 
     for f in &frames {
         phase_frames[f.phase as usize] += 1;
     }
-    save_gray8(&out_dir.join("contact_sheet.png"), &contact_sheet(&columns, 2, 200))?;
+    let names: Vec<String> = sheet_frames
+        .iter()
+        .map(|&i| format!("{i} {}", frames.get(i).map_or("", |f| f.phase.as_str())))
+        .collect();
+    let sheet = contact_sheet(&columns, &names, &["VIS".to_string(), "TIR".to_string()]);
+    fusion_io::save_gray_u8(&out_dir.join("contact_sheet.png"), &sheet)?;
     let manifest = SequenceManifest {
         generator: format!("render-host {}", env!("CARGO_PKG_VERSION")),
         config: cfg.clone(),

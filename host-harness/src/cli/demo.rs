@@ -16,7 +16,7 @@ use fusion_io::source_on_grid;
 use fusion_metrics::{average_gradient, mutual_information, rmse, ssim};
 use fusion_nostd::pipeline::{FuseConfig, RescalePolicy};
 use fusion_nostd::{Filter, Guards};
-use fusion_report::sheet::{contact_sheet, target_square, tile};
+use fusion_report::sheet::{labelled_sheet, target_square, tile};
 use render_host::{DatasetConfig, render_dataset};
 use std::fmt::Write as _;
 use std::path::PathBuf;
@@ -123,7 +123,9 @@ pub fn run(args: &DemoArgs) -> Result<()> {
             }
         }
     }
-    let sheet = contact_sheet(&sheet_rows, 4);
+    let mut columns = vec!["VIS", "TIR up"];
+    columns.extend(methods.iter().map(|m| m.name));
+    let sheet = labelled_sheet(&sheet_rows, 4, &columns, &illuminations);
     let sheet_path = args.out.join("contact_sheet.png");
     save_gray_u8(&sheet_path, &sheet)?;
 

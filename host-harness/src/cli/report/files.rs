@@ -11,7 +11,7 @@ pub(super) fn write_csvs(cells: &Cells, out: &Path) -> Result<()> {
         for (i, x) in v.iter().enumerate() {
             let _ = writeln!(per_frame, "{t},{r},{c},{i},{x}");
         }
-        let _ = writeln!(means, "{t},{r},{c},{},{},{}", cells.mean(t, r, c), cells.median(t, r, c), v.len());
+        let _ = writeln!(means, "{t},{r},{c},{},{},{}", mean_of(v), median_of(v), v.len());
     }
     let mut tables = fusion_io::Batch::default();
     tables.add_bytes(&out.join("per_frame.csv"), per_frame.as_bytes())?;
@@ -30,19 +30,19 @@ pub(super) fn write_charts(
     out: &Path,
 ) -> Result<Vec<PathBuf>> {
     let mut written = Vec::new();
-    for (ill, _) in ILLUMINATIONS {
+    for (ill, illum) in ILLUMINATIONS {
         for (table, col, what) in [
-            ("t4", "AG", "AG, TIR upscaled"),
-            ("t4", "MI", "MI, TIR upscaled"),
-            ("t4", "FMI", "FMI, TIR upscaled"),
-            ("t4", "SSIM", "SSIM, TIR upscaled"),
-            ("t6", "PSNR_S", "PSNR_S (noisy vs noiseless fusion), TIR upscaled"),
+            (Table::T4(illum), Col::Ag, "AG, TIR upscaled"),
+            (Table::T4(illum), Col::Mi, "MI, TIR upscaled"),
+            (Table::T4(illum), Col::Fmi, "FMI, TIR upscaled"),
+            (Table::T4(illum), Col::Ssim, "SSIM, TIR upscaled"),
+            (Table::T6(illum), Col::PsnrS, "PSNR_S (noisy vs noiseless fusion), TIR upscaled"),
         ] {
             let series: Vec<Series> = row_names(methods)
                 .into_iter()
                 .map(|name| {
-                    let row = if table == "t6" { tir_up_row(name) } else { name.to_string() };
-                    let v = cells.values(&format!("{table}-{ill}"), &row, col);
+                    let row = if matches!(table, Table::T6(_)) { tir_up_row(name) } else { name.to_string() };
+                    let v = cells.values(table, &row, col);
                     Series {
                         name: name.into(),
                         points: v.iter().enumerate().map(|(i, &y)| (i as f64, y)).collect(),
@@ -50,8 +50,13 @@ pub(super) fn write_charts(
                 })
                 .collect();
             let title = format!("{what}, {ill}, per frame ({frames} frames)");
-            let stem = out.join(format!("frames_{}_{ill}", col.to_lowercase()));
-            written.push(chart(&stem, Labels { title: &title, x: "frame", y: col }, &series, Style::Lines)?);
+            let stem = out.join(format!("frames_{}_{ill}", col.name().to_lowercase()));
+            written.push(chart(
+                &stem,
+                Labels { title: &title, x: "frame", y: col.name() },
+                &series,
+                Style::Lines,
+            )?);
         }
     }
     Ok(written)

@@ -56,9 +56,9 @@ pub(super) fn markdown(
         let _ = writeln!(
             md,
             "| {r} | {} | {} | {} | {a} | {b} | {c} |",
-            fmt(cells.mean("t2", r, "MSE_S"), 5),
-            fmt(cells.mean("t2", r, "PSNR_S"), 2),
-            fmt(cells.mean("t2", r, "SSIM_S"), 3)
+            fmt(cells.mean(Table::T2, r, Col::MseS), 5),
+            fmt(cells.mean(Table::T2, r, Col::PsnrS), 2),
+            fmt(cells.mean(Table::T2, r, Col::SsimS), 3)
         );
     }
     // Table 3
@@ -67,25 +67,25 @@ pub(super) fn markdown(
         md,
         "| method | illumination | MSE_S | PSNR_S dB | SSIM_S | study MSE_S | study PSNR_S | study SSIM_S |\n|---|---|---|---|---|---|---|---|"
     );
-    for (ill, _) in ILLUMINATIONS {
+    for (ill, illum) in ILLUMINATIONS {
         for r in RESCALERS {
-            let t = format!("t3-{ill}");
+            let t = Table::T3(illum);
             let (a, b, c) = study_t3(r, ill);
             let _ = writeln!(
                 md,
                 "| {r} | {ill} | {} | {} | {} | {a} | {b} | {c} |",
-                fmt(cells.mean(&t, r, "MSE_S"), 5),
-                fmt(cells.mean(&t, r, "PSNR_S"), 2),
-                fmt(cells.mean(&t, r, "SSIM_S"), 3)
+                fmt(cells.mean(t, r, Col::MseS), 5),
+                fmt(cells.mean(t, r, Col::PsnrS), 2),
+                fmt(cells.mean(t, r, Col::SsimS), 3)
             );
         }
     }
     let names = row_names(methods);
     let drif = HostMethod::Drif.name();
     // Tables 4, 5
-    for (table, what) in [
-        ("t4", format!("Table 4 — VIS + TIR upscaled ({big}² grid)")),
-        ("t5", format!("Table 5 — VIS downscaled + TIR ({small}² grid)")),
+    for (table_name, table, what) in [
+        ("t4", Table::T4 as fn(Illumination) -> Table, format!("Table 4 — VIS + TIR upscaled ({big}² grid)")),
+        ("t5", Table::T5, format!("Table 5 — VIS downscaled + TIR ({small}² grid)")),
     ] {
         let _ = writeln!(md, "\n## {what}\n");
         let _ = writeln!(
@@ -94,7 +94,7 @@ pub(super) fn markdown(
              darker than the sources' average); \"halo\": mean grey levels by which the fused image leaves the range \
              [min, max] of its two sources within {HALO_RADIUS} px of the target's outline (target: a noiseless \
              source above {TARGET_LEVEL}).{}\n",
-            if table == "t4" {
+            if table_name == "t4" {
                 " drif fuses VIS with the TIR frame at its own size (no upscale) and outputs on this grid; it is \
                  compared with the same sources as the others."
             } else {
@@ -105,27 +105,27 @@ pub(super) fn markdown(
             md,
             "| method | illumination | AG | MI | FMI | SSIM | RMSE | newly 255 % | target level | halo | study (eclipse) AG / MI / FMI / SSIM / RMSE |\n|---|---|---|---|---|---|---|---|---|---|---|"
         );
-        for (ill, _) in ILLUMINATIONS {
-            let t = format!("{table}-{ill}");
+        for (ill, illum) in ILLUMINATIONS {
+            let t = table(illum);
             for &name in &names {
-                if table == "t5" && name == drif {
+                if table_name == "t5" && name == drif {
                     continue;
                 }
-                let study = match (ill, study_t45(table, name)) {
+                let study = match (ill, study_t45(table_name, name)) {
                     ("eclipse", Some(s)) => s.iter().map(|v| v.to_string()).collect::<Vec<_>>().join(" / "),
                     _ => String::new(),
                 };
                 let _ = writeln!(
                     md,
                     "| {name} | {ill} | {} | {} | {} | {} | {} | {} | {} | {} | {study} |",
-                    fmt(cells.mean(&t, name, "AG"), 2),
-                    fmt(cells.mean(&t, name, "MI"), 3),
-                    fmt(cells.mean(&t, name, "FMI"), 3),
-                    fmt(cells.mean(&t, name, "SSIM"), 3),
-                    fmt(cells.mean(&t, name, "RMSE"), 2),
-                    fmt(100.0 * cells.mean(&t, name, "sat"), 3),
-                    fmt(cells.mean(&t, name, "level"), 3),
-                    fmt(cells.mean(&t, name, "halo"), 2),
+                    fmt(cells.mean(t, name, Col::Ag), 2),
+                    fmt(cells.mean(t, name, Col::Mi), 3),
+                    fmt(cells.mean(t, name, Col::Fmi), 3),
+                    fmt(cells.mean(t, name, Col::Ssim), 3),
+                    fmt(cells.mean(t, name, Col::Rmse), 2),
+                    fmt(100.0 * cells.mean(t, name, Col::Sat), 3),
+                    fmt(cells.mean(t, name, Col::Level), 3),
+                    fmt(cells.mean(t, name, Col::Halo), 2),
                 );
             }
         }
@@ -149,17 +149,17 @@ pub(super) fn markdown(
             if name == drif { &["different res"] } else { &["VIS down", "TIR up", "same res"] };
         for &input in inputs {
             let row = format!("{name}|{input}");
-            let v = |ill: &str, col: &str| cells.mean(&format!("t6-{ill}"), &row, col);
+            let v = |ill: Illumination, col: Col| cells.mean(Table::T6(ill), &row, col);
             let study = study_t6_psnr(name, input).map_or(String::new(), |(e, l)| format!("{e} / {l}"));
             let _ = writeln!(
                 md,
                 "| {name} | {input} | {} | {} | {} | {} | {} | {} | {study} |",
-                fmt(v("eclipse", "MSE_S"), 5),
-                fmt(v("light", "MSE_S"), 5),
-                format_psnr(v("eclipse", "PSNR_S")),
-                format_psnr(v("light", "PSNR_S")),
-                fmt(v("eclipse", "SSIM_S"), 3),
-                fmt(v("light", "SSIM_S"), 3),
+                fmt(v(Illumination::Eclipse, Col::MseS), 5),
+                fmt(v(Illumination::Light, Col::MseS), 5),
+                format_psnr(v(Illumination::Eclipse, Col::PsnrS)),
+                format_psnr(v(Illumination::Light, Col::PsnrS)),
+                fmt(v(Illumination::Eclipse, Col::SsimS), 3),
+                fmt(v(Illumination::Light, Col::SsimS), 3),
             );
         }
     }
@@ -182,8 +182,8 @@ pub(super) fn markdown(
         let _ = writeln!(
             md,
             "| {name} | {engine} | {} | {} | {} | {} |",
-            fmt(1e3 * cells.median("t7", name, "small"), 1),
-            fmt(1e3 * cells.median("t7", name, "big"), 1),
+            fmt(1e3 * cells.median(Table::T7, name, Col::Small), 1),
+            fmt(1e3 * cells.median(Table::T7, name, Col::Big), 1),
             fmt(a, 0),
             fmt(b, 0)
         );
@@ -191,15 +191,15 @@ pub(super) fn markdown(
 
     // Conclusions
     let _ = writeln!(md, "\n## The study's conclusions against our numbers\n");
-    let up_best = best(RESCALERS.iter().map(|&r| (r, cells.mean("t2", r, "PSNR_S"))));
+    let up_best = best(RESCALERS.iter().map(|&r| (r, cells.mean(Table::T2, r, Col::PsnrS))));
     let _ = writeln!(
         md,
         "1. *Bicubic is the best of the three for upscaling TIR* (Table 2): best PSNR_S here is {up_best} — {}.",
         verdict(up_best == "bicubic")
     );
-    for (ill, _) in ILLUMINATIONS {
-        let t = format!("t3-{ill}");
-        let down_best = best(RESCALERS.iter().map(|&r| (r, cells.mean(&t, r, "PSNR_S"))));
+    for (ill, illum) in ILLUMINATIONS {
+        let t = Table::T3(illum);
+        let down_best = best(RESCALERS.iter().map(|&r| (r, cells.mean(t, r, Col::PsnrS))));
         let _ = writeln!(
             md,
             "1. *Area is the best for downscaling VIS* ({ill}, Table 3): best PSNR_S here is {down_best} — {}.",
@@ -207,14 +207,15 @@ pub(super) fn markdown(
         );
     }
     // Mean of a cell over both illuminations.
-    let both = |table: &str, row: &str, col: &str| {
-        (cells.mean(&format!("{table}-eclipse"), row, col) + cells.mean(&format!("{table}-light"), row, col))
+    let both = |table: fn(Illumination) -> Table, row: &str, col: Col| {
+        (cells.mean(table(Illumination::Eclipse), row, col)
+            + cells.mean(table(Illumination::Light), row, col))
             / 2.0
     };
     for &name in names.iter().filter(|&&n| n != drif) {
         let (up, down) = (
-            both("t6", &format!("{name}|TIR up"), "PSNR_S"),
-            both("t6", &format!("{name}|VIS down"), "PSNR_S"),
+            both(Table::T6, &format!("{name}|TIR up"), Col::PsnrS),
+            both(Table::T6, &format!("{name}|VIS down"), Col::PsnrS),
         );
         let _ = writeln!(
             md,
@@ -224,24 +225,25 @@ pub(super) fn markdown(
             verdict(up > down)
         );
     }
-    let sat = |name: &str, ill: &str| cells.mean(&format!("t4-{ill}"), name, "sat");
-    let ifevip_light = sat("ifevip", "light");
-    let others_light = names.iter().filter(|&&n| n != "ifevip").map(|&n| sat(n, "light")).fold(0.0, f64::max);
+    let sat = |name: &str, ill: Illumination| cells.mean(Table::T4(ill), name, Col::Sat);
+    let ifevip_light = sat("ifevip", Illumination::Light);
+    let others_light =
+        names.iter().filter(|&&n| n != "ifevip").map(|&n| sat(n, Illumination::Light)).fold(0.0, f64::max);
     let _ = writeln!(
         md,
         "1. *IFEVIP saturates the target in light*: {} % of its pixels newly at 255 in light ({} % in eclipse), at most {} % for the other seven methods — {}.",
         fmt(100.0 * ifevip_light, 3),
-        fmt(100.0 * sat("ifevip", "eclipse"), 3),
+        fmt(100.0 * sat("ifevip", Illumination::Eclipse), 3),
         fmt(100.0 * others_light, 3),
         verdict(ifevip_light > others_light && ifevip_light > 0.0)
     );
-    let noise_rank = best(names.iter().map(|&n| (n, both("t6", &tir_up_row(n), "PSNR_S"))));
+    let noise_rank = best(names.iter().map(|&n| (n, both(Table::T6, &tir_up_row(n), Col::PsnrS))));
     let _ = writeln!(
         md,
         "1. *TSIFSD or ADF is the method to fly (TIR up)*: the most noise-robust of the eight methods here (PSNR_S, TIR up; drif at different res) is {noise_rank} — {}.",
         verdict(noise_rank.starts_with("tsifsd") || noise_rank == "adf")
     );
-    let fastest = best(methods.iter().map(|m| (m.name, -cells.median("t7", m.name, "big"))));
+    let fastest = best(methods.iter().map(|m| (m.name, -cells.median(Table::T7, m.name, Col::Big))));
     let _ = writeln!(
         md,
         "1. *TSIFSD and ADF are the fast ones*: the fastest core method at {big}² here is {fastest} (the study: ADF, then TSIFSD) — {}.",
@@ -250,11 +252,11 @@ pub(super) fn markdown(
     // GFF darkens with TIR upscaling: its target level with TIR up, against its own with VIS down
     // and against the sources' average (1).
     let gff = HostMethod::Gff.name();
-    let (gff_up, gff_down) = (both("t4", gff, "level"), both("t5", gff, "level"));
+    let (gff_up, gff_down) = (both(Table::T4, gff, Col::Level), both(Table::T5, gff, Col::Level));
     let others_up: Vec<f64> = names
         .iter()
         .filter(|&&n| n != gff)
-        .map(|&n| both("t4", n, "level"))
+        .map(|&n| both(Table::T4, n, Col::Level))
         .filter(|v| v.is_finite())
         .collect();
     let (lo, hi) =
@@ -271,19 +273,19 @@ pub(super) fn markdown(
     );
     // TEPGFL halos: the largest halo measure of the eight methods (TIR up).
     let tepgfl = HostMethod::Tepgfl.name();
-    let halo_rank = best(names.iter().map(|&n| (n, both("t4", n, "halo"))));
+    let halo_rank = best(names.iter().map(|&n| (n, both(Table::T4, n, Col::Halo))));
     let _ = writeln!(
         md,
         "1. *TEPGFL halos*: halo measure around the target (TIR up) {} grey levels for tepgfl; the largest of the \
          eight is {halo_rank} ({}); median of the others {} — {}.",
-        fmt(both("t4", tepgfl, "halo"), 2),
-        fmt(both("t4", halo_rank, "halo"), 2),
+        fmt(both(Table::T4, tepgfl, Col::Halo), 2),
+        fmt(both(Table::T4, halo_rank, Col::Halo), 2),
         fmt(
             median(
                 &mut names
                     .iter()
                     .filter(|&&n| n != tepgfl)
-                    .map(|&n| both("t4", n, "halo"))
+                    .map(|&n| both(Table::T4, n, Col::Halo))
                     .collect::<Vec<_>>()
             ),
             2
@@ -291,28 +293,35 @@ pub(super) fn markdown(
         verdict(halo_rank == tepgfl)
     );
     // DRIF textureless (lowest AG of the eight, Table 4) and slow (the longest run time).
-    let ag_low = best(names.iter().map(|&n| (n, -both("t4", n, "AG"))));
+    let ag_low = best(names.iter().map(|&n| (n, -both(Table::T4, n, Col::Ag))));
     let _ = writeln!(
         md,
         "1. *DRIF is textureless*: AG (Table 4, both illuminations) {} for drif; the lowest of the eight is {ag_low} \
          ({}); the highest {} — {}.",
-        fmt(both("t4", drif, "AG"), 2),
-        fmt(both("t4", ag_low, "AG"), 2),
-        fmt(names.iter().map(|&n| both("t4", n, "AG")).filter(|v| v.is_finite()).fold(f64::NAN, f64::max), 2),
+        fmt(both(Table::T4, drif, Col::Ag), 2),
+        fmt(both(Table::T4, ag_low, Col::Ag), 2),
+        fmt(
+            names
+                .iter()
+                .map(|&n| both(Table::T4, n, Col::Ag))
+                .filter(|v| v.is_finite())
+                .fold(f64::NAN, f64::max),
+            2
+        ),
         verdict(ag_low == drif)
     );
-    let slowest = best(names.iter().map(|&n| (n, cells.median("t7", n, "big"))));
+    let slowest = best(names.iter().map(|&n| (n, cells.median(Table::T7, n, Col::Big))));
     let second = names
         .iter()
         .filter(|&&n| n != drif)
-        .map(|&n| cells.median("t7", n, "big"))
+        .map(|&n| cells.median(Table::T7, n, Col::Big))
         .filter(|v| v.is_finite())
         .fold(f64::NAN, f64::max);
     let _ = writeln!(
         md,
         "1. *DRIF is slow*: drif takes {} ms per frame pair at {big}² (f64, one thread; the study: ~6 s), the slowest \
          of the others {} ms; the slowest of the eight is {slowest} — {}.",
-        fmt(1e3 * cells.median("t7", drif, "big"), 0),
+        fmt(1e3 * cells.median(Table::T7, drif, Col::Big), 0),
         fmt(1e3 * second, 0),
         verdict(slowest == drif)
     );

@@ -38,7 +38,7 @@ use fusion_reference::rescale::lanczos3_u8;
 use fusion_reference::study_methods::guided_filter::box_mean;
 use fusion_reference::study_methods::{HostMethod, fuse_host_u8};
 use fusion_report::plot::{Labels, Series, Style, chart};
-use fusion_report::sheet::{contact_sheet, target_square, tile};
+use fusion_report::sheet::{labelled_sheet, target_square, tile};
 use rayon::prelude::*;
 use render_host::{
     Camera, DatasetConfig, Illumination, Scene, VisParams, render_dataset, render_vis, trajectory,
@@ -77,29 +77,120 @@ pub struct ReportArgs {
     pub repeats: usize,
 }
 
-/// Per-frame values of one table cell: `(table, row, column) → values`.
+/// Which of the study's tables a cell belongs to; `t2`, `t3-light`, … in the CSV files.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Table {
+    /// Table 2: TIR upscaled against the native TIR.
+    T2,
+    /// Table 3: VIS downscaled against the native VIS.
+    T3(Illumination),
+    /// Table 4: fusion on the VIS grid (TIR upscaled).
+    T4(Illumination),
+    /// Table 5: fusion on the TIR grid (VIS downscaled).
+    T5(Illumination),
+    /// Table 6: noise of the fused frame.
+    T6(Illumination),
+    /// Table 7: run time.
+    T7,
+}
+
+/// The name of an illumination in the report (`eclipse`, `light`).
+fn light_name(ill: Illumination) -> &'static str {
+    match ill {
+        Illumination::Eclipse => "eclipse",
+        Illumination::Light => "light",
+    }
+}
+
+impl std::fmt::Display for Table {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match *self {
+            Table::T2 => write!(f, "t2"),
+            Table::T3(i) => write!(f, "t3-{}", light_name(i)),
+            Table::T4(i) => write!(f, "t4-{}", light_name(i)),
+            Table::T5(i) => write!(f, "t5-{}", light_name(i)),
+            Table::T6(i) => write!(f, "t6-{}", light_name(i)),
+            Table::T7 => write!(f, "t7"),
+        }
+    }
+}
+
+/// A column of the report's tables, by the name the CSV files give it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Col {
+    Ag,
+    Mi,
+    Fmi,
+    Ssim,
+    Rmse,
+    MseS,
+    PsnrS,
+    SsimS,
+    /// Share of the target's pixels newly at 255.
+    Sat,
+    /// Fused target level over the sources' mean.
+    Level,
+    /// Grey levels outside the sources' range near the outline.
+    Halo,
+    /// Run time on the large grid, s.
+    Big,
+    /// Run time on the small grid, s.
+    Small,
+}
+
+impl Col {
+    fn name(self) -> &'static str {
+        match self {
+            Col::Ag => "AG",
+            Col::Mi => "MI",
+            Col::Fmi => "FMI",
+            Col::Ssim => "SSIM",
+            Col::Rmse => "RMSE",
+            Col::MseS => "MSE_S",
+            Col::PsnrS => "PSNR_S",
+            Col::SsimS => "SSIM_S",
+            Col::Sat => "sat",
+            Col::Level => "level",
+            Col::Halo => "halo",
+            Col::Big => "big",
+            Col::Small => "small",
+        }
+    }
+}
+
+/// Per-frame values of the report's cells: `(table, row, column) → values`, keyed by typed
+/// table and column (a mistyped key does not compile; rows are method and rescaler names).
+/// Stored under the CSV names, so the files list the cells in the same order as before.
 #[derive(Debug, Default)]
 struct Cells(BTreeMap<(String, String, String), Vec<f64>>);
 
+/// Mean of the finite values (infinite PSNRs are left out and said so by `format`); NaN when
+/// there are none.
+fn mean_of(values: &[f64]) -> f64 {
+    let v: Vec<f64> = values.iter().copied().filter(|x| x.is_finite()).collect();
+    if v.is_empty() { f64::NAN } else { v.iter().sum::<f64>() / v.len() as f64 }
+}
+
+/// Median of the values (NaN when there are none).
+fn median_of(values: &[f64]) -> f64 {
+    if values.is_empty() { f64::NAN } else { median(&mut values.to_vec()) }
+}
+
 impl Cells {
-    fn push(&mut self, table: &str, row: &str, col: &str, v: f64) {
-        self.0.entry((table.into(), row.into(), col.into())).or_default().push(v);
+    fn push(&mut self, table: Table, row: &str, col: Col, v: f64) {
+        self.0.entry((table.to_string(), row.into(), col.name().into())).or_default().push(v);
     }
 
-    fn values(&self, table: &str, row: &str, col: &str) -> &[f64] {
-        self.0.get(&(table.to_string(), row.to_string(), col.to_string())).map_or(&[], Vec::as_slice)
+    fn values(&self, table: Table, row: &str, col: Col) -> &[f64] {
+        self.0.get(&(table.to_string(), row.to_string(), col.name().to_string())).map_or(&[], Vec::as_slice)
     }
 
-    /// Mean of the finite values (infinite PSNRs are left out and said so by `format`).
-    fn mean(&self, table: &str, row: &str, col: &str) -> f64 {
-        let v: Vec<f64> = self.values(table, row, col).iter().copied().filter(|x| x.is_finite()).collect();
-        if v.is_empty() { f64::NAN } else { v.iter().sum::<f64>() / v.len() as f64 }
+    fn mean(&self, table: Table, row: &str, col: Col) -> f64 {
+        mean_of(self.values(table, row, col))
     }
 
-    /// Median of the values (NaN when there are none).
-    fn median(&self, table: &str, row: &str, col: &str) -> f64 {
-        let v = self.values(table, row, col);
-        if v.is_empty() { f64::NAN } else { median(&mut v.to_vec()) }
+    fn median(&self, table: Table, row: &str, col: Col) -> f64 {
+        median_of(self.values(table, row, col))
     }
 }
 
@@ -145,14 +236,16 @@ impl NativeVis {
     }
 }
 
-fn put_fusion(cells: &mut Cells, table: &str, row: &str, m: &FusionMetrics) {
-    for (col, v) in [("AG", m.ag), ("MI", m.mi), ("FMI", m.fmi), ("SSIM", m.ssim), ("RMSE", m.rmse)] {
+fn put_fusion(cells: &mut Cells, table: Table, row: &str, m: &FusionMetrics) {
+    for (col, v) in
+        [(Col::Ag, m.ag), (Col::Mi, m.mi), (Col::Fmi, m.fmi), (Col::Ssim, m.ssim), (Col::Rmse, m.rmse)]
+    {
         cells.push(table, row, col, v);
     }
 }
 
-fn put_noise(cells: &mut Cells, table: &str, row: &str, n: &NoiseMetrics) {
-    for (col, v) in [("MSE_S", n.mse_s), ("PSNR_S", n.psnr_s), ("SSIM_S", n.ssim_s)] {
+fn put_noise(cells: &mut Cells, table: Table, row: &str, n: &NoiseMetrics) {
+    for (col, v) in [(Col::MseS, n.mse_s), (Col::PsnrS, n.psnr_s), (Col::SsimS, n.ssim_s)] {
         cells.push(table, row, col, v);
     }
 }
@@ -282,7 +375,7 @@ pub fn run(args: &ReportArgs) -> Result<()> {
         // Table 2: TIR up against the native noiseless 1024².
         for r in RESCALERS {
             let up = rescale_with(&tir_n, r, big, big)?;
-            put_noise(&mut cells, "t2", r, &noise_metrics(&up, &tir1024_c));
+            put_noise(&mut cells, Table::T2, r, &noise_metrics(&up, &tir1024_c));
         }
         for (ill, illum) in ILLUMINATIONS {
             let vis_n = dataset.image(&format!("vis_{ill}"), f, true)?;
@@ -291,7 +384,7 @@ pub fn run(args: &ReportArgs) -> Result<()> {
             let vis512_c = native.render(f, small as u32, illum)?;
             for r in RESCALERS {
                 let down = rescale_with(&vis_n, r, small, small)?;
-                put_noise(&mut cells, &format!("t3-{ill}"), r, &noise_metrics(&down, &vis512_c));
+                put_noise(&mut cells, Table::T3(illum), r, &noise_metrics(&down, &vis512_c));
             }
             let tir_up = source_on_grid(&tir_n, (big, big), Filter::Cubic)?;
             let vis_down = source_on_grid(&vis_n, (small, small), Filter::Area)?;
@@ -319,8 +412,8 @@ pub fn run(args: &ReportArgs) -> Result<()> {
                 let same = fuse_timed(&vis_n, &tir1024_n, &none, 1)?;
                 let reference = fuse_timed(&vis_c, &tir1024_c, &none, 1)?;
                 let ref_down = source_on_grid(&reference.fused, (small, small), Filter::Area)?;
-                cells.push("t7", name, "big", up.seconds);
-                cells.push("t7", name, "small", down.seconds);
+                cells.push(Table::T7, name, Col::Big, up.seconds);
+                cells.push(Table::T7, name, Col::Small, down.seconds);
                 runs.push(Run {
                     name,
                     up: up.fused,
@@ -341,14 +434,14 @@ pub fn run(args: &ReportArgs) -> Result<()> {
                 } else {
                     fuse_host_u8(host, &vis_n, &source_on_grid(&tir_n, (big, big), Filter::Cubic)?)?.0
                 };
-                cells.push("t7", name, "big", t.elapsed().as_secs_f64());
+                cells.push(Table::T7, name, Col::Big, t.elapsed().as_secs_f64());
                 let down = if host.different_resolution() {
                     None
                 } else {
                     let t = Instant::now();
                     let down =
                         fuse_host_u8(host, &source_on_grid(&vis_n, (small, small), Filter::Area)?, &tir_n)?.0;
-                    cells.push("t7", name, "small", t.elapsed().as_secs_f64());
+                    cells.push(Table::T7, name, Col::Small, t.elapsed().as_secs_f64());
                     Some(down)
                 };
                 host_runs.push((host, up, down));
@@ -404,17 +497,17 @@ pub fn run(args: &ReportArgs) -> Result<()> {
             let mut sheet_fused = Vec::new();
             for (run, (up, down, noise)) in runs.into_iter().zip(measured) {
                 let name = run.name;
-                for (table, m) in [("t4", Some(up)), ("t5", down)] {
+                for (table, m) in [(Table::T4 as fn(Illumination) -> Table, Some(up)), (Table::T5, down)] {
                     let Some((metrics, sat, level, halo)) = m else { continue };
-                    let t = format!("{table}-{ill}");
-                    put_fusion(&mut cells, &t, name, &metrics);
-                    cells.push(&t, name, "sat", sat);
-                    cells.push(&t, name, "level", level);
-                    cells.push(&t, name, "halo", halo);
+                    let t = table(illum);
+                    put_fusion(&mut cells, t, name, &metrics);
+                    cells.push(t, name, Col::Sat, sat);
+                    cells.push(t, name, Col::Level, level);
+                    cells.push(t, name, Col::Halo, halo);
                 }
                 for (row, n) in &noise {
                     let row = if row == "VIS down" { format!("{name}|VIS down") } else { row.clone() };
-                    put_noise(&mut cells, &format!("t6-{ill}"), &row, n);
+                    put_noise(&mut cells, Table::T6(illum), &row, n);
                 }
                 if f == sheet_frame {
                     sheet_fused.push(run.up);
@@ -434,7 +527,10 @@ pub fn run(args: &ReportArgs) -> Result<()> {
     }
 
     let sheet_path = args.out.join("contact_sheet.png");
-    save_gray_u8(&sheet_path, &contact_sheet(&sheet_rows, 4))?;
+    let mut columns = vec!["VIS", "TIR up"];
+    columns.extend(row_names(&methods));
+    let rows: Vec<&str> = ILLUMINATIONS.iter().map(|(name, _)| *name).collect();
+    save_gray_u8(&sheet_path, &labelled_sheet(&sheet_rows, 4, &columns, &rows))?;
     let charts = write_charts(&cells, &methods, frames, &args.out)?;
     write_csvs(&cells, &args.out)?;
     let md =

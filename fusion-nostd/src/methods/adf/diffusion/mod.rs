@@ -543,7 +543,7 @@ impl Diffusion {
         };
         #[cfg(fusion_arm_dsp)]
         let done = match f.table() {
-            Some(t) => arm::row_pixels(t, p, q, north, out, &mut carry),
+            Some(t) => armv7em::row_pixels(t, p, q, north, out, &mut carry),
             None => 0,
         };
         #[cfg(all(target_arch = "aarch64", target_feature = "neon"))]
@@ -902,7 +902,7 @@ pub(crate) fn diffuse_rows(
 }
 
 #[cfg(fusion_arm_dsp)]
-mod arm;
+mod armv7em;
 
 #[cfg(any(target_arch = "x86_64", all(target_arch = "aarch64", target_feature = "neon")))]
 mod simd;

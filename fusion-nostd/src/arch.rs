@@ -1,7 +1,7 @@
 //! The Armv7E-M DSP instructions (Cortex-M4/M7) that the portable kernels use inline, one short
 //! register-only sequence each, as safe functions. Compiled only where `build.rs` sets
 //! `cfg(fusion_arm_dsp)`. The kernels whose whole loop is assembly keep it beside their
-//! portable form, in their module's `arm.rs` (like the `avx2.rs` and `avx512.rs` forms of the
+//! portable form, in their module's `armv7em.rs` (like the `avx2.rs` and `avx512.rs` forms of the
 //! x86-64 hosts).
 
 /// `acc + x.lo·y.lo + x.hi·y.hi` on the signed 16-bit halves (`smlad`). The caller keeps the

@@ -7,7 +7,7 @@
 //! AVX-512 forms (`*/avx2.rs`, `*/avx512.rs`) chosen the same way. The arithmetic is integer
 //! (or IEEE operations proven exact), so every copy gives the same bits. On every other target
 //! (the flight targets included) the forms are chosen at compile time: the Armv7E-M forms
-//! (`*/arm.rs`) on `thumbv7em`, the NEON forms (`*/neon.rs`) on AArch64, the portable code
+//! (`*/armv7em.rs`) on `thumbv7em`, the NEON forms (`*/neon.rs`) on AArch64, the portable code
 //! elsewhere. [`limit_isa`] can still switch the NEON forms off (AArch64 has NEON by definition,
 //! so there is nothing to detect); the Armv7E-M forms it does not change.
 //!

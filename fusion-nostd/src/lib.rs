@@ -26,8 +26,9 @@
 //! rescaler and the AGC. The modules hold each part's documentation; the firmware's
 //! per-step hooks sit in a hidden `stages` module. The source tree: one folder per method
 //! under `methods/` (its whole-frame code, its strip form `strips.rs`, its tests), and one file
-//! per instruction set beside a kernel's portable code (`arm.rs` for the Armv7E-M DSP
-//! assembly, `avx2.rs`, `avx512.rs`; the short DSP sequences in `arch.rs`).
+//! per instruction set beside a kernel's portable code, named after it (`armv7em.rs` for the
+//! Armv7E-M DSP assembly, `neon.rs`, `avx2.rs`, `avx512.rs`; the short DSP sequences in
+//! `arch.rs`).
 //!
 //! Words used throughout: a *band* is one camera's image, VIS or TIR (the scratch's *band plane*
 //! holds the one rescaled onto the other's grid); the *grid* is the size both are fused on; a

@@ -67,7 +67,7 @@ mod strips;
 
 /// The Armv7E-M forms of the covariance loop and the flight output row.
 #[cfg(fusion_arm_dsp)]
-mod arm;
+mod armv7em;
 /// The AVX2 forms of the covariance loop and the flight output row.
 #[cfg(target_arch = "x86_64")]
 mod avx2;
@@ -249,7 +249,7 @@ type Moments = [i128; 5];
 #[inline(always)]
 fn chunk_moments(iv: &[u8], it: &[u8], a: &[i32]) -> Moments {
     #[cfg(fusion_arm_dsp)]
-    let (done, [mut s1, mut s2], [mut s11, mut s12, mut s22]) = arm::moments_pairs(iv, it, a);
+    let (done, [mut s1, mut s2], [mut s11, mut s12, mut s22]) = armv7em::moments_pairs(iv, it, a);
     #[cfg(target_arch = "x86_64")]
     let (done, [mut s1, mut s2], [mut s11, mut s12, mut s22]) = if crate::cpu::isa() == crate::cpu::Isa::Avx2
     {
@@ -347,7 +347,7 @@ impl Fusion {
     pub(crate) fn u8_row(&self, iv: &[u8], it: &[u8], a: &[i32], out: &mut [u8]) -> bool {
         #[cfg(fusion_arm_dsp)]
         let (done, mut saturated) = match self.p32 {
-            Some(p) => arm::u8_pixels(p, iv, it, a, out),
+            Some(p) => armv7em::u8_pixels(p, iv, it, a, out),
             None => (0, false),
         };
         #[cfg(target_arch = "x86_64")]

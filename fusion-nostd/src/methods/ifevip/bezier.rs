@@ -138,7 +138,7 @@ pub fn render_rows(
             #[cfg(fusion_arm_dsp)]
             if bits > BG_BITS && bits - BG_BITS < 32 {
                 let half = 1i64 << (bits - BG_BITS - 1);
-                super::arm::step_row_arm(
+                super::armv7em::step_row_arm(
                     seg.get_mut(..len).unwrap_or(&mut []),
                     [v.wrapping_add(half), d1, d2, d3],
                     bits - BG_BITS,

@@ -66,7 +66,7 @@ mod strips;
 
 /// The Armv7E-M forms of the output rows and the Bézier walk.
 #[cfg(fusion_arm_dsp)]
-mod arm;
+mod armv7em;
 /// The AVX2 form of the tabulated output row.
 #[cfg(target_arch = "x86_64")]
 mod avx2;
@@ -353,7 +353,7 @@ pub(crate) fn output_pass(
             let avx2 = crate::cpu::has_avx2();
             for (((o, v), t), rr) in rows {
                 #[cfg(fusion_arm_dsp)]
-                if let Some(sat) = arm::output_row_arm(o, v, t, rr, table) {
+                if let Some(sat) = armv7em::output_row_arm(o, v, t, rr, table) {
                     rows_saturated |= sat;
                     continue;
                 }

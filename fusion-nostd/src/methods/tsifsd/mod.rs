@@ -340,14 +340,14 @@ mod flight;
 mod general;
 #[cfg(all(target_arch = "aarch64", target_feature = "neon"))]
 mod neon;
-mod wide;
+mod x86_64;
 
 pub(crate) use flight::flight_words;
 use flight::*;
 use general::*;
 #[cfg(all(target_arch = "aarch64", target_feature = "neon"))]
 use neon::*;
-use wide::*;
+use x86_64::*;
 
 /// The strip form ([`crate::strips::StripForm`]).
 mod strips;

@@ -22,7 +22,7 @@ use crate::{FrameMut, FrameRef};
 
 /// The Armv7E-M form of the vertical pass.
 #[cfg(fusion_arm_dsp)]
-mod arm;
+mod armv7em;
 
 /// Source columns per chunk (the up kernel writes twice as many output columns).
 const CHUNK: usize = 256;
@@ -192,7 +192,7 @@ fn vertical<const S: u32, const W0: i32, const W1: i32, const W2: i32, const W3:
     rows: [&[i32; HROW]; 4],
 ) {
     #[cfg(fusion_arm_dsp)]
-    let done = arm::vertical_arm::<S>(out, rows, [W0, W1, W2, W3]);
+    let done = armv7em::vertical_arm::<S>(out, rows, [W0, W1, W2, W3]);
     #[cfg(not(fusion_arm_dsp))]
     let done = 0;
     let out = out.get_mut(done..).unwrap_or(&mut []);

@@ -17,9 +17,10 @@
 
 use super::super::avx2::words as load;
 #[cfg(doc)]
-use super::ByteTables;
+use super::flux::ByteTables;
+use super::flux::{FluxFn, SEGMENTS};
+use super::row::RowCarry;
 use super::simd::{Lanes, row_blocks as blocks};
-use super::{FluxFn, RowCarry, SEGMENTS};
 use core::arch::x86_64::*;
 
 /// Stores eight words to `s[at..at + 8]`.

@@ -4,8 +4,9 @@
 //! portable loop, so the same bits (checked by `avx512_rows_equal_the_portable_rows` and
 //! `table_and_avx512_equal_the_function_exhaustively`).
 
+use super::flux::{FluxFn, SEGMENTS};
+use super::row::RowCarry;
 use super::simd::{Lanes, row_blocks as blocks};
-use super::{FluxFn, RowCarry, SEGMENTS};
 use core::arch::x86_64::*;
 
 /// Sixteen words at `s[at..at + 16]`.

@@ -12,8 +12,9 @@
 //! under `qemu-aarch64` in CI; every fused frame of the emulated Cortex-A53 by
 //! `fusion budget --target a53` against the host).
 
+use super::flux::{ByteTables, SEGMENTS};
+use super::row::RowCarry;
 use super::simd::{Lanes, row_blocks as blocks};
-use super::{ByteTables, RowCarry, SEGMENTS};
 use core::arch::aarch64::*;
 
 /// The flux function in NEON registers ([`ByteTables`] read by `tbl`); `WIDE`: the nodes take
@@ -60,7 +61,7 @@ impl<const WIDE: bool> Flux<WIDE> {
         }
     }
 
-    /// [`FluxFn::eval`](super::FluxFn::eval) of `a − c` and `b − c` (differences of states,
+    /// [`FluxFn::eval`](super::flux::FluxFn::eval) of `a − c` and `b − c` (differences of states,
     /// below 2¹⁵ in magnitude), eight lanes each.
     #[inline(always)]
     fn apply2(&self, [a, b]: [int16x8_t; 2], c: int16x8_t) -> [int16x8_t; 2] {
@@ -94,12 +95,12 @@ impl<const WIDE: bool> Flux<WIDE> {
     }
 }
 
-/// [`FluxFn::eval`](super::FluxFn::eval) by the NEON form on pairs of registers of eight
+/// [`FluxFn::eval`](super::flux::FluxFn::eval) by the NEON form on pairs of registers of eight
 /// values `x − c`, into `out` (for the tests); `None` as
-/// [`FluxFn::byte_tables`](super::FluxFn::byte_tables).
+/// [`FluxFn::byte_tables`](super::flux::FluxFn::byte_tables).
 #[cfg(test)]
 pub(super) fn flux_pairs(
-    fx: &super::FluxFn,
+    fx: &super::flux::FluxFn,
     x: &[[[i16; 8]; 2]],
     c: [i16; 8],
     out: &mut [[[i16; 8]; 2]],
@@ -214,7 +215,7 @@ impl<const WIDE: bool> Lanes for Flux<WIDE> {
 
 /// Runs the row loop of `Diffusion::row` (`simd.rs`) on whole blocks of four pixels from the
 /// start of the row with the flux function's byte tables `t` (limit and shift `k` as
-/// [`FluxFn`](super::FluxFn)'s), updating `carry`; returns the pixels done.
+/// [`FluxFn`](super::flux::FluxFn)'s), updating `carry`; returns the pixels done.
 pub(super) fn row_blocks(
     t: &ByteTables,
     (limit, shift): (i32, u32),

@@ -10,7 +10,8 @@
 //! saturating 16-bit lanes; no partial sum reaches 2¹⁵ (`MAX_FLUX`), so the lanes hold the
 //! portable values exactly and the output bits are the portable loop's.
 
-use super::{RowCarry, hi, lo, pack};
+use super::pack::{hi, lo, pack};
+use super::row::RowCarry;
 
 /// One SIMD form of the row loop. A value of the implementing type exists only on a CPU that
 /// has the form's instruction set (its constructor is compiled for that set), so its methods

@@ -1,7 +1,12 @@
 extern crate std;
-use super::super::Variant;
 use super::super::tests::noise;
+use super::super::{AdfParams, Variant};
+use super::flux::*;
+use super::pack::*;
+use super::row::*;
+use super::row_pipeline::*;
 use super::*;
+use crate::{Error, FrameRef};
 use std::vec::Vec;
 
 fn params(kappa: u16, dt_milli: u16) -> AdfParams {

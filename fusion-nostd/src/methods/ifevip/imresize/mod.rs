@@ -528,7 +528,7 @@ impl Sample for u8 {
     fn pass_cols(src: FrameRef<'_, u8>, taps: &Taps<'_>, mut dst: FrameMut<'_, i32>, out: Output) {
         #[cfg(fusion_arm_dsp)]
         if taps.stride == 8 + 2 && matches!(out, Output::U8) {
-            arm::cols8::<u8, true>(src, taps, dst, arm::u8_to_u8);
+            armv7em::cols8::<u8, true>(src, taps, dst, armv7em::u8_to_u8);
             return;
         }
         #[cfg(all(target_arch = "aarch64", target_feature = "neon"))]
@@ -549,10 +549,10 @@ impl Sample for i32 {
         #[cfg(fusion_arm_dsp)]
         if taps.stride == 8 + 2 {
             match out {
-                Output::U8 => rows_with::<i32, 8, true>(src, taps, dst, arm::dot8_arm),
+                Output::U8 => rows_with::<i32, 8, true>(src, taps, dst, armv7em::dot8_arm),
                 Output::Same => {
-                    if !arm::rows8::<false>(src, taps, dst.reborrow()) {
-                        rows_with::<i32, 8, false>(src, taps, dst, arm::dot8_arm);
+                    if !armv7em::rows8::<false>(src, taps, dst.reborrow()) {
+                        rows_with::<i32, 8, false>(src, taps, dst, armv7em::dot8_arm);
                     }
                 }
             }
@@ -583,7 +583,7 @@ impl Sample for i32 {
     fn pass_cols(src: FrameRef<'_, i32>, taps: &Taps<'_>, mut dst: FrameMut<'_, i32>, out: Output) {
         #[cfg(fusion_arm_dsp)]
         if taps.stride == 8 + 2 && matches!(out, Output::Same) {
-            arm::cols8::<i32, false>(src, taps, dst, arm::i32_to_same);
+            armv7em::cols8::<i32, false>(src, taps, dst, armv7em::i32_to_same);
             return;
         }
         #[cfg(all(target_arch = "aarch64", target_feature = "neon"))]
@@ -696,7 +696,7 @@ crate::cpu::dispatch! {
 }
 
 #[cfg(fusion_arm_dsp)]
-mod arm;
+mod armv7em;
 #[cfg(all(target_arch = "aarch64", target_feature = "neon"))]
 mod neon;
 
@@ -705,7 +705,7 @@ mod neon;
 /// [`pass_rows`] (which it runs on other targets, or when a table row reaches outside).
 pub(crate) fn pass_rows_u8_range(src: FrameRef<'_, i32>, taps: &Taps<'_>, mut dst: FrameMut<'_, i32>) {
     #[cfg(fusion_arm_dsp)]
-    if arm::rows8::<true>(src, taps, dst.reborrow()) {
+    if armv7em::rows8::<true>(src, taps, dst.reborrow()) {
         return;
     }
     pass_rows(src, taps, dst.reborrow(), Output::U8)

@@ -1,15 +1,17 @@
-//! x86-64's form of the flight kernel's chunk: the divisions in `f64`/`f32`, in separate passes the
-//! compiler vectorises (the portable chunk, [`super::flight`], divides in integers in one pass;
-//! AArch64 has its own NEON chunk, `neon.rs`, dividing by [`MagicC`]). All give the same bytes
-//! (unit test `wide_and_portable_chunks_agree`; on AArch64 the SIMD-forms test under
-//! `qemu-aarch64`).
-// On AArch64 only `Wide` (its Scharr columns) and `MagicC` serve the NEON chunk; the rest is
-// x86-64's, kept compiled there for the division tests.
+//! x86-64's form of the flight kernel's chunk (its wide form there, on every x86-64 CPU: the
+//! baseline build and the AVX2 and AVX-512 copies of `flight_u8` alike): the divisions in
+//! `f64`/`f32`, in separate passes the compiler vectorises (the portable chunk,
+//! [`super::flight`], divides in integers in one pass; AArch64 has its own NEON chunk,
+//! `neon.rs`, dividing by [`MagicC`]). All give the same bytes (unit test
+//! `wide_and_portable_chunks_agree`; on AArch64 the SIMD-forms test under `qemu-aarch64`).
+// Compiled on every target. On AArch64 only `Wide` (its Scharr columns) and `MagicC` serve the
+// NEON chunk; the rest is x86-64's, kept compiled there for the division tests.
 #![cfg_attr(all(target_arch = "aarch64", target_feature = "neon"), allow(dead_code))]
 
 use super::*;
 
-/// The wide form's chunk buffers: window sums, packed parts, Scharr columns.
+/// The wide forms' chunk buffers (this chunk's; the NEON chunk uses the Scharr columns):
+/// window sums, packed parts, Scharr columns.
 pub(super) struct Wide {
     pub(super) dd: [u32; CHUNK],
     pub(super) q: [u32; CHUNK],

@@ -5,7 +5,8 @@
 //! portable loop, so the same bits (the firmware's bit-exactness jobs compare the target's
 //! frames with the host's). 42.5 instructions per pixel of both bands.
 
-use super::{RowCarry, TABLE_CENTRE, TABLE_ENTRIES};
+use super::flux::{TABLE_CENTRE, TABLE_ENTRIES};
+use super::row::RowCarry;
 
 /// One pixel of the row loop, both bands: `h_prev`, `partial` name the registers the
 /// carried values come in, `h`, `next` the ones the new values go to (a second pixel swaps

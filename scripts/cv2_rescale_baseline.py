@@ -2,7 +2,7 @@
 """OpenCV baseline for the rescale benchmark and exactness check (never part of CI).
 
 Needs `pip install opencv-python-headless numpy`. Times cv2.resize single-threaded on the same
-synthetic frames as host-harness/benches/rescale.rs (median of many runs), and, with
+synthetic frames as fusion-engine/benches/rescale.rs (median of many runs), and, with
 --check FUSION_BIN, compares `fusion rescale` output with cv2 pixel by pixel on the VIFB photos
 and on 512²/1024² frames.
 """

@@ -23,7 +23,7 @@
 //! ```
 
 mod checks;
-pub mod elf;
+mod elf;
 pub mod fw;
 mod inputs;
 mod memory;

@@ -126,6 +126,7 @@ pub(crate) fn ssim_valid(a: vifb::Plane, b: vifb::Plane) -> f64 {
 
 /// Mean SSIM over the valid 11 × 11 windows of two `w × h` images (`w, h ≥ 11`): MATLAB's
 /// `filter2(window, ·, 'valid')` of the five moment images, then the index, then `mean2`.
+#[inline(never)]
 fn ssim_valid_windows(a: &[u8], b: &[u8], w: usize, h: usize) -> f64 {
     let (c1, c2) = ((0.01f64 * 255.0).powi(2), (0.03f64 * 255.0).powi(2));
     let index = |ma: f64, mb: f64, va: f64, vb: f64, cov: f64| {

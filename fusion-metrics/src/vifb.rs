@@ -190,6 +190,7 @@ fn channel_metrics(v: Plane, i: Plane, f: Plane) -> ChannelMetrics {
     ChannelMetrics { values }
 }
 
+#[inline(never)]
 fn histogram(data: &[u8]) -> [u64; 256] {
     let mut h = [0u64; 256];
     for &v in data {
@@ -199,12 +200,14 @@ fn histogram(data: &[u8]) -> [u64; 256] {
 }
 
 /// `metricsEntropy.m`: −Σ p·log2 p over the 256 bins of the fused image.
+#[inline(never)]
 fn entropy_bits(h: &[u64; 256], n: f64) -> f64 {
     -h.iter().filter(|&&c| c > 0).map(|&c| c as f64 / n).map(|p| p * p.log2()).sum::<f64>()
 }
 
 /// `metricsCross_entropy.m`'s `cross_entropy(img, fused)`: Σ P1·log2(P1/P2) over the bins where
 /// both are non-zero (so a KL divergence that skips the bins it could not define).
+#[inline(never)]
 fn kl_bits(a: &[u64; 256], f: &[u64; 256], n: f64) -> f64 {
     a.iter()
         .zip(f)
@@ -218,6 +221,7 @@ fn kl_bits(a: &[u64; 256], f: &[u64; 256], n: f64) -> f64 {
 
 /// VIFB's `mse(a, b)` of `metricsRmse.m`/`metricsPsnr.m`: `sqrt(sum((a−b).^2))/(m·n)` — the root
 /// of the *sum*, divided by the pixel count (not a root mean square).
+#[inline(never)]
 fn vifb_error(a: &[u8], b: &[u8], n: f64) -> f64 {
     let s: u64 = a.iter().zip(b).map(|(&x, &y)| (i64::from(x) - i64::from(y)).unsigned_abs().pow(2)).sum();
     (s as f64).sqrt() / n
@@ -225,6 +229,7 @@ fn vifb_error(a: &[u8], b: &[u8], n: f64) -> f64 {
 
 /// `metricsAvg_gradient.m`: `[dzdx, dzdy] = gradient(F)` (central differences inside, one-sided
 /// at the borders), `Σ sqrt((dzdx² + dzdy²)/2) / ((r−1)(c−1))` over all r·c pixels.
+#[inline(never)]
 fn average_gradient(f: Plane) -> f64 {
     let (w, h) = (f.width, f.height);
     let px = |x: usize, y: usize| f64::from(f.data[y * w + x]);
@@ -263,6 +268,7 @@ fn average_gradient(f: Plane) -> f64 {
 
 /// `metricsEdge_intensity.m`: mean of `sqrt(gx² + gy²)`, `gx = imfilter(F, fspecial('sobel'),
 /// 'replicate')`, `gy` with the transposed kernel.
+#[inline(never)]
 fn edge_intensity(f: Plane) -> f64 {
     let (w, h) = (f.width as isize, f.height as isize);
     let px = |x: isize, y: isize| i32::from(f.data[(y.clamp(0, h - 1) * w + x.clamp(0, w - 1)) as usize]);
@@ -287,6 +293,7 @@ fn edge_intensity(f: Plane) -> f64 {
 /// `metricsMutinf.m`'s `mutinf(a, b)`: both rescaled to [0, 1] by their own min and max (a
 /// constant image to 0), binned by `int16(x·255)` (round half away from zero), then
 /// `H(a) + H(b) − H(a, b)` with natural logarithms — nats, not bits.
+#[inline(never)]
 fn mutinf(a: &[u8], b: &[u8]) -> f64 {
     let bins = |d: &[u8]| -> Vec<usize> {
         let (lo, hi) = d.iter().fold((u8::MAX, u8::MIN), |(lo, hi), &v| (lo.min(v), hi.max(v)));
@@ -317,6 +324,7 @@ fn mutinf(a: &[u8], b: &[u8]) -> f64 {
 }
 
 /// `metricsVariance.m` (despite the name, the root): `sqrt(Σ(F − mean)²/(r·c))`.
+#[inline(never)]
 fn standard_deviation(f: &[u8]) -> f64 {
     let n = f.len() as f64;
     let mean = f.iter().map(|&v| f64::from(v)).sum::<f64>() / n;
@@ -327,6 +335,7 @@ fn standard_deviation(f: &[u8]) -> f64 {
 /// `RF = Σ (F(i,j) − F(i,j−1))² / (m·n)` along the rows of the concatenation (so the step from
 /// one channel's last column to the next channel's first counts), `CF` along the columns,
 /// `sqrt(RF + CF)`.
+#[inline(never)]
 fn spatial_frequency(planes: &[Plane]) -> f64 {
     let (w, h) = (planes[0].width, planes[0].height);
     let n = (w * h * planes.len()) as f64;
@@ -388,6 +397,7 @@ fn sobel_zero(data: &[u8], w: usize, h: usize) -> (Vec<i32>, Vec<i32>) {
 /// source `Q = Tg/(1+e^{kg(G−Dg)}) · Ta/(1+e^{ka(A−Da)})` with `G = min/max` of the strengths —
 /// or the fused strength itself where they are equal (the file's branch) — and
 /// `A = 1 − |α_S − α_F|/(π/2)`; result `Σ(Q_A g_A + Q_B g_B)/Σ(g_A + g_B)`.
+#[inline(never)]
 fn qabf(a: Plane, b: Plane, f: Plane) -> f64 {
     const TG: f64 = 0.9994;
     const KG: f64 = -15.0;
@@ -434,6 +444,7 @@ fn qabf(a: Plane, b: Plane, f: Plane) -> f64 {
 
 /// `normalize1` of `metricsQcb.m`/`metricsQcv.m`: `round((x − min)/(max − min)·255)`; an
 /// all-zero image stays 0 and any other constant image becomes NaN (0/0), as in the file.
+#[inline(never)]
 fn normalize1(d: &[u8]) -> Vec<f64> {
     let (lo, hi) = d.iter().fold((u8::MAX, u8::MIN), |(lo, hi), &v| (lo.min(v), hi.max(v)));
     if lo == 0 && hi == 0 {
@@ -452,6 +463,7 @@ fn freq(k: usize, n: usize) -> f64 {
 }
 
 /// Qcb and Qcv of one channel triple; they share the rescale (`normalize1`) and the forward FFTs.
+#[inline(never)]
 fn chen_metrics(a: Plane, b: Plane, f: Plane) -> (f64, f64) {
     let (w, h) = (f.width, f.height);
     let (na, nb, nf) = (normalize1(a.data), normalize1(b.data), normalize1(f.data));
@@ -467,6 +479,7 @@ fn chen_metrics(a: Plane, b: Plane, f: Plane) -> (f64, f64) {
 /// unnormalised 31 × 31 Gaussians σ 2 and 4 (`filter2 … 'same'`, zero padding); `C' = C³/(C² +
 /// 10⁻⁴)`; preservation `Q_SF = min/max(C'_S, C'_F)`; saliency `λ_A = C'_A²/(C'_A² + C'_B²)`;
 /// result the mean of `λ_A Q_AF + λ_B Q_BF`.
+#[inline(never)]
 fn chen_blum(spectra: &Spectra2d, s: [&Vec<Complex<f64>>; 3]) -> f64 {
     let (w, h) = (spectra.width, spectra.height);
     let (hh, ll) = (h as f64 / 30.0, w as f64 / 30.0);
@@ -537,6 +550,7 @@ fn chen_blum(spectra: &Spectra2d, s: [&Vec<Complex<f64>>; 3]) -> f64 {
 /// per block: `D = mean((S − F) filtered by Mannos–Sakrison)²` over the padded block (÷ 256),
 /// the filter `2.6(0.0192 + 0.144r)e^{−(0.144r)^{1.1}}` on `freqspace` scaled by (W/8, H/8).
 /// Result `Σ(λ_A D_A + λ_B D_B)/Σ(λ_A + λ_B)`; lower is better.
+#[inline(never)]
 fn chen_varshney(spectra: &Spectra2d, s: [&Vec<Complex<f64>>; 3], na: &[f64], nb: &[f64]) -> f64 {
     const WIN: usize = 16;
     let (w, h) = (spectra.width, spectra.height);

@@ -363,36 +363,63 @@ fn spatial_frequency(planes: &[Plane]) -> f64 {
     (rf as f64 / n + cf as f64 / n).sqrt()
 }
 
-/// The 3 × 3 Sobel responses of `conv2(·, h, 'same')` (zero padding), as exact integers:
-/// `x` for `[−1 0 1; −2 0 2; −1 0 1]`, `y` for `[1 2 1; 0 0 0; −1 −2 −1]` (convolution flips
-/// both, which negates both and leaves ratios and magnitudes unchanged).
-fn sobel_zero(data: &[u8], w: usize, h: usize) -> (Vec<i32>, Vec<i32>) {
-    let px = |x: isize, y: isize| -> i32 {
-        if x < 0 || y < 0 || x >= w as isize || y >= h as isize {
-            0
-        } else {
-            i32::from(data[y as usize * w + x as usize])
-        }
-    };
-    let mut gx = Vec::with_capacity(w * h);
-    let mut gy = Vec::with_capacity(w * h);
-    for y in 0..h as isize {
-        for x in 0..w as isize {
-            gx.push(
-                px(x + 1, y - 1) + 2 * px(x + 1, y) + px(x + 1, y + 1)
-                    - px(x - 1, y - 1)
-                    - 2 * px(x - 1, y)
-                    - px(x - 1, y + 1),
-            );
-            gy.push(
-                px(x - 1, y - 1) + 2 * px(x, y - 1) + px(x + 1, y - 1)
-                    - px(x - 1, y + 1)
-                    - 2 * px(x, y + 1)
-                    - px(x + 1, y + 1),
-            );
-        }
+/// Half the side of [`atan_table`]: Sobel responses `|x|, |y| ≤ ATAN_SPAN` are looked up.
+const ATAN_SPAN: i32 = 96;
+
+/// Qabf's orientation `atan((255y)/(255x))` (π/2 where `x` is 0) of every integer Sobel pair
+/// with `|x|, |y| ≤ ATAN_SPAN`, by the same expression as for any other pair: a lookup gives
+/// the bits the call gives. Most pixels of real images have responses this small.
+fn atan_table() -> &'static [f64] {
+    static TABLE: std::sync::OnceLock<Vec<f64>> = std::sync::OnceLock::new();
+    TABLE.get_or_init(|| {
+        let r = ATAN_SPAN;
+        (-r..=r).flat_map(|y| (-r..=r).map(move |x| sobel_angle(x, y))).collect()
+    })
+}
+
+/// Qabf's orientation of one Sobel pair (`α`, π/2 where the x response is 0).
+fn sobel_angle(x: i32, y: i32) -> f64 {
+    let (x, y) = (255.0 * f64::from(x), 255.0 * f64::from(y));
+    if x == 0.0 { std::f64::consts::FRAC_PI_2 } else { (y / x).atan() }
+}
+
+/// The image with a zero border of one pixel (`conv2`'s zero padding), `w + 2` wide.
+fn zero_bordered(d: &[u8], w: usize, h: usize) -> Vec<u8> {
+    let pw = w + 2;
+    let mut pad = vec![0u8; pw * (h + 2)];
+    for y in 0..h {
+        pad[(y + 1) * pw + 1..(y + 1) * pw + 1 + w].copy_from_slice(&d[y * w..(y + 1) * w]);
     }
-    (gx, gy)
+    pad
+}
+
+/// Row `y` of Qabf's strength `g` and orientation `α` of a zero-bordered image: the 3 × 3
+/// Sobel responses of `conv2(·, h, 'same')` as exact integers — `x` for `[−1 0 1; −2 0 2;
+/// −1 0 1]`, `y` for `[1 2 1; 0 0 0; −1 −2 −1]` (convolution flips both, which negates both
+/// and leaves ratios and magnitudes unchanged) — scaled by 255 (`255*im2double` of a `double`
+/// image), `g = √(x² + y²)`.
+fn strength_angle_row(pad: &[u8], w: usize, y: usize, g: &mut [f64], a: &mut [f64]) {
+    let pw = w + 2;
+    let row = |k: usize| &pad[(y + k) * pw..(y + k + 1) * pw];
+    let (up, mid, down) = (row(0), row(1), row(2));
+    let px = |r: &[u8], x: usize| i32::from(r[x]);
+    let table = atan_table();
+    let side = 2 * ATAN_SPAN + 1;
+    for x in 0..w {
+        let sx =
+            px(up, x + 2) + 2 * px(mid, x + 2) + px(down, x + 2) - px(up, x) - 2 * px(mid, x) - px(down, x);
+        let sy = px(up, x) + 2 * px(up, x + 1) + px(up, x + 2)
+            - px(down, x)
+            - 2 * px(down, x + 1)
+            - px(down, x + 2);
+        let (fx, fy) = (255.0 * f64::from(sx), 255.0 * f64::from(sy));
+        g[x] = (fx * fx + fy * fy).sqrt();
+        a[x] = if sx.abs() <= ATAN_SPAN && sy.abs() <= ATAN_SPAN {
+            table[((sy + ATAN_SPAN) * side + sx + ATAN_SPAN) as usize]
+        } else {
+            sobel_angle(sx, sy)
+        };
+    }
 }
 
 /// `metricsQabf.m` (Xydeas–Petrović): Sobel strength g and orientation α (π/2 where the x
@@ -400,6 +427,9 @@ fn sobel_zero(data: &[u8], w: usize, h: usize) -> (Vec<i32>, Vec<i32>) {
 /// source `Q = Tg/(1+e^{kg(G−Dg)}) · Ta/(1+e^{ka(A−Da)})` with `G = min/max` of the strengths —
 /// or the fused strength itself where they are equal (the file's branch) — and
 /// `A = 1 − |α_S − α_F|/(π/2)`; result `Σ(Q_A g_A + Q_B g_B)/Σ(g_A + g_B)`.
+///
+/// Streamed a row at a time, the sums in the direct loop's order (every pixel of A, then of B).
+/// A pixel whose source strength is 0 adds exactly 0 and is skipped.
 #[inline(never)]
 fn qabf(a: Plane, b: Plane, f: Plane) -> f64 {
     const TG: f64 = 0.9994;
@@ -409,37 +439,33 @@ fn qabf(a: Plane, b: Plane, f: Plane) -> f64 {
     const KA: f64 = -22.0;
     const DA: f64 = 0.8;
     let (w, h) = (f.width, f.height);
-    let strength_angle = |p: Plane| -> (Vec<f64>, Vec<f64>) {
-        let (sx, sy) = sobel_zero(p.data, w, h);
-        sx.iter()
-            .zip(&sy)
-            .map(|(&x, &y)| {
-                let (x, y) = (255.0 * f64::from(x), 255.0 * f64::from(y));
-                let g = (x * x + y * y).sqrt();
-                let a = if x == 0.0 { std::f64::consts::FRAC_PI_2 } else { (y / x).atan() };
-                (g, a)
-            })
-            .unzip()
-    };
-    let (gf, af) = strength_angle(f);
+    let pf = zero_bordered(f.data, w, h);
+    let (mut gf, mut af, mut gs, mut as_) = (vec![0f64; w], vec![0f64; w], vec![0f64; w], vec![0f64; w]);
     let mut nume = 0.0;
     let mut deno = 0.0;
     for src in [a, b] {
-        let (gs, as_) = strength_angle(src);
-        for k in 0..w * h {
-            let (g_s, g_f) = (gs[k], gf[k]);
-            let ratio = if g_s > g_f {
-                g_f / g_s
-            } else if g_s == g_f {
-                g_f
-            } else {
-                g_s / g_f
-            };
-            let angle = 1.0 - (as_[k] - af[k]).abs() / std::f64::consts::FRAC_PI_2;
-            let qg = TG / (1.0 + (KG * (ratio - DG)).exp());
-            let qa = TA / (1.0 + (KA * (angle - DA)).exp());
-            nume += qg * qa * g_s;
-            deno += g_s;
+        let ps = zero_bordered(src.data, w, h);
+        for y in 0..h {
+            strength_angle_row(&pf, w, y, &mut gf, &mut af);
+            strength_angle_row(&ps, w, y, &mut gs, &mut as_);
+            for k in 0..w {
+                let (g_s, g_f) = (gs[k], gf[k]);
+                if g_s == 0.0 {
+                    continue;
+                }
+                let ratio = if g_s > g_f {
+                    g_f / g_s
+                } else if g_s == g_f {
+                    g_f
+                } else {
+                    g_s / g_f
+                };
+                let angle = 1.0 - (as_[k] - af[k]).abs() / std::f64::consts::FRAC_PI_2;
+                let qg = TG / (1.0 + (KG * (ratio - DG)).exp());
+                let qa = TA / (1.0 + (KA * (angle - DA)).exp());
+                nume += qg * qa * g_s;
+                deno += g_s;
+            }
         }
     }
     nume / deno

@@ -175,6 +175,7 @@ fn channel_metrics(chen: &mut Chen, v: Plane, i: Plane, f: Plane) -> ChannelMetr
     let rmse = (e_v + e_i) / 2.0;
     let psnr = 20.0 * (255.0 / rmse.sqrt()).log10();
     let (qcb, qcv) = chen.metrics(v, i, f);
+    let (ssim_v, ssim_i) = super::ssim_valid_pair(v, i, f);
     let values = [
         average_gradient(f),
         ce,
@@ -187,7 +188,7 @@ fn channel_metrics(chen: &mut Chen, v: Plane, i: Plane, f: Plane) -> ChannelMetr
         qcv,
         rmse,
         f64::NAN,
-        super::ssim_valid(v, f) + super::ssim_valid(i, f),
+        ssim_v + ssim_i,
         standard_deviation(f.data),
     ];
     ChannelMetrics { values }

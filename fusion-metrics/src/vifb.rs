@@ -518,9 +518,8 @@ struct Chen {
     big_spec: Vec<Complex<f64>>,
     g2: Vec<f64>,
     g4: Vec<f64>,
-    /// The three images' `C'` (Qcb), and a filtered difference image (Qcv).
+    /// The three images' `C'` (Qcb); the first is then Qcv's filtered difference image.
     contrast: [Vec<f64>; 3],
-    img: Vec<f64>,
 }
 
 impl Chen {
@@ -570,7 +569,6 @@ impl Chen {
             g2: vec![0.0; pw * ph],
             g4: vec![0.0; pw * ph],
             contrast: [(); 3].map(|_| vec![0.0; w * h]),
-            img: vec![0.0; w * h],
             small,
             padded,
         }
@@ -648,9 +646,10 @@ impl Chen {
         let lb = cv_saliency(&self.norm[1], w, h);
         let mut dissimilarity = |src: usize| -> Vec<f64> {
             let (s, fs, m) = (&self.spec[src], &self.spec[2], &self.mannos);
-            self.small.inverse(|i| (s[i] - fs[i]) * m[i], &mut self.img, w);
+            let img = &mut self.contrast[0];
+            self.small.inverse(|i| (s[i] - fs[i]) * m[i], img, w);
             let mut blocks = vec![0f64; bw * bh];
-            for (y, row) in self.img.chunks_exact(w).enumerate() {
+            for (y, row) in img.chunks_exact(w).enumerate() {
                 let line = &mut blocks[(y / CV_WIN) * bw..(y / CV_WIN + 1) * bw];
                 for (bx, part) in row.chunks(CV_WIN).enumerate() {
                     let mut acc = line[bx];

@@ -118,14 +118,74 @@ pub fn ssim(a: &Gray<u8>, b: &Gray<u8>) -> f64 {
     ssim_valid_windows(&a.data, &b.data, w, h)
 }
 
-/// SSIM over a VIFB channel pair (the same windows and constants as [`ssim`]; the caller
-/// guarantees both sides are at least 11).
-pub(crate) fn ssim_valid(a: vifb::Plane, b: vifb::Plane) -> f64 {
-    ssim_valid_windows(a.data, b.data, a.width, a.height)
+/// SSIM(a, f) and SSIM(b, f) over a VIFB channel triple (the same windows and constants as
+/// [`ssim`]; the caller guarantees the sides are at least 11): the eight moment images a, b, f,
+/// a², b², f², af, bf filtered once (f and f² serve both pairs), each index summed in window
+/// order as [`ssim_valid_windows`] sums it — the same values as two separate calls.
+#[inline(never)]
+pub(crate) fn ssim_valid_pair(a: vifb::Plane, b: vifb::Plane, f: vifb::Plane) -> (f64, f64) {
+    let (w, h) = (f.width, f.height);
+    let (a, b, f) = (a.data, b.data, f.data);
+    let (c1, c2) = ((0.01f64 * 255.0).powi(2), (0.03f64 * 255.0).powi(2));
+    let index = |ma: f64, mb: f64, va: f64, vb: f64, cov: f64| {
+        ((2.0 * ma * mb + c1) * (2.0 * cov + c2)) / ((ma * ma + mb * mb + c1) * (va + vb + c2))
+    };
+    let g = ssim_window();
+    let (mut total_a, mut total_b) = (0.0, 0.0);
+    filter::correlate_valid_in_strips(
+        8,
+        (w, h),
+        &g,
+        |p, y, row| {
+            let (ra, rb, rf) = (&a[y * w..(y + 1) * w], &b[y * w..(y + 1) * w], &f[y * w..(y + 1) * w]);
+            match p {
+                0..=2 => {
+                    for (o, &x) in row.iter_mut().zip([ra, rb, rf][p]) {
+                        *o = f64::from(x);
+                    }
+                }
+                3..=5 => {
+                    for (o, &x) in row.iter_mut().zip([ra, rb, rf][p - 3]) {
+                        *o = f64::from(x) * f64::from(x);
+                    }
+                }
+                _ => {
+                    for ((o, &x), &y) in row.iter_mut().zip([ra, rb][p - 6]).zip(rf) {
+                        *o = f64::from(x) * f64::from(y);
+                    }
+                }
+            }
+        },
+        |_, n, m| {
+            let len = n * (w - 10);
+            let [ma, mb, mf, saa, sbb, sff, saf, sbf] = [0, 1, 2, 3, 4, 5, 6, 7].map(|p| &m[p][..len]);
+            for k in 0..len {
+                total_a += index(
+                    ma[k],
+                    mf[k],
+                    saa[k] - ma[k] * ma[k],
+                    sff[k] - mf[k] * mf[k],
+                    saf[k] - ma[k] * mf[k],
+                );
+            }
+            for k in 0..len {
+                total_b += index(
+                    mb[k],
+                    mf[k],
+                    sbb[k] - mb[k] * mb[k],
+                    sff[k] - mf[k] * mf[k],
+                    sbf[k] - mb[k] * mf[k],
+                );
+            }
+        },
+    );
+    let n = ((h - 10) * (w - 10)) as f64;
+    (total_a / n, total_b / n)
 }
 
 /// Mean SSIM over the valid 11 × 11 windows of two `w × h` images (`w, h ≥ 11`): MATLAB's
 /// `filter2(window, ·, 'valid')` of the five moment images, then the index, then `mean2`.
+#[inline(never)]
 fn ssim_valid_windows(a: &[u8], b: &[u8], w: usize, h: usize) -> f64 {
     let (c1, c2) = ((0.01f64 * 255.0).powi(2), (0.03f64 * 255.0).powi(2));
     let index = |ma: f64, mb: f64, va: f64, vb: f64, cov: f64| {

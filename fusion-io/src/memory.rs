@@ -35,8 +35,9 @@ pub mod per_pixel {
     pub const FUSE_HOST_METHOD: u64 = 192;
     /// `eval --suite study` (measured 30 B/px at 4096²).
     pub const EVAL_STUDY: u64 = 48;
-    /// `eval --suite vifb` (measured 123 B/px at 4096²: whole-frame FFT planes).
-    pub const EVAL_VIFB: u64 = 160;
+    /// `eval --suite vifb` (measured 170 B/px at 4096²: whole-frame FFT planes, made once per
+    /// triple and reused across channels since issue 43).
+    pub const EVAL_VIFB: u64 = 192;
     /// `render`, per VIS pixel (measured 70 and 64 B/px at 1024² and 2048²).
     pub const RENDER: u64 = 96;
     /// Decoding an image: the decoded buffer and one converted copy, per byte of a pixel.

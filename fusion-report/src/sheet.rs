@@ -83,18 +83,22 @@ pub fn contact_sheet(rows: &[Vec<Gray<u8>>], gap: usize) -> Gray<u8> {
 }
 
 /// [`contact_sheet`] with `columns` written above the tile columns and `rows` left of the tile
-/// rows (names longer than a tile is wide are cut to fit, with `…` as `~`). Fewer names than
+/// rows (column names longer than a tile is wide are cut to fit, ending in `~`; non-ASCII
+/// characters are drawn as `?`). Fewer names than
 /// columns or rows leave the rest unnamed.
 pub fn labelled_sheet(tiles: &[Vec<Gray<u8>>], gap: usize, columns: &[&str], rows: &[&str]) -> Gray<u8> {
     let body = contact_sheet(tiles, gap);
     let tile = tiles.iter().flatten().map(|t| t.width.max(t.height)).max().unwrap_or(0);
     let max_chars = (tile / CHAR.0).max(1);
-    let fit = |name: &str| -> String {
-        let ascii: String =
-            name.chars().map(|c| if c.is_ascii() && !c.is_ascii_control() { c } else { '?' }).collect();
-        if ascii.len() <= max_chars { ascii } else { format!("{}~", &ascii[..max_chars - 1]) }
+    let ascii = |name: &str| -> String {
+        name.chars().map(|c| if c.is_ascii() && !c.is_ascii_control() { c } else { '?' }).collect()
     };
-    let row_chars = rows.iter().map(|r| fit(r).len()).max().unwrap_or(0);
+    // Column names share a tile's width; row names get a band as wide as the longest.
+    let fit = |name: &str| -> String {
+        let text = ascii(name);
+        if text.len() <= max_chars { text } else { format!("{}~", &text[..max_chars - 1]) }
+    };
+    let row_chars = rows.iter().map(|r| ascii(r).len()).max().unwrap_or(0);
     let left = if row_chars == 0 { 0 } else { row_chars * CHAR.0 + gap };
     let top = if columns.is_empty() { 0 } else { CHAR.1 + gap };
     let (w, h) = (body.width + left, body.height + top);
@@ -112,7 +116,7 @@ pub fn labelled_sheet(tiles: &[Vec<Gray<u8>>], gap: usize, columns: &[&str], row
     }
     for (r, name) in rows.iter().enumerate() {
         let y = top + gap + r * (tile + gap) + tile.saturating_sub(CHAR.1) / 2;
-        draw(&mut canvas, &fit(name), gap / 2, y, style);
+        draw(&mut canvas, &ascii(name), gap / 2, y, style);
     }
     sheet
 }

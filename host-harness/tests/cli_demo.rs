@@ -22,7 +22,22 @@ fn demo_writes_fused_images_sheet_and_summary() {
         }
     }
     let sheet = load_gray_u8(&out.join("contact_sheet.png"), ColorPolicy::Refuse).unwrap();
-    assert_eq!((sheet.width, sheet.height), (7 * 256 + 8 * 4, 2 * 256 + 3 * 4), "2 rows x 7 tiles");
+    // 2 rows x 7 tiles of 256 px with 4-px gaps, a band of one 20-px text line on top (the column
+    // names) and one as wide as "eclipse" (7 characters of 10 px) on the left (the row names).
+    let (left, top) = (7 * 10 + 4, 20 + 4);
+    assert_eq!(
+        (sheet.width, sheet.height),
+        (left + 7 * 256 + 8 * 4, top + 2 * 256 + 3 * 4),
+        "2 rows x 7 tiles"
+    );
+    let ink = |x0: usize, x1: usize, y0: usize, y1: usize| {
+        (y0..y1).flat_map(|y| (x0..x1).map(move |x| (x, y))).filter(|&(x, y)| sheet.at(x, y) == 255).count()
+    };
+    assert!(
+        (0..7).all(|c| ink(left + 4 + c * 260, left + 4 + c * 260 + 256, 0, top) > 30),
+        "every column named"
+    );
+    assert!((0..2).all(|r| ink(0, left, top + 4 + r * 260, top + 4 + r * 260 + 256) > 30), "every row named");
     // In eclipse the VIS tile (row 2, column 1) is darker than in light (row 1, column 1).
     let mean = |x0: usize, y0: usize| {
         let mut s = 0u64;
@@ -33,7 +48,8 @@ fn demo_writes_fused_images_sheet_and_summary() {
         }
         s as f64 / 65536.0
     };
-    assert!(mean(4, 264) < 0.5 * mean(4, 4), "eclipse VIS {} vs light {}", mean(4, 264), mean(4, 4));
+    let (vis_light, vis_eclipse) = (mean(left + 4, top + 4), mean(left + 4, top + 264));
+    assert!(vis_eclipse < 0.5 * vis_light, "eclipse VIS {vis_eclipse} vs light {vis_light}");
     let summary = std::fs::read_to_string(out.join("summary.csv")).unwrap();
     assert_eq!(summary.lines().count(), 1 + 2 * methods.len());
     for line in summary.lines().skip(1) {

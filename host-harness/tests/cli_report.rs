@@ -80,6 +80,7 @@ fn report_writes_every_table_chart_and_conclusion() {
         .count();
     assert_eq!(charts, 10, "5 per-frame charts per illumination");
     let sheet = load_gray_u8(&out.join("contact_sheet.png"), ColorPolicy::Refuse).unwrap();
-    // VIS, TIR up, then the eight methods
-    assert_eq!((sheet.width, sheet.height), (10 * 256 + 11 * 4, 2 * 256 + 3 * 4));
+    // VIS, TIR up, then the eight methods; the column names on top (one 20-px line), the row
+    // names ("eclipse", "light": 7 characters of 10 px) on the left.
+    assert_eq!((sheet.width, sheet.height), (7 * 10 + 4 + 10 * 256 + 11 * 4, 20 + 4 + 2 * 256 + 3 * 4));
 }

@@ -412,7 +412,10 @@ fn manifest_and_files() {
     let sheet = image::open(dir.path().join("contact_sheet.png")).unwrap();
     assert_eq!(m.contact_sheet_columns, [0, 2]);
     assert_eq!(m.contact_sheet_rows.len(), 12);
-    assert_eq!((sheet.width(), sheet.height()), (2 * 34 + 2, 12 * 34 + 2));
+    // 2 columns x 12 rows of 32-px tiles with 2-px gaps; the column names on top (one 20-px line),
+    // the row names (`set/clean`, `set/noisy`) in a band as wide as the longest, 10 px a character.
+    let left = m.contact_sheet_rows.iter().map(|r| r.len()).max().unwrap() * 10 + 2;
+    assert_eq!((sheet.width(), sheet.height()), (left as u32 + 2 * 34 + 2, 22 + 12 * 34 + 2));
     // The eclipse TIR is cooler than the sunlit one.
     let mean = |rel: &str| {
         let img = image::open(dir.path().join(rel)).unwrap().to_luma8();

@@ -7,7 +7,10 @@
 //! * **Pictures** ([`Gray`], [`Channels`], [`Picture`]): PNG, JPEG, TIFF and binary PGM/PPM in
 //!   (8/16-bit grey, 8-bit colour), PNG, TIFF and PGM out, chosen by the extension
 //!   ([`OutFormat`]); every input judged by its header against the memory limit before it is
-//!   decoded.
+//!   decoded. JPEG is decoded by libjpeg-turbo (its C source, built with cmake, through the
+//!   `turbojpeg` crate) with libjpeg's defaults — the bytes MATLAB's `imread`, OpenCV and Pillow
+//!   give, so metrics on JPEGs reproduce the field's published values; the other formats by
+//!   the `image` crate.
 //! * **The write path** ([`output`]): every file through an exclusive temporary in the
 //!   destination folder, synced and renamed into place; related files all or none
 //!   ([`output::Batch`]); new folders appear whole ([`output::in_new_folder`]); temporaries
@@ -54,6 +57,7 @@ macro_rules! note {
 
 pub mod console;
 pub mod folders;
+mod jpeg;
 pub mod memory;
 pub mod npy;
 pub mod output;

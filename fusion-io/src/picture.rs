@@ -2,6 +2,10 @@
 //! 8-bit colour), PNG, TIFF and PGM out (chosen by the output's extension, [`OutFormat`]), float32
 //! `.npy`.
 //!
+//! JPEG is decoded by libjpeg-turbo with libjpeg's defaults (`jpeg.rs`): the bytes MATLAB's
+//! `imread`, OpenCV and Pillow give, so metrics on JPEGs match the field's published values; every
+//! other format by the `image` crate.
+//!
 //! Every output goes through the one write path, [`crate::output`] ([`write_atomic`],
 //! [`Batch`](crate::output::Batch)): an exclusive temporary in the destination folder, synced, renamed into place;
 //! related files all or none. Inputs are judged by their header against the memory limit
@@ -75,10 +79,21 @@ fn format_name(f: image::ImageFormat) -> Option<&'static str> {
     }
 }
 
-/// An input's decoder with its header read (nothing of the image data yet), and its format's
-/// name. The format is judged by the file's first bytes (a PNG named `.jpg` is read as PNG);
-/// a file that is none of PNG, JPEG, TIFF and PGM/PPM is refused by its extension's name.
-fn decoder(path: &Path) -> Result<(impl image::ImageDecoder, &'static str)> {
+/// The `image` crate's reader of a file.
+type Reader = image::ImageReader<std::io::BufReader<std::fs::File>>;
+
+/// An input opened by its content (a PNG named `.jpg` is read as PNG), its header read and
+/// nothing of the image data yet: JPEG for libjpeg-turbo, the other formats for `image`.
+enum Opened {
+    /// A JPEG file (`jpeg.rs`).
+    Jpeg(crate::jpeg::Jpeg),
+    /// A PNG, TIFF or PGM/PPM file, with its format's name.
+    Image(Reader, &'static str),
+}
+
+/// Opens an input. The format is judged by the file's first bytes; a file that is none of PNG,
+/// JPEG, TIFF and PGM/PPM is refused by its extension's name.
+fn open(path: &Path) -> Result<Opened> {
     let reader = image::ImageReader::open(path)
         .with_context(|| format!("cannot open {}", path.display()))?
         .with_guessed_format()
@@ -87,22 +102,32 @@ fn decoder(path: &Path) -> Result<(impl image::ImageDecoder, &'static str)> {
     let Some(name) = reader.format().and_then(format_name).or(by_name) else {
         bail!("{} is not a PNG, JPEG, TIFF or PGM/PPM file", path.display());
     };
-    let decoder =
-        reader.into_decoder().with_context(|| format!("{} is not a valid {name}", path.display()))?;
-    Ok((decoder, name))
+    if name == "JPEG" {
+        return Ok(Opened::Jpeg(crate::jpeg::Jpeg::open(path)?));
+    }
+    Ok(Opened::Image(reader, name))
 }
 
-fn decode(path: &Path) -> Result<image::DynamicImage> {
+/// The `image` crate's decoder of a PNG, TIFF or PGM/PPM, its header read.
+fn decoder(path: &Path, reader: Reader, name: &str) -> Result<impl image::ImageDecoder> {
+    reader.into_decoder().with_context(|| format!("{} is not a valid {name}", path.display()))
+}
+
+/// Refuses decoding `w × h` pixels of `bytes_per_pixel` over the memory limit (from the header,
+/// before anything is allocated for it: a small file can declare a huge frame).
+fn check_decode_memory(path: &Path, w: u64, h: u64, bytes_per_pixel: u64) -> Result<()> {
+    let bytes = crate::memory::estimate(w.saturating_mul(h), bytes_per_pixel);
+    crate::memory::check(&path.display().to_string(), &format!("decoding its {w}x{h} pixels"), bytes)
+}
+
+fn decode(path: &Path, reader: Reader, name: &str) -> Result<image::DynamicImage> {
     // The header first: a small file can declare a huge frame (a 1-bit PNG of 10⁹ pixels), so
     // the size is judged before anything is allocated for it.
-    let (mut decoder, name) = decoder(path)?;
+    let mut decoder = decoder(path, reader, name)?;
     let (w, h) = image::ImageDecoder::dimensions(&decoder);
     let bytes_per_pixel = u64::from(image::ImageDecoder::color_type(&decoder).bytes_per_pixel());
-    let bytes = crate::memory::estimate(
-        u64::from(w) * u64::from(h),
-        bytes_per_pixel * crate::memory::per_pixel::DECODE,
-    );
-    crate::memory::check(&path.display().to_string(), &format!("decoding its {w}x{h} pixels"), bytes)?;
+    let per_pixel = bytes_per_pixel * crate::memory::per_pixel::DECODE;
+    check_decode_memory(path, u64::from(w), u64::from(h), per_pixel)?;
     let mut limits = image::Limits::no_limits();
     limits.max_alloc = Some(crate::memory::limit());
     image::ImageDecoder::set_limits(&mut decoder, limits)
@@ -114,11 +139,33 @@ fn decode(path: &Path) -> Result<image::DynamicImage> {
 /// The width, height and channel count (alpha not counted) an input's header declares,
 /// without decoding it.
 pub fn image_header(path: &Path) -> Result<(usize, usize, usize)> {
-    let (decoder, _) = decoder(path)?;
-    let (w, h) = image::ImageDecoder::dimensions(&decoder);
-    let color = image::ImageDecoder::color_type(&decoder);
-    let channels = usize::from(color.channel_count()) - usize::from(color.has_alpha());
-    Ok((w as usize, h as usize, channels))
+    match open(path)? {
+        Opened::Jpeg(jpeg) => Ok((jpeg.width, jpeg.height, jpeg.channels)),
+        Opened::Image(reader, name) => {
+            let decoder = decoder(path, reader, name)?;
+            let (w, h) = image::ImageDecoder::dimensions(&decoder);
+            let color = image::ImageDecoder::color_type(&decoder);
+            let channels = usize::from(color.channel_count()) - usize::from(color.has_alpha());
+            Ok((w as usize, h as usize, channels))
+        }
+    }
+}
+
+/// A JPEG as a [`Picture`]: grey or RGB, as libjpeg decodes it.
+fn load_jpeg(path: &Path, jpeg: crate::jpeg::Jpeg) -> Result<Picture> {
+    let (w, h, channels) = (jpeg.width, jpeg.height, jpeg.channels);
+    // A progressive JPEG's coefficients are held whole by libjpeg: 2 bytes a sample, per channel
+    // (at most; less with chroma subsampled).
+    let coefficients = if jpeg.progressive { 2 * channels as u64 } else { 0 };
+    let per_pixel = channels as u64 * crate::memory::per_pixel::DECODE + coefficients;
+    check_decode_memory(path, w as u64, h as u64, per_pixel)?;
+    let pixels = jpeg.decode(path)?;
+    Ok(if channels == 1 {
+        Picture::Gray8(Gray { width: w, height: h, data: pixels })
+    } else {
+        let planes = (0..3).map(|k| pixels.iter().skip(k).step_by(3).copied().collect()).collect();
+        Picture::Rgb8(Channels { width: w, height: h, planes })
+    })
 }
 
 /// `rgb2gray` on 8-bit samples: round(0.2989 R + 0.5870 G + 0.1140 B).
@@ -152,7 +199,10 @@ impl Picture {
 /// Loads a PNG, JPEG, TIFF or PGM/PPM as it is stored ([`Picture`]). 16-bit colour and floating-point
 /// images are refused.
 pub fn load_picture(path: &Path) -> Result<Picture> {
-    let img = decode(path)?;
+    let img = match open(path)? {
+        Opened::Jpeg(jpeg) => return load_jpeg(path, jpeg),
+        Opened::Image(reader, name) => decode(path, reader, name)?,
+    };
     let (w, h) = (img.width() as usize, img.height() as usize);
     if w == 0 || h == 0 {
         bail!("{} has zero size", path.display());

@@ -538,12 +538,9 @@ pub fn contact_sheet(
     row_names: &[String],
 ) -> fusion_io::Gray<u8> {
     let rows = per_frame.iter().map(Vec::len).max().unwrap_or(0);
-    let to_gray = |img: &Image| {
-        let g = img.to_gray8();
-        fusion_io::Gray { width: g.width() as usize, height: g.height() as usize, data: g.into_raw() }
-    };
-    let tiles: Vec<Vec<fusion_io::Gray<u8>>> =
-        (0..rows).map(|r| per_frame.iter().filter_map(|col| col.get(r).map(to_gray)).collect()).collect();
+    let tiles: Vec<Vec<fusion_io::Gray<u8>>> = (0..rows)
+        .map(|r| per_frame.iter().filter_map(|col| col.get(r).map(Image::to_gray_u8)).collect())
+        .collect();
     let columns: Vec<&str> = column_names.iter().map(String::as_str).collect();
     let rows: Vec<&str> = row_names.iter().map(String::as_str).collect();
     fusion_report::sheet::labelled_sheet(&tiles, 2, &columns, &rows)

@@ -58,6 +58,12 @@ impl Image {
         GrayImage::from_raw(self.width, self.height, data).unwrap_or_else(|| GrayImage::new(0, 0))
     }
 
+    /// [`Image::to_gray8`] as the host tools' grey image (`fusion_io::Gray`).
+    pub fn to_gray_u8(&self) -> fusion_io::Gray<u8> {
+        let g = self.to_gray8();
+        fusion_io::Gray { width: g.width() as usize, height: g.height() as usize, data: g.into_raw() }
+    }
+
     /// 16-bit grey: `round(65535 v)` after clipping to `[0, 1]`.
     pub fn to_gray16(&self) -> Gray16Image {
         let data = self.data.iter().map(|&v| (v.clamp(0.0, 1.0) * 65535.0).round() as u16).collect();

@@ -208,11 +208,6 @@ fn rescale_with(img: &Gray<u8>, name: &str, w: usize, h: usize) -> Result<Gray<u
     }
 }
 
-fn to_gray(img: &render_host::Image) -> Gray<u8> {
-    let g = img.to_gray8();
-    Gray { width: g.width() as usize, height: g.height() as usize, data: g.into_raw() }
-}
-
 /// The natively rendered noiseless VIS frames at another size (Table 3's ground truth),
 /// rendered with the dataset's own configuration.
 struct NativeVis {
@@ -232,7 +227,7 @@ impl NativeVis {
         let pose = *self.poses.get(frame).context("frame outside the trajectory")?;
         let sun = self.cfg.vis.sun_dir.normalize();
         let params = VisParams { sun_dir: sun, ..self.cfg.vis }.with_illumination(ill);
-        Ok(to_gray(&render_vis(&self.scene, &Camera::study(size, pose), &params)))
+        Ok(render_vis(&self.scene, &Camera::study(size, pose), &params).to_gray_u8())
     }
 }
 

@@ -43,7 +43,7 @@ pub fn write_npy_f32(path: &Path, width: usize, height: usize, data: &[f32]) -> 
     write_atomic(path, |out| encode_npy_f32(out, width, height, data))
 }
 
-/// Encodes a 2-D float32 `.npy` array of shape `(H, W)` into `out` (for [`Batch::add`]).
+/// Encodes a 2-D float32 `.npy` array of shape `(H, W)` into `out` (for [`crate::output::Batch::add`]).
 pub fn encode_npy_f32(
     out: &mut impl std::io::Write,
     width: usize,

@@ -1,7 +1,7 @@
 //! The repository's own test data, `tests/data/` (what is there and where it comes from:
 //! `tests/data/README.md`).
 //!
-//! Tests reach every file through [`file`] or [`vifb_dir`]: a file that is not there fails the
+//! Tests reach every file through [`file()`] or [`vifb_dir`]: a file that is not there fails the
 //! calling test with one line naming it, and no backtrace, instead of an I/O error deep in a
 //! loader.
 

@@ -267,7 +267,7 @@ pub struct FusionMetrics {
     pub ag: f64,
     /// MI(VIS, F) + MI(TIR, F), bits.
     pub mi: f64,
-    /// Feature mutual information (see [`fmi`]), in [0, 1].
+    /// Feature mutual information (see [`fmi()`]), in [0, 1].
     pub fmi: f64,
     /// SSIM(VIS, F) + SSIM(TIR, F), up to 2.
     pub ssim: f64,

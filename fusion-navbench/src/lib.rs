@@ -9,7 +9,7 @@
 //! * [`track`] — BRIEF descriptors (`imageproc`) and mutual-best matching frame to frame.
 //! * [`pose`] — the frame-to-frame relative pose by PnP-RANSAC (`sqpnp_simple`) against the
 //!   rendered depth, and its error against the ground truth.
-//! * [`bench`] — `fusion navbench`'s engine: every stream of a rendezvous sequence
+//! * [`bench`](mod@bench) — `fusion navbench`'s engine: every stream of a rendezvous sequence
 //!   (`render_host::sequence`) through the three, summarised per illumination phase.
 //!
 //! Written here only what no maintained crate does: the RANSAC loop, the matching window and

@@ -8,12 +8,12 @@
 
 use anyhow::{Context, bail};
 use clap::ValueEnum;
+use fusion_engine::methods::FilterArg;
+use fusion_engine::methods::{AgcArg, MethodArg, RescaleArg, SkipArg, VariantArg, method_for};
+use fusion_io::{Channels, Gray};
+use fusion_metrics::table::Suite;
 use fusion_nostd::pipeline::{FuseConfig, FuseReport};
 use fusion_nostd::{AgcParams, FrameMut, FrameRef};
-use fusion_metrics::table::Suite;
-use fusion_engine::methods::FilterArg;
-use fusion_io::{Channels, Gray};
-use fusion_engine::methods::{AgcArg, MethodArg, RescaleArg, SkipArg, VariantArg, method_for};
 use numpy::ndarray::ArrayView2;
 use numpy::{
     IntoPyArray, PyArray2, PyArrayMethods, PyReadonlyArray2, PyReadonlyArray3, PyUntypedArrayMethods,
@@ -443,7 +443,9 @@ fn render<'py>(
     let options = render_host::RenderOptions {
         out: out.clone(),
         frames,
-        sequence: sequence.map(|s| named::<render_host::sequence::SequenceName>("sequence", s)).transpose()?,
+        sequence: sequence
+            .map(|s| named::<render_host::sequence::SequenceName>("sequence", s))
+            .transpose()?,
         seed,
         vis_size,
         tir_sizes: tir_sizes.unwrap_or(defaults.tir_sizes.clone()),

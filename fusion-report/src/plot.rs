@@ -25,6 +25,9 @@ pub enum Style {
     PointsLogX,
     /// Markers only, linear axes (per-frame values with gaps: no line bridges a missing frame).
     Points,
+    /// Lines without markers, y on a log axis (errors over a sequence spanning decades; a
+    /// missing or non-positive value breaks the line).
+    LinesLogY,
 }
 
 /// Axis titles and the chart title.
@@ -82,12 +85,32 @@ pub fn chart_shaded(
     style: Style,
     shaded: &[(f64, f64)],
 ) -> Result<PathBuf> {
+    chart_bounded(stem, labels, series, &[], style, shaded)
+}
+
+/// [`chart_shaded`] with a bound per series (e.g. a filter's 3σ): `bounds[k]`, when present,
+/// is drawn as a thin line in series `k`'s colour, without a legend entry.
+pub fn chart_bounded(
+    stem: &Path,
+    labels: Labels<'_>,
+    series: &[Series],
+    bounds: &[Series],
+    style: Style,
+    shaded: &[(f64, f64)],
+) -> Result<PathBuf> {
     // Drawn in memory, then written through the one write path (fusion_io::write_atomic).
     const SIZE: (u32, u32) = (900, 560);
     if font_available() {
         let path = stem.with_extension("png");
         let mut rgb = vec![0u8; (SIZE.0 * SIZE.1 * 3) as usize];
-        draw(BitMapBackend::with_buffer(&mut rgb, SIZE).into_drawing_area(), labels, series, style, shaded)?;
+        draw(
+            BitMapBackend::with_buffer(&mut rgb, SIZE).into_drawing_area(),
+            labels,
+            series,
+            bounds,
+            style,
+            shaded,
+        )?;
         fusion_io::write_atomic(&path, |w| {
             fusion_io::encode_png(w, SIZE.0 as usize, SIZE.1 as usize, image::ExtendedColorType::Rgb8, &rgb)
         })?;
@@ -95,14 +118,24 @@ pub fn chart_shaded(
     } else {
         let path = stem.with_extension("svg");
         let mut svg = String::new();
-        draw(SVGBackend::with_string(&mut svg, SIZE).into_drawing_area(), labels, series, style, shaded)?;
+        draw(
+            SVGBackend::with_string(&mut svg, SIZE).into_drawing_area(),
+            labels,
+            series,
+            bounds,
+            style,
+            shaded,
+        )?;
         fusion_io::write_bytes(&path, svg.as_bytes())?;
         Ok(path)
     }
 }
 
-fn bounds(series: &[Series], log_x: bool) -> ((f64, f64), (f64, f64)) {
-    let pts = series.iter().flat_map(|s| s.points.iter()).filter(|p| p.0.is_finite() && p.1.is_finite());
+fn bounds(series: &[Series], log_x: bool, log_y: bool) -> ((f64, f64), (f64, f64)) {
+    let pts = series
+        .iter()
+        .flat_map(|s| s.points.iter())
+        .filter(|p| p.0.is_finite() && p.1.is_finite() && (!log_y || p.1 > 0.0));
     let (mut x0, mut x1, mut y0, mut y1) =
         (f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY);
     for &(x, y) in pts {
@@ -119,13 +152,15 @@ fn bounds(series: &[Series], log_x: bool) -> ((f64, f64), (f64, f64)) {
         (lo - d, hi + d)
     };
     let x = if log_x { (x0 / 1.5, x1 * 1.5) } else { pad(x0, x1) };
-    (x, pad(y0, y1))
+    let y = if log_y { (y0 / 1.5, y1 * 1.5) } else { pad(y0, y1) };
+    (x, y)
 }
 
 fn draw<B: DrawingBackend>(
     root: DrawingArea<B, plotters::coord::Shift>,
     labels: Labels<'_>,
     series: &[Series],
+    bound_lines: &[Series],
     style: Style,
     shaded: &[(f64, f64)],
 ) -> Result<()>
@@ -135,7 +170,9 @@ where
     let err = |e: DrawingAreaErrorKind<B::ErrorType>| anyhow!("plot: {e:?}");
     root.fill(&WHITE).map_err(err)?;
     let log_x = style == Style::PointsLogX;
-    let ((x0, x1), (y0, y1)) = bounds(series, log_x);
+    let log_y = style == Style::LinesLogY;
+    let all: Vec<Series> = series.iter().chain(bound_lines).cloned().collect();
+    let ((x0, x1), (y0, y1)) = bounds(&all, log_x, log_y);
     let mut builder = ChartBuilder::on(&root);
     builder.caption(labels.title, ("sans-serif", 22)).margin(12).x_label_area_size(45).y_label_area_size(70);
     macro_rules! body {
@@ -146,11 +183,30 @@ where
             chart
                 .draw_series(shaded.iter().map(|&(a, b)| Rectangle::new([(a, y0), (b, y1)], grey)))
                 .map_err(err)?;
+            for (k, b) in bound_lines.iter().enumerate() {
+                let colour = COLOURS[k % COLOURS.len()];
+                for run in runs(&b.points, log_y) {
+                    chart.draw_series(LineSeries::new(run, colour.mix(0.6).stroke_width(1))).map_err(err)?;
+                }
+            }
             for (k, s) in series.iter().enumerate() {
                 let colour = COLOURS[k % COLOURS.len()];
                 let pts: Vec<(f64, f64)> =
                     s.points.iter().copied().filter(|p| p.0.is_finite() && p.1.is_finite()).collect();
-                let anno = if style == Style::Lines {
+                let anno = if style == Style::LinesLogY {
+                    let mut last = None;
+                    for run in runs(&s.points, true) {
+                        last = Some(
+                            chart.draw_series(LineSeries::new(run, colour.stroke_width(2))).map_err(err)?,
+                        );
+                    }
+                    match last {
+                        Some(a) => a,
+                        None => {
+                            chart.draw_series(std::iter::empty::<Circle<(f64, f64), i32>>()).map_err(err)?
+                        }
+                    }
+                } else if style == Style::Lines {
                     chart.draw_series(LineSeries::new(pts.clone(), colour.stroke_width(2))).map_err(err)?;
                     chart.draw_series(pts.iter().map(|&p| Circle::new(p, 3, colour.filled()))).map_err(err)?
                 } else {
@@ -172,11 +228,30 @@ where
     }
     if log_x {
         body!(builder.build_cartesian_2d((x0..x1).log_scale(), y0..y1).map_err(err)?);
+    } else if log_y {
+        body!(builder.build_cartesian_2d(x0..x1, (y0..y1).log_scale()).map_err(err)?);
     } else {
         body!(builder.build_cartesian_2d(x0..x1, y0..y1).map_err(err)?);
     }
     root.present().map_err(err)?;
     Ok(())
+}
+
+/// The unbroken runs of a point list: a non-finite value (or a non-positive one on a log axis)
+/// ends a run.
+fn runs(points: &[(f64, f64)], log_y: bool) -> Vec<Vec<(f64, f64)>> {
+    let mut out = vec![Vec::new()];
+    for &(x, y) in points {
+        if x.is_finite() && y.is_finite() && (!log_y || y > 0.0) {
+            if let Some(r) = out.last_mut() {
+                r.push((x, y));
+            }
+        } else if out.last().is_some_and(|r| !r.is_empty()) {
+            out.push(Vec::new());
+        }
+    }
+    out.retain(|r| !r.is_empty());
+    out
 }
 
 #[cfg(test)]
@@ -196,12 +271,16 @@ mod tests {
         assert!(bytes.len() > 1000, "a real image, {} bytes", bytes.len());
         let p = chart(&dir.path().join("d"), labels, &s, Style::PointsLogX).unwrap();
         assert!(p.exists());
+        let p = chart_bounded(&dir.path().join("e"), labels, &s, &s[1..], Style::LinesLogY, &[(0.5, 1.0)])
+            .unwrap();
+        assert!(p.exists());
+        assert_eq!(runs(&[(0.0, 1.0), (1.0, f64::NAN), (2.0, 2.0), (3.0, 0.0), (4.0, 1.0)], true).len(), 3);
     }
 
     #[test]
     fn bounds_pad_and_skip_non_finite() {
         let s = [Series { name: String::new(), points: vec![(1.0, 2.0), (3.0, 4.0), (f64::NAN, 9.0)] }];
-        let ((x0, x1), (y0, y1)) = bounds(&s, false);
+        let ((x0, x1), (y0, y1)) = bounds(&s, false, false);
         assert!(x0 < 1.0 && x1 > 3.0 && y0 < 2.0 && y1 > 4.0 && y1 < 9.0);
     }
 }

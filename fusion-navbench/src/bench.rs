@@ -1,24 +1,40 @@
 //! `fusion navbench`: does a fused stream help relative navigation? Every image stream of a
 //! rendezvous sequence — VIS, TIR upscaled, each core method and variant, with and without
-//! scene skipping — through one feature-based front end, measured against the rendered
-//! ground truth, per illumination phase.
+//! scene skipping — and the two baselines (`zero-motion`, `oracle`: [`crate::baseline`])
+//! through the same navigation chain, measured against the rendered ground truth, per
+//! illumination phase.
 //!
 //! Per frame and stream:
 //! * **CNR**: `|μ_target − μ_ring| / σ_ring`, the target mask (VIS grid) against a background
 //!   ring 8–24 px outside it (σ floored at 0.5 grey levels).
 //! * **target features**: corners of [`super::features::detect`] inside the target mask grown
 //!   by 3 px.
-//! * per frame pair (k − 1, k): **tracks** (mutual-best BRIEF matches, [`super::track`]), the
-//!   **inlier ratio** of PnP-RANSAC against frame k − 1's rendered depth ([`super::pose`]),
-//!   the **rotation error** and **translation-direction error** of that relative pose against
-//!   the truth, and **lost** when no pose with [`super::pose::MIN_INLIERS`] inliers exists.
+//! * the **model-based front end** ([`crate::tracker`]): features tracked over the sequence,
+//!   PnP against the target model at the estimate; **tracks**, **inliers**, and per frame pair
+//!   (k − 1, k) the **rotation error** and **translation-direction error** of the relative
+//!   pose between its two measured poses against the truth, **lost** when either frame has no
+//!   pose.
+//! * the **navigation filter** ([`crate::filter`]) fed by those poses: attitude error (°),
+//!   position error (% of range), their 3σ bounds, NEES, and **available** when the attitude
+//!   error is ≤ [`AVAILABLE_ATT_DEG`] and the position error ≤ [`AVAILABLE_POS_PCT`] of the
+//!   range.
+//! * today's **pairwise front end** beside it (`pairwise_*`): FAST-9 + BRIEF matched frame to
+//!   frame, PnP-RANSAC against frame k − 1's rendered depth ([`super::track`],
+//!   [`super::pose`]).
 //!
 //! A pair counts in the phase of its second frame. Medians of the errors are over the pairs
-//! that were not lost.
+//! that were not lost. The filter starts on the first frame's true pose perturbed by
+//! [`INIT_ATT_ERR_DEG`] and [`INIT_POS_ERR_FRAC`] (acquisition is out of scope); nothing else
+//! in a stream reads the truth.
 
+use super::baseline::{observe, surface_points, unit_vector};
 use super::features::{detect, grow_mask};
-use super::pose::{MIN_INLIERS, RelativePose, pnp_ransac};
+use super::filter::{FilterParams, PoseFilter, PoseMeasurement, rotation_vector};
+use super::model::{TargetModel, camera_at};
+use super::pose::{MIN_INLIERS, RelativePose, estimate, pnp_ransac};
+use super::silhouette::{position_measurement, segment};
 use super::track::{Feature, describe, match_features, test_pairs};
+use super::tracker::{ModelTracker, TrackerParams, smooth};
 use anyhow::{Context, Result};
 use fusion_engine::CoreScratch;
 use fusion_io::{ColorPolicy, Gray, load_gray_u8};
@@ -26,16 +42,42 @@ use fusion_nostd::pipeline::SkipPolicy;
 use fusion_nostd::{AdaptiveParams, Filter, FuseConfig, Method, RescalePolicy};
 use image::GrayImage;
 use rayon::prelude::*;
-use render_host::glam::{DVec2, DVec3};
+use render_host::glam::{DQuat, DVec2, DVec3};
+use render_host::noise::{SplitMix64, mix64};
 use render_host::sequence::{Phase, SequenceManifest, read_manifest};
 use render_host::{Camera, Scene};
 use serde::Serialize;
 use std::collections::BTreeMap;
 use std::path::Path;
 
-/// One image stream judged by the benchmark.
+/// Navigation is available on a frame whose attitude error is at most this, degrees …
+pub const AVAILABLE_ATT_DEG: f64 = 2.0;
+/// … and whose position error is at most this share of the range, %.
+pub const AVAILABLE_POS_PCT: f64 = 2.0;
+/// The filter's initialisation: the first frame's true attitude turned by this, degrees, about
+/// a random axis (seeded by the sequence's seed) …
+pub const INIT_ATT_ERR_DEG: f64 = 1.0;
+/// … and its position moved by this share of the range in a random direction; …
+pub const INIT_POS_ERR_FRAC: f64 = 0.01;
+/// … its angular rate (the true one, from the first two frames' truth) off by this, °/s, …
+pub const INIT_RATE_ERR_DEG_S: f64 = 0.2;
+/// … and its velocity off by this share of the range per second.
+pub const INIT_VEL_ERR_FRAC_S: f64 = 0.005;
+/// The image front end's pose covariance (Levenberg–Marquardt's `σ² (JᵀJ)⁻¹`) is multiplied by
+/// this before the filter takes it. Its errors are not white: tracked corners leave their model
+/// points together (the look of the MLI and the specular parts changes with the view: 0.25–0.5
+/// px per frame on clean frames at the true pose), so a measurement that claims 0.2° (1σ) is
+/// 1–2° off. Measured with `cargo run --release -p fusion-navbench --example tracker_probe`.
+/// 25 (5× in σ) brings the claim to the errors seen; the oracle's white noise needs none.
+pub const FRONT_END_COVARIANCE_INFLATION: f64 = 25.0;
+
+/// One source judged by the benchmark: an image stream or a baseline.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Stream {
+    /// Baseline: no motion ([`crate::baseline`]).
+    ZeroMotion,
+    /// Baseline: ground-truth correspondences with [`crate::baseline::ORACLE_NOISE_PX`] noise.
+    Oracle,
     /// The visible camera alone.
     Vis,
     /// The thermal camera alone, upscaled to the VIS grid with the core's bicubic.
@@ -44,11 +86,16 @@ pub enum Stream {
     Fused(FuseConfig),
 }
 
-/// The streams of the benchmark with their names: `vis`, `tir`, `adaptive`, `adaptive-skip`,
-/// `<method>-<variant>`,
+/// The sources of the benchmark with their names: the baselines `zero-motion` and `oracle`,
+/// then `vis`, `tir`, `adaptive`, `adaptive-skip`, `<method>-<variant>`,
 /// `<method>-<variant>-skip` (scene skipping with the eclipse plan, [`SkipPolicy::All`]).
 pub fn streams() -> Vec<(String, Stream)> {
-    let mut out = vec![("vis".to_string(), Stream::Vis), ("tir".to_string(), Stream::Tir)];
+    let mut out = vec![
+        ("zero-motion".to_string(), Stream::ZeroMotion),
+        ("oracle".to_string(), Stream::Oracle),
+        ("vis".to_string(), Stream::Vis),
+        ("tir".to_string(), Stream::Tir),
+    ];
     for skip in [SkipPolicy::None, SkipPolicy::All] {
         out.push((
             if skip == SkipPolicy::None { "adaptive" } else { "adaptive-skip" }.to_string(),
@@ -81,7 +128,11 @@ pub fn streams() -> Vec<(String, Stream)> {
     out
 }
 
-/// The streams named in `only` (every stream when `None`), in [`streams`] order.
+/// The baselines' names: always run, whatever `--sources` says.
+pub const BASELINES: [&str; 2] = ["zero-motion", "oracle"];
+
+/// The sources named in `only` (every source when `None`) and the baselines, in [`streams`]
+/// order.
 pub fn selected(only: Option<&[String]>) -> Result<Vec<(String, Stream)>> {
     let all = streams();
     let Some(only) = only else { return Ok(all) };
@@ -89,34 +140,64 @@ pub fn selected(only: Option<&[String]>) -> Result<Vec<(String, Stream)>> {
         let names: Vec<&str> = all.iter().map(|(s, _)| s.as_str()).collect();
         anyhow::bail!("unknown source '{bad}'; the sources are {}", names.join(", "));
     }
-    Ok(all.into_iter().filter(|(s, _)| only.contains(s)).collect())
+    Ok(all.into_iter().filter(|(s, _)| only.contains(s) || BASELINES.contains(&s.as_str())).collect())
 }
 
-/// What one stream gave on one frame.
+/// What one source gave on one frame.
 #[derive(Debug, Clone, Serialize)]
 pub struct FrameResult {
     /// Sequence name.
     pub sequence: String,
+    /// The sequence's noise seed.
+    pub seed: u64,
     /// Frame index.
     pub frame: usize,
     /// Illumination phase.
     pub phase: Phase,
-    /// Stream name.
+    /// Source name.
     pub source: String,
-    /// Target contrast-to-noise ratio.
+    /// Target contrast-to-noise ratio (NaN for the baselines).
     pub cnr: f64,
     /// Corners on the target.
     pub target_features: usize,
-    /// Matches with the previous frame (0 on the first frame).
+    /// Model-based front end: tracks carried into this frame (the oracle: its
+    /// correspondences).
     pub tracks: usize,
     /// PnP-RANSAC inliers among them.
     pub inliers: usize,
-    /// Rotation error of the frame-to-frame pose, degrees (NaN when lost or first).
+    /// Rotation error of the frame-to-frame pose (between this frame's and the previous
+    /// frame's measured poses), degrees (NaN when lost or first).
     pub rot_err_deg: f64,
-    /// Translation-direction error, degrees (NaN when lost or first).
+    /// Translation-direction error, degrees (NaN when lost, first, or zero-motion).
     pub trans_dir_err_deg: f64,
-    /// Tracking lost on this frame pair (false on the first frame).
+    /// No frame-to-frame pose: either frame had no measured pose (false on the first frame).
     pub lost: bool,
+    /// Filter: attitude error, degrees.
+    pub att_err_deg: f64,
+    /// Filter: position error, % of the range.
+    pub pos_err_pct: f64,
+    /// Filter: 3σ of the attitude error (largest axis), degrees.
+    pub att_3sigma_deg: f64,
+    /// Filter: 3σ of the position error (largest axis), % of the range.
+    pub pos_3sigma_pct: f64,
+    /// Filter: normalised estimation error squared of the pose (6 degrees of freedom).
+    pub nees: f64,
+    /// Navigation available: attitude and position errors within [`AVAILABLE_ATT_DEG`] and
+    /// [`AVAILABLE_POS_PCT`].
+    pub available: bool,
+    /// On the first frame of a run of unavailable frames: frames until navigation is
+    /// available again (to the end of the sequence when it never is); NaN elsewhere.
+    pub reacquire_frames: f64,
+    /// Pairwise front end: BRIEF matches with the previous frame.
+    pub pairwise_tracks: usize,
+    /// Pairwise front end: PnP-RANSAC inliers among them.
+    pub pairwise_inliers: usize,
+    /// Pairwise front end: rotation error, degrees (NaN when lost or first).
+    pub pairwise_rot_err_deg: f64,
+    /// Pairwise front end: translation-direction error, degrees.
+    pub pairwise_trans_dir_err_deg: f64,
+    /// Pairwise front end: lost on this pair.
+    pub pairwise_lost: bool,
     /// Skip streams: fraction of the target pixels of both cameras' masks inside the window
     /// the method computed (1 for the others).
     pub target_coverage: f64,
@@ -124,23 +205,78 @@ pub struct FrameResult {
     pub window_frac: f64,
 }
 
-/// Summary of one stream in one phase (the `navbench.json` shape).
+impl FrameResult {
+    fn new(sequence: &str, seed: u64, frame: usize, phase: Phase, source: &str) -> FrameResult {
+        FrameResult {
+            sequence: sequence.to_string(),
+            seed,
+            frame,
+            phase,
+            source: source.to_string(),
+            cnr: f64::NAN,
+            target_features: 0,
+            tracks: 0,
+            inliers: 0,
+            rot_err_deg: f64::NAN,
+            trans_dir_err_deg: f64::NAN,
+            lost: false,
+            att_err_deg: f64::NAN,
+            pos_err_pct: f64::NAN,
+            att_3sigma_deg: f64::NAN,
+            pos_3sigma_pct: f64::NAN,
+            nees: f64::NAN,
+            available: false,
+            reacquire_frames: f64::NAN,
+            pairwise_tracks: 0,
+            pairwise_inliers: 0,
+            pairwise_rot_err_deg: f64::NAN,
+            pairwise_trans_dir_err_deg: f64::NAN,
+            pairwise_lost: false,
+            target_coverage: 1.0,
+            window_frac: 1.0,
+        }
+    }
+}
+
+/// Summary of one source in one phase (the `navbench.json` shape; over several seeds each
+/// figure becomes `{"mean", "sd"}`).
 #[derive(Debug, Clone, Serialize, PartialEq)]
 pub struct PhaseSummary {
-    /// Mean CNR over the phase's frames.
-    pub cnr: f64,
+    /// Mean CNR over the phase's frames (`null` for the baselines).
+    pub cnr: Option<f64>,
     /// Mean target features per frame.
     pub target_features: f64,
-    /// Mean tracks per frame pair.
+    /// Model-based front end: mean tracks per frame pair.
     pub tracks: f64,
     /// Mean inlier ratio (inliers / tracks; 0 where there were no tracks).
     pub inlier_ratio: f64,
-    /// Median rotation error over the pairs not lost, degrees (`null` when all were lost).
+    /// Median frame-to-frame rotation error over the pairs not lost, degrees (`null` when all
+    /// were lost).
     pub rot_err_deg_median: Option<f64>,
     /// Median translation-direction error over the pairs not lost, degrees.
     pub trans_dir_err_deg_median: Option<f64>,
-    /// Fraction of the phase's frame pairs on which tracking was lost.
+    /// Fraction of the phase's frame pairs without a frame-to-frame pose.
     pub lost_frac: f64,
+    /// Share of the frames on which navigation is available.
+    pub availability: f64,
+    /// RMS attitude error of the filter, degrees.
+    pub att_rms_deg: f64,
+    /// RMS position error of the filter, % of the range.
+    pub pos_rms_pct: f64,
+    /// Mean NEES of the filter's pose (6 for a consistent filter).
+    pub nees: Option<f64>,
+    /// Mean frames to re-acquire after a loss that starts in this phase (`null`: no loss).
+    pub reacquire_frames: Option<f64>,
+    /// Pairwise front end: mean matches per frame pair.
+    pub pairwise_tracks: f64,
+    /// Pairwise front end: mean inlier ratio.
+    pub pairwise_inlier_ratio: f64,
+    /// Pairwise front end: median rotation error, degrees.
+    pub pairwise_rot_err_deg_median: Option<f64>,
+    /// Pairwise front end: median translation-direction error, degrees.
+    pub pairwise_trans_dir_err_deg_median: Option<f64>,
+    /// Pairwise front end: fraction of the pairs lost.
+    pub pairwise_lost_frac: f64,
     /// Frames in the phase (pairs are one fewer where the sequence starts in it).
     pub frames: usize,
 }
@@ -155,25 +291,50 @@ fn median(mut v: Vec<f64>) -> Option<f64> {
     Some(if n % 2 == 1 { v[n / 2] } else { 0.5 * (v[n / 2 - 1] + v[n / 2]) })
 }
 
-/// Summarises the results of one stream in one phase.
+fn mean_finite(v: impl Iterator<Item = f64>) -> Option<f64> {
+    let (mut n, mut s) = (0usize, 0.0);
+    for x in v.filter(|x| x.is_finite()) {
+        n += 1;
+        s += x;
+    }
+    (n > 0).then(|| s / n as f64)
+}
+
+/// Summarises the results of one source in one phase.
 pub fn summarise(rows: &[&FrameResult]) -> PhaseSummary {
     let pairs: Vec<&&FrameResult> = rows.iter().filter(|r| r.frame > 0).collect();
     let n = rows.len().max(1) as f64;
     let np = pairs.len().max(1) as f64;
+    let ratio = |a: usize, b: usize| if b > 0 { a as f64 / b as f64 } else { 0.0 };
+    let rms = |f: &dyn Fn(&FrameResult) -> f64| (rows.iter().map(|r| f(r).powi(2)).sum::<f64>() / n).sqrt();
     PhaseSummary {
-        cnr: rows.iter().map(|r| r.cnr).sum::<f64>() / n,
+        cnr: mean_finite(rows.iter().map(|r| r.cnr)),
         target_features: rows.iter().map(|r| r.target_features as f64).sum::<f64>() / n,
         tracks: pairs.iter().map(|r| r.tracks as f64).sum::<f64>() / np,
-        inlier_ratio: pairs
-            .iter()
-            .map(|r| if r.tracks > 0 { r.inliers as f64 / r.tracks as f64 } else { 0.0 })
-            .sum::<f64>()
-            / np,
+        inlier_ratio: pairs.iter().map(|r| ratio(r.inliers, r.tracks)).sum::<f64>() / np,
         rot_err_deg_median: median(pairs.iter().filter(|r| !r.lost).map(|r| r.rot_err_deg).collect()),
         trans_dir_err_deg_median: median(
             pairs.iter().filter(|r| !r.lost).map(|r| r.trans_dir_err_deg).collect(),
         ),
         lost_frac: pairs.iter().filter(|r| r.lost).count() as f64 / np,
+        availability: rows.iter().filter(|r| r.available).count() as f64 / n,
+        att_rms_deg: rms(&|r| r.att_err_deg),
+        pos_rms_pct: rms(&|r| r.pos_err_pct),
+        nees: mean_finite(rows.iter().map(|r| r.nees)),
+        reacquire_frames: mean_finite(rows.iter().map(|r| r.reacquire_frames)),
+        pairwise_tracks: pairs.iter().map(|r| r.pairwise_tracks as f64).sum::<f64>() / np,
+        pairwise_inlier_ratio: pairs
+            .iter()
+            .map(|r| ratio(r.pairwise_inliers, r.pairwise_tracks))
+            .sum::<f64>()
+            / np,
+        pairwise_rot_err_deg_median: median(
+            pairs.iter().filter(|r| !r.pairwise_lost).map(|r| r.pairwise_rot_err_deg).collect(),
+        ),
+        pairwise_trans_dir_err_deg_median: median(
+            pairs.iter().filter(|r| !r.pairwise_lost).map(|r| r.pairwise_trans_dir_err_deg).collect(),
+        ),
+        pairwise_lost_frac: pairs.iter().filter(|r| r.pairwise_lost).count() as f64 / np,
         frames: rows.len(),
     }
 }
@@ -223,6 +384,10 @@ struct FrameData {
     either_mask: Vec<bool>,
     camera: Camera,
     phase: Phase,
+    /// Time of the frame, s.
+    time_s: f64,
+    /// Range to the target, m.
+    range_m: f64,
 }
 
 fn load_frame(dir: &Path, m: &SequenceManifest, i: usize, clean: bool) -> Result<FrameData> {
@@ -261,6 +426,8 @@ fn load_frame(dir: &Path, m: &SequenceManifest, i: usize, clean: bool) -> Result
         vis_mask,
         camera: Camera::study(m.vis_camera.size, f.pose()),
         phase: f.phase,
+        time_s: f.time_s,
+        range_m: f64::from(f.range_m),
     })
 }
 
@@ -274,6 +441,7 @@ fn normalised(cam: &Camera, x: u32, y: u32) -> DVec2 {
 fn stream_image(stream: &Stream, fd: &FrameData) -> Result<(Gray<u8>, f64, f64)> {
     let (w, h) = (fd.vis.width, fd.vis.height);
     match stream {
+        Stream::ZeroMotion | Stream::Oracle => anyhow::bail!("a baseline has no image"),
         Stream::Vis => Ok((fd.vis.clone(), 1.0, 1.0)),
         Stream::Tir => {
             let mut up = Gray::<u8>::new(w, h);
@@ -303,18 +471,291 @@ fn stream_image(stream: &Stream, fd: &FrameData) -> Result<(Gray<u8>, f64, f64)>
     }
 }
 
-/// Per-frame state the next frame's tracking needs: features with their 3D points.
+/// Per-frame state the next frame's pairwise matching needs: features with their 3D points.
 struct Tracked {
     features: Vec<Feature>,
     /// Camera-frame 3D point of each feature (from the rendered depth), when it sits on the target.
     points: Vec<Option<DVec3>>,
 }
 
-/// Runs the benchmark over one sequence folder: every stream, every frame (or the first
-/// `frames`). Frames are processed in order per stream; streams run in parallel.
+/// The true camera attitude (camera → target) and position of a frame.
+fn true_pose(cam: &Camera) -> (DQuat, DVec3) {
+    (DQuat::from_mat3(&cam.pose.rotation.as_dmat3()).normalize(), cam.pose.position.as_dvec3())
+}
+
+/// The relative pose between two camera poses given as (attitude camera → target, position).
+fn relative(a: (DQuat, DVec3), b: (DQuat, DVec3)) -> RelativePose {
+    RelativePose::between(
+        render_host::glam::DMat3::from_quat(a.0),
+        a.1,
+        render_host::glam::DMat3::from_quat(b.0),
+        b.1,
+    )
+}
+
+/// The filter started on the first frame's true state perturbed by [`INIT_ATT_ERR_DEG`],
+/// [`INIT_POS_ERR_FRAC`], [`INIT_RATE_ERR_DEG_S`] and [`INIT_VEL_ERR_FRAC_S`] in directions
+/// drawn from `seed` (the same for every source of a run): the hand-over from acquisition,
+/// which is out of scope. The true rate and velocity are the first two frames' differences.
+fn initial_filter(first: &FrameData, second: &FrameData, seed: u64) -> PoseFilter {
+    let mut rng = SplitMix64::new(mix64(seed ^ 0x1A17_0000));
+    let (q0, p0) = true_pose(&first.camera);
+    let (q1, p1) = true_pose(&second.camera);
+    let dt = (second.time_s - first.time_s).max(1e-9);
+    let range = first.range_m;
+    let (att, pos) = (INIT_ATT_ERR_DEG.to_radians(), INIT_POS_ERR_FRAC * range);
+    let (rate, vel) = (INIT_RATE_ERR_DEG_S.to_radians(), INIT_VEL_ERR_FRAC_S * range);
+    let params = FilterParams { initial_rate_sd: rate, initial_velocity_sd: vel, ..FilterParams::default() };
+    let mut f = PoseFilter::new(
+        q0 * DQuat::from_scaled_axis(unit_vector(&mut rng) * att),
+        p0 + unit_vector(&mut rng) * pos,
+        att,
+        pos,
+        params,
+    );
+    f.rate = rotation_vector(q0.inverse() * q1) / dt + unit_vector(&mut rng) * rate;
+    f.velocity = (p1 - p0) / dt + unit_vector(&mut rng) * vel;
+    f
+}
+
+/// Fills the filter's measures of `row` against the frame's truth.
+fn score_filter(row: &mut FrameResult, filter: &PoseFilter, fd: &FrameData) {
+    let (q, p) = true_pose(&fd.camera);
+    let (ea, ep) = filter.error(q, p);
+    let (a3, p3) = filter.three_sigma();
+    row.att_err_deg = ea.length().to_degrees();
+    row.pos_err_pct = 100.0 * ep.length() / fd.range_m;
+    row.att_3sigma_deg = a3.to_degrees();
+    row.pos_3sigma_pct = 100.0 * p3 / fd.range_m;
+    row.nees = filter.nees(q, p);
+    row.available = row.att_err_deg <= AVAILABLE_ATT_DEG && row.pos_err_pct <= AVAILABLE_POS_PCT;
+}
+
+/// Fills the frame-to-frame measures of `row` from two consecutive measured poses.
+fn score_pair(
+    row: &mut FrameResult,
+    prev: Option<&PoseMeasurement>,
+    cur: Option<&PoseMeasurement>,
+    truth: &RelativePose,
+) {
+    match (prev, cur) {
+        (Some(a), Some(b)) => {
+            let rel = relative((a.attitude, a.position), (b.attitude, b.position));
+            row.rot_err_deg = rel.rotation_error_deg(truth);
+            row.trans_dir_err_deg = rel.translation_direction_error_deg(truth);
+        }
+        _ => row.lost = true,
+    }
+}
+
+/// Marks, on the first frame of each run of unavailable frames, how many frames navigation
+/// took to come back (to the end of the sequence when it never did).
+fn mark_reacquisition(rows: &mut [FrameResult]) {
+    let n = rows.len();
+    let mut i = 0;
+    while i < n {
+        if rows[i].available {
+            i += 1;
+            continue;
+        }
+        let start = i;
+        while i < n && !rows[i].available {
+            i += 1;
+        }
+        rows[start].reacquire_frames = (i - start) as f64;
+    }
+}
+
+/// Everything a source's run over a sequence reads.
+struct SequenceRun<'a> {
+    name: &'a str,
+    seed: u64,
+    data: &'a [FrameData],
+    depths: &'a [Vec<Option<f32>>],
+    model: TargetModel<'a>,
+}
+
+impl SequenceRun<'_> {
+    /// The true relative pose from frame `i − 1` to frame `i`.
+    fn truth_pair(&self, i: usize) -> RelativePose {
+        relative(true_pose(&self.data[i - 1].camera), true_pose(&self.data[i].camera))
+    }
+
+    /// One source over the whole sequence, frames in order.
+    fn source(&self, source: &str, stream: &Stream) -> Result<Vec<FrameResult>> {
+        let mut rows = Vec::with_capacity(self.data.len());
+        let mut filter = initial_filter(&self.data[0], &self.data[1], self.seed);
+        if matches!(stream, Stream::ZeroMotion) {
+            // No motion: the estimate stays where it started.
+            filter.rate = DVec3::ZERO;
+            filter.velocity = DVec3::ZERO;
+        }
+        let mut tracker = ModelTracker::new(TrackerParams::default(), mix64(self.seed ^ 0x7EAC));
+        let pairs = test_pairs();
+        let mut prev_pairwise: Option<Tracked> = None;
+        let mut prev_meas: Option<PoseMeasurement> = None;
+        for (i, fd) in self.data.iter().enumerate() {
+            let mut row = FrameResult::new(self.name, self.seed, i, fd.phase, source);
+            if i > 0 {
+                filter.predict(fd.time_s - self.data[i - 1].time_s);
+            }
+            let cam = &fd.camera;
+            let f = f64::from(cam.focal_px);
+            let meas = match stream {
+                Stream::ZeroMotion => {
+                    if i > 0 {
+                        row.rot_err_deg =
+                            RelativePose { rotation: DQuat::IDENTITY, translation: DVec3::ZERO }
+                                .rotation_error_deg(&self.truth_pair(i));
+                    }
+                    None
+                }
+                Stream::Oracle => {
+                    let mut rng = SplitMix64::new(mix64(self.seed ^ (i as u64) << 20 ^ 0x0AC1E));
+                    if i > 0 {
+                        // Frame to frame: frame i − 1's surface points seen in frame i.
+                        let prev = &self.data[i - 1].camera;
+                        let pts = surface_points(prev, &self.depths[i - 1]);
+                        let truth = self.truth_pair(i);
+                        let (q1, p1) = true_pose(prev);
+                        let to_target = |x: DVec3| render_host::glam::DMat3::from_quat(q1) * x + p1;
+                        let (p3, p2) =
+                            observe(&pts, &truth, f, &mut rng, |x| self.model.visible(cam, to_target(x)));
+                        if let Some((_, Some(refined))) = estimate(&p3, &p2, f, i as u64) {
+                            row.rot_err_deg = refined.pose.rotation_error_deg(&truth);
+                            row.trans_dir_err_deg = refined.pose.translation_direction_error_deg(&truth);
+                        } else {
+                            row.lost = true;
+                        }
+                    }
+                    // The pose: this frame's surface points in the target frame.
+                    let (q, p) = true_pose(cam);
+                    let rot = render_host::glam::DMat3::from_quat(q);
+                    let pts: Vec<DVec3> =
+                        surface_points(cam, &self.depths[i]).into_iter().map(|x| rot * x + p).collect();
+                    let to_cam = RelativePose { rotation: q.inverse(), translation: -(rot.transpose() * p) };
+                    let (p3, p2) = observe(&pts, &to_cam, f, &mut rng, |_| true);
+                    row.tracks = p3.len();
+                    estimate(&p3, &p2, f, (i as u64) ^ 0x5EED).and_then(|(found, refined)| {
+                        row.inliers = found.inliers;
+                        refined.map(|r| r.measurement())
+                    })
+                }
+                _ => {
+                    let (img, target_coverage, window_frac) = stream_image(stream, fd)
+                        .with_context(|| format!("{} frame {i} {source}", self.name))?;
+                    row.target_coverage = target_coverage;
+                    row.window_frac = window_frac;
+                    let (w, h) = (img.width, img.height);
+                    row.cnr = cnr(&img.data, &fd.vis_mask, &fd.ring_mask);
+                    let gray = GrayImage::from_raw(w as u32, h as u32, img.data).context("image size")?;
+                    prev_pairwise = Some(self.pairwise(&mut row, &gray, &pairs, prev_pairwise.as_ref(), i));
+                    let smoothed = smooth(&gray);
+                    let predicted = camera_at(cam.width, filter.attitude, filter.position);
+                    let fe = tracker.track(&smoothed, &predicted, &self.model, i as u64);
+                    row.tracks = fe.tracked;
+                    row.inliers = fe.inliers;
+                    let m = fe.pose.map(|r| {
+                        let mut m = r.measurement();
+                        m.covariance = m.covariance * FRONT_END_COVARIANCE_INFLATION + fe.anchor_covariance;
+                        m
+                    });
+                    if let Some(m) = &m {
+                        filter.update(m);
+                    }
+                    // The outline against the model's at the estimate: a position independent
+                    // of the anchored points.
+                    let estimate = camera_at(cam.width, filter.attitude, filter.position);
+                    if let Some(bbox) = self.model.image_box(&estimate, 0.3)
+                        && let Some(seen) = segment(&smoothed, bbox)
+                    {
+                        let step = ((bbox.2 - bbox.0).max(bbox.3 - bbox.1) / 96).max(1);
+                        if let Some(at) = self.model.silhouette(&estimate, bbox, step)
+                            && let Some((p, r)) = position_measurement(&seen, &at, &estimate, &self.model)
+                        {
+                            filter.update_position(p, &r);
+                        }
+                    }
+                    let estimate = camera_at(cam.width, filter.attitude, filter.position);
+                    tracker.replenish(&smoothed, &estimate, &filter.pose_covariance(), &self.model);
+                    if i > 0 {
+                        score_pair(&mut row, prev_meas.as_ref(), m.as_ref(), &self.truth_pair(i));
+                    }
+                    prev_meas = m;
+                    score_filter(&mut row, &filter, fd);
+                    rows.push(row);
+                    continue;
+                }
+            };
+            if let Some(m) = &meas {
+                filter.update(m);
+            }
+            prev_meas = meas;
+            score_filter(&mut row, &filter, fd);
+            rows.push(row);
+        }
+        mark_reacquisition(&mut rows);
+        Ok(rows)
+    }
+
+    /// Today's pairwise front end on one frame: FAST-9 + BRIEF, matched against the previous
+    /// frame, PnP against its rendered depth. Returns this frame's features for the next.
+    fn pairwise(
+        &self,
+        row: &mut FrameResult,
+        gray: &GrayImage,
+        pairs: &[imageproc::binary_descriptors::brief::TestPair],
+        prev: Option<&Tracked>,
+        i: usize,
+    ) -> Tracked {
+        let fd = &self.data[i];
+        let w = gray.width() as usize;
+        let corners = detect(gray, Some(&fd.feature_mask));
+        let features = describe(gray, &corners, pairs);
+        let cam = &fd.camera;
+        let points = features
+            .iter()
+            .map(|f| {
+                self.depths[i][f.y as usize * w + f.x as usize]
+                    .map(|d| normalised(cam, f.x, f.y).extend(1.0).normalize() * f64::from(d))
+            })
+            .collect();
+        row.target_features = corners.len();
+        if let Some(p) = prev {
+            let matches = match_features(&p.features, &features);
+            row.pairwise_tracks = matches.len();
+            let (mut x3, mut x2) = (Vec::new(), Vec::new());
+            for &(a, b) in &matches {
+                if let Some(x) = p.points[a] {
+                    x3.push(x);
+                    x2.push(normalised(cam, features[b].x, features[b].y));
+                }
+            }
+            let truth = self.truth_pair(i);
+            match pnp_ransac(&x3, &x2, f64::from(cam.focal_px), i as u64) {
+                Some(r) if r.inliers >= MIN_INLIERS => {
+                    row.pairwise_inliers = r.inliers;
+                    row.pairwise_rot_err_deg = r.pose.rotation_error_deg(&truth);
+                    row.pairwise_trans_dir_err_deg = r.pose.translation_direction_error_deg(&truth);
+                }
+                Some(r) => {
+                    row.pairwise_inliers = r.inliers;
+                    row.pairwise_lost = true;
+                }
+                None => row.pairwise_lost = true,
+            }
+        }
+        Tracked { features, points }
+    }
+}
+
+/// Runs the benchmark over one sequence folder: every source, every frame (or the first
+/// `frames`). Frames are processed in order per source; sources run in parallel. The
+/// sequence's noise seed (its manifest's) also seeds the filter's initialisation and the
+/// oracle's noise.
 ///
-/// `only`: the stream names to run (all when `None`; an unknown name is an error); `clean`:
-/// the noiseless renders instead of the noisy ones.
+/// `only`: the stream names to run (all when `None`; an unknown name is an error; the
+/// baselines always run); `clean`: the noiseless renders instead of the noisy ones.
 pub fn run_sequence(
     dir: &Path,
     frames: Option<usize>,
@@ -323,86 +764,26 @@ pub fn run_sequence(
 ) -> Result<Vec<FrameResult>> {
     let m = read_manifest(dir)?;
     let n = frames.unwrap_or(m.frames.len()).min(m.frames.len());
+    if n < 2 {
+        anyhow::bail!("{}: a sequence needs at least 2 frames, it has {n}", dir.display());
+    }
     let scene = Scene::tango()?.with_surface_detail(m.config.surface_seed);
     let name = m.config.name.as_str().to_string();
-    let pairs = test_pairs();
     let all = selected(only)?;
-    // Depth per frame, shared by the streams.
+    // Depth per frame, shared by the sources.
     let data: Vec<FrameData> =
         (0..n).into_par_iter().map(|i| load_frame(dir, &m, i, clean)).collect::<Result<_>>()?;
     let depths: Vec<Vec<Option<f32>>> =
         data.par_iter().map(|fd| render_host::truth::depth(&scene, &fd.camera)).collect();
-    let results: Vec<Result<Vec<FrameResult>>> = all
-        .par_iter()
-        .map(|(source, stream)| {
-            let mut rows = Vec::with_capacity(n);
-            let mut prev: Option<Tracked> = None;
-            for (i, fd) in data.iter().enumerate() {
-                let (img, target_coverage, window_frac) =
-                    stream_image(stream, fd).with_context(|| format!("{name} frame {i} {source}"))?;
-                let (w, h) = (img.width, img.height);
-                let gray = GrayImage::from_raw(w as u32, h as u32, img.data.clone()).context("image size")?;
-                let corners = detect(&gray, Some(&fd.feature_mask));
-                let features = describe(&gray, &corners, &pairs);
-                let cam = &fd.camera;
-                let points = features
-                    .iter()
-                    .map(|f| {
-                        depths[i][f.y as usize * w + f.x as usize]
-                            .map(|d| normalised(cam, f.x, f.y).extend(1.0).normalize() * f64::from(d))
-                    })
-                    .collect();
-                let mut row = FrameResult {
-                    sequence: name.clone(),
-                    frame: i,
-                    phase: fd.phase,
-                    source: source.clone(),
-                    cnr: cnr(&img.data, &fd.vis_mask, &fd.ring_mask),
-                    target_features: corners.len(),
-                    tracks: 0,
-                    inliers: 0,
-                    rot_err_deg: f64::NAN,
-                    trans_dir_err_deg: f64::NAN,
-                    lost: false,
-                    target_coverage,
-                    window_frac,
-                };
-                if let Some(p) = &prev {
-                    let matches = match_features(&p.features, &features);
-                    row.tracks = matches.len();
-                    let (mut x3, mut x2) = (Vec::new(), Vec::new());
-                    for &(a, b) in &matches {
-                        if let Some(x) = p.points[a] {
-                            x3.push(x);
-                            x2.push(normalised(cam, features[b].x, features[b].y));
-                        }
-                    }
-                    let prev_cam = &data[i - 1].camera;
-                    let truth = RelativePose::between(
-                        prev_cam.pose.rotation.as_dmat3(),
-                        prev_cam.pose.position.as_dvec3(),
-                        cam.pose.rotation.as_dmat3(),
-                        cam.pose.position.as_dvec3(),
-                    );
-                    match pnp_ransac(&x3, &x2, f64::from(cam.focal_px), i as u64) {
-                        Some(r) if r.inliers >= MIN_INLIERS => {
-                            row.inliers = r.inliers;
-                            row.rot_err_deg = r.pose.rotation_error_deg(&truth);
-                            row.trans_dir_err_deg = r.pose.translation_direction_error_deg(&truth);
-                        }
-                        Some(r) => {
-                            row.inliers = r.inliers;
-                            row.lost = true;
-                        }
-                        None => row.lost = true,
-                    }
-                }
-                rows.push(row);
-                prev = Some(Tracked { features, points });
-            }
-            Ok(rows)
-        })
-        .collect();
+    let run = SequenceRun {
+        name: &name,
+        seed: m.config.seed,
+        data: &data,
+        depths: &depths,
+        model: TargetModel::new(&scene),
+    };
+    let results: Vec<Result<Vec<FrameResult>>> =
+        all.par_iter().map(|(source, stream)| run.source(source, stream)).collect();
     let mut out = Vec::new();
     for r in results {
         out.extend(r?);
@@ -410,7 +791,10 @@ pub fn run_sequence(
     Ok(out)
 }
 
-/// The `navbench.json` document.
+/// The phase name of a whole sequence in the summaries.
+pub const PHASE_ALL: &str = "all";
+
+/// The `navbench.json` document (of one seed; [`aggregate`] merges seeds).
 #[derive(Debug, Clone, Serialize)]
 pub struct Summary {
     /// Per stream, per phase, over all sequences.
@@ -436,11 +820,10 @@ pub fn summary(rows: &[FrameResult]) -> Summary {
     let mut groups: BTreeMap<(String, String, String), Vec<&FrameResult>> = BTreeMap::new();
     let mut all: BTreeMap<(String, String), Vec<&FrameResult>> = BTreeMap::new();
     for r in rows {
-        groups
-            .entry((r.sequence.clone(), r.source.clone(), r.phase.as_str().to_string()))
-            .or_default()
-            .push(r);
-        all.entry((r.source.clone(), r.phase.as_str().to_string())).or_default().push(r);
+        for phase in [r.phase.as_str(), PHASE_ALL] {
+            groups.entry((r.sequence.clone(), r.source.clone(), phase.to_string())).or_default().push(r);
+            all.entry((r.source.clone(), phase.to_string())).or_default().push(r);
+        }
     }
     let mut sources: BTreeMap<String, BTreeMap<String, PhaseSummary>> = BTreeMap::new();
     for ((src, phase), v) in &all {
@@ -486,10 +869,6 @@ mod tests {
     #[test]
     fn phase_summary_counts_pairs_and_skips_lost_errors() {
         let row = |frame, lost, err: f64, tracks, inliers| FrameResult {
-            sequence: "s".into(),
-            frame,
-            phase: Phase::Light,
-            source: "vis".into(),
             cnr: 4.0,
             target_features: 10,
             tracks,
@@ -497,8 +876,10 @@ mod tests {
             rot_err_deg: err,
             trans_dir_err_deg: err,
             lost,
-            target_coverage: 1.0,
-            window_frac: 1.0,
+            att_err_deg: 1.0 + frame as f64,
+            pos_err_pct: 1.0,
+            available: frame < 2,
+            ..FrameResult::new("s", 1, frame, Phase::Light, "vis")
         };
         let rows = [
             row(0, false, f64::NAN, 0, 0),
@@ -512,5 +893,21 @@ mod tests {
         assert!((s.rot_err_deg_median.unwrap() - 0.3).abs() < 1e-12);
         assert!((s.inlier_ratio - (0.5 + 0.5 + 1.0) / 3.0).abs() < 1e-12);
         assert!((s.tracks - 8.0).abs() < 1e-12);
+        // Filter measures: RMS of 1, 2, 3, 4 degrees; available on frames 0 and 1.
+        assert!((s.att_rms_deg - (30.0f64 / 4.0).sqrt()).abs() < 1e-12);
+        assert!((s.availability - 0.5).abs() < 1e-12);
+    }
+
+    #[test]
+    fn reacquisition_counts_frames_to_the_next_available_one() {
+        let mut rows: Vec<FrameResult> = [true, false, false, true, false]
+            .iter()
+            .enumerate()
+            .map(|(i, &a)| FrameResult { available: a, ..FrameResult::new("s", 1, i, Phase::Light, "vis") })
+            .collect();
+        mark_reacquisition(&mut rows);
+        let r: Vec<f64> = rows.iter().map(|r| r.reacquire_frames).collect();
+        assert!(r[0].is_nan() && r[2].is_nan() && r[3].is_nan());
+        assert_eq!((r[1], r[4]), (2.0, 1.0));
     }
 }

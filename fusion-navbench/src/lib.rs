@@ -28,7 +28,13 @@
 //! assert!(found.pose.rotation_error_deg(&truth) < 1e-6);
 //! ```
 
+pub mod baseline;
 pub mod bench;
 pub mod features;
+pub mod filter;
+pub mod model;
 pub mod pose;
+pub mod seeds;
+pub mod silhouette;
 pub mod track;
+pub mod tracker;

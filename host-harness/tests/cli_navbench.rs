@@ -20,52 +20,143 @@ fn navbench_writes_the_summary_shape_csv_and_charts() {
     assert!(!dir0.path().join("x").exists());
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("nb");
-    let o = fusion(&["navbench", "--out", out.to_str().unwrap(), "--frames", "44", "--vis-size", "128"]);
+    let frames = 44;
+    let o = fusion(&[
+        "navbench",
+        "--out",
+        out.to_str().unwrap(),
+        "--frames",
+        &frames.to_string(),
+        "--vis-size",
+        "128",
+        "--seeds",
+        "1,2",
+        "--sources",
+        "vis,tir,adaptive,adaptive-skip",
+    ]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    // The sequences were rendered into OUT/data.
-    for seq in ["approach", "flyaround"] {
-        assert!(out.join("data").join(seq).join("manifest.json").is_file(), "{seq}");
+    // The sequences were rendered into OUT/data, one folder per seed.
+    for seed in [1, 2] {
+        for seq in ["approach", "flyaround"] {
+            assert!(out.join(format!("data/seed-{seed}/{seq}/manifest.json")).is_file(), "{seed} {seq}");
+        }
     }
     let json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("navbench.json")).unwrap()).unwrap();
+    assert_eq!(json["seeds"], serde_json::json!([1, 2]));
     let sources = json["sources"].as_object().unwrap();
-    let mut expected =
-        vec!["vis".to_string(), "tir".to_string(), "adaptive".to_string(), "adaptive-skip".to_string()];
-    for m in ["adf", "tsifsd", "ifevip"] {
-        for v in ["classic", "flight"] {
-            expected.push(format!("{m}-{v}"));
-            expected.push(format!("{m}-{v}-skip"));
-        }
-    }
-    for s in &expected {
+    // The baselines are always there, beside the sources asked for.
+    let expected = ["zero-motion", "oracle", "vis", "tir", "adaptive", "adaptive-skip"];
+    for s in expected {
         let phases = sources.get(s).unwrap_or_else(|| panic!("source {s} missing")).as_object().unwrap();
-        // The flyaround crosses the eclipse: all three phases are there.
-        for p in ["light", "penumbra", "eclipse"] {
+        // The flyaround crosses the eclipse: all three phases are there, and the whole.
+        for p in ["light", "penumbra", "eclipse", "all"] {
             let x = &phases[p];
-            for key in ["cnr", "target_features", "inlier_ratio", "rot_err_deg_median", "lost_frac"] {
+            for key in [
+                "cnr",
+                "target_features",
+                "inlier_ratio",
+                "rot_err_deg_median",
+                "lost_frac",
+                "availability",
+                "att_rms_deg",
+                "pos_rms_pct",
+                "nees",
+                "pairwise_rot_err_deg_median",
+            ] {
                 assert!(x.get(key).is_some(), "{s} {p} lacks {key}");
             }
-            let lost = x["lost_frac"].as_f64().unwrap();
-            assert!((0.0..=1.0).contains(&lost));
+            // Over two seeds a figure is its mean and spread.
+            let lost = &x["lost_frac"];
+            let (mean, sd) = (lost["mean"].as_f64().unwrap(), lost["sd"].as_f64().unwrap());
+            assert!((0.0..=1.0).contains(&mean) && sd >= 0.0, "{s} {p}: {lost}");
         }
     }
     assert_eq!(sources.len(), expected.len());
-    for m in ["adf-flight", "tsifsd-classic", "ifevip-flight"] {
-        let k = &json["skip"][m];
-        assert!(
-            k["target_coverage_min"].as_f64().is_some() && k["window_frac_mean"].as_f64().is_some(),
-            "{m}"
-        );
-    }
+    assert!(json["by_sequence"]["flyaround"]["oracle"]["all"]["availability"]["mean"].as_f64().is_some());
+    let k = &json["skip"]["adaptive"];
+    assert!(
+        k["target_coverage_min"]["mean"].as_f64().is_some()
+            && k["window_frac_mean"]["mean"].as_f64().is_some()
+    );
     let csv = std::fs::read_to_string(out.join("per_frame.csv")).unwrap();
-    assert_eq!(csv.lines().count(), 1 + 2 * 44 * expected.len());
+    assert_eq!(csv.lines().count(), 1 + 2 * 2 * frames * expected.len());
     let md = std::fs::read_to_string(out.join("navbench.md")).unwrap();
-    assert!(md.contains("## eclipse") && md.contains("better single camera"));
-    for chart in ["approach_rotation_error", "flyaround_features"] {
+    assert!(
+        md.contains("## flyaround: eclipse")
+            && md.contains("## Targets")
+            && md.contains("better single camera")
+    );
+    verdicts_are_outside_the_spread(&md, &json);
+    for chart in ["approach_attitude_error", "flyaround_position_error", "flyaround_features"] {
         assert!(
             out.join(format!("{chart}.png")).is_file() || out.join(format!("{chart}.svg")).is_file(),
             "{chart}"
         );
+    }
+    // One seed: plain numbers, and no verdict at all.
+    let one = dir.path().join("one");
+    let o = fusion(&[
+        "navbench",
+        "--out",
+        one.to_str().unwrap(),
+        "--frames",
+        "8",
+        "--vis-size",
+        "96",
+        "--seeds",
+        "7",
+        "--sources",
+        "vis",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(one.join("navbench.json")).unwrap()).unwrap();
+    assert!(
+        json["sources"]["vis"]["light"]["lost_frac"].as_f64().is_some(),
+        "{}",
+        json["sources"]["vis"]["light"]
+    );
+    let md = std::fs::read_to_string(one.join("navbench.md")).unwrap();
+    assert!(!md.contains("| better |") && !md.contains("| worse |"));
+}
+
+/// Every "better" or "worse" in navbench.md's verdict tables is a difference of means larger
+/// than the larger of the two spreads in navbench.json (the rule the table claims).
+fn verdicts_are_outside_the_spread(md: &str, json: &serde_json::Value) {
+    let mut context: Option<(String, String, String)> = None; // (sequence, phase, camera)
+    for line in md.lines() {
+        if let Some(rest) = line.strip_prefix("The better single camera in ") {
+            // "The better single camera in {seq} {phase} is **{cam}**. …"
+            let mut words = rest.split_whitespace();
+            let (seq, phase) = (words.next().unwrap().to_string(), words.next().unwrap().to_string());
+            let cam = rest.split("**").nth(1).unwrap().to_string();
+            context = Some((seq, phase, cam));
+            continue;
+        }
+        if line.starts_with("## ") {
+            context = None;
+        }
+        let Some((seq, phase, cam)) = &context else { continue };
+        let cells: Vec<&str> = line.split('|').map(str::trim).collect();
+        if cells.len() < 6 || cells[1] == "stream" || cells[1].starts_with("---") {
+            continue;
+        }
+        for (col, key) in [(2, "availability"), (3, "att_rms_deg"), (4, "rot_err_deg_median")] {
+            if cells[col] != "better" && cells[col] != "worse" {
+                continue;
+            }
+            let get = |src: &str| &json["by_sequence"][seq.as_str()][src][phase.as_str()][key];
+            let (a, b) = (get(cells[1]), get(cam));
+            let d = (a["mean"].as_f64().unwrap() - b["mean"].as_f64().unwrap()).abs();
+            let spread = a["sd"].as_f64().unwrap().max(b["sd"].as_f64().unwrap());
+            assert!(
+                d > spread,
+                "{seq} {phase} {}: '{}' on {key} with |Δ| {d} ≤ spread {spread}",
+                cells[1],
+                cells[col]
+            );
+        }
     }
 }
 

@@ -1,0 +1,200 @@
+//! Figures over several seeds: every summary figure as its mean and spread, and verdicts that
+//! are only stated outside that spread.
+//!
+//! A navigation figure from one seed is an anecdote: the sensor noise, the filter's
+//! initialisation and the oracle's noise all change with the seed, and so do the medians and
+//! shares of a 120-frame sequence. `fusion navbench --seeds 1,2,3` runs each seed; here each
+//! [`PhaseSummary`] figure becomes a [`Stat`] (mean and sample standard deviation over the
+//! seeds that have it), and [`verdict`] says "better" or "worse" only when two means differ by
+//! more than the larger of their spreads.
+
+use crate::bench::{PhaseSummary, SkipSummary, Summary};
+use serde::Serialize;
+use serde::ser::{SerializeMap, Serializer};
+use std::collections::BTreeMap;
+
+/// One figure over seeds.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Stat {
+    /// Mean over the seeds that have the figure.
+    pub mean: f64,
+    /// Sample standard deviation over them (0 for one seed).
+    pub sd: f64,
+    /// How many seeds had it.
+    pub n: usize,
+}
+
+impl Stat {
+    /// The mean and sample standard deviation of `values` (`None` when empty).
+    pub fn of(values: &[f64]) -> Option<Stat> {
+        let n = values.len();
+        if n == 0 {
+            return None;
+        }
+        let mean = values.iter().sum::<f64>() / n as f64;
+        let sd = if n > 1 {
+            (values.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1) as f64).sqrt()
+        } else {
+            0.0
+        };
+        Some(Stat { mean, sd, n })
+    }
+}
+
+/// One seed: the plain number; several: `{"mean": x, "sd": x}`.
+impl Serialize for Stat {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        if self.n <= 1 {
+            return s.serialize_f64(self.mean);
+        }
+        let mut m = s.serialize_map(Some(2))?;
+        m.serialize_entry("mean", &self.mean)?;
+        m.serialize_entry("sd", &self.sd)?;
+        m.end()
+    }
+}
+
+/// A phase's figures by name (the [`PhaseSummary`] field names); `None` where no seed has it.
+pub type Figures = BTreeMap<String, Option<Stat>>;
+
+/// `navbench.json` over seeds: the [`Summary`] shape with every figure a [`Stat`].
+#[derive(Clone, Debug, Serialize)]
+pub struct SeedSummary {
+    /// The seeds, in run order.
+    pub seeds: Vec<u64>,
+    /// Per source, per phase, over all sequences.
+    pub sources: BTreeMap<String, BTreeMap<String, Figures>>,
+    /// The same per sequence.
+    pub by_sequence: BTreeMap<String, BTreeMap<String, BTreeMap<String, Figures>>>,
+    /// Per skip method: the skip block's figures.
+    pub skip: BTreeMap<String, Figures>,
+}
+
+fn figures_of<T: Serialize>(v: &T) -> BTreeMap<String, Option<f64>> {
+    match serde_json::to_value(v) {
+        Ok(serde_json::Value::Object(m)) => m.into_iter().map(|(k, v)| (k, v.as_f64())).collect(),
+        _ => BTreeMap::new(),
+    }
+}
+
+fn merge<T: Serialize>(items: &[&T]) -> Figures {
+    let per: Vec<BTreeMap<String, Option<f64>>> = items.iter().map(|i| figures_of(*i)).collect();
+    let mut keys: Vec<String> = per.iter().flat_map(|m| m.keys().cloned()).collect();
+    keys.sort();
+    keys.dedup();
+    keys.into_iter()
+        .map(|k| {
+            let vals: Vec<f64> = per.iter().filter_map(|m| m.get(&k).copied().flatten()).collect();
+            (k, Stat::of(&vals))
+        })
+        .collect()
+}
+
+/// Merges the per-seed summaries (in seed order) into one.
+pub fn aggregate(seeds: &[u64], per_seed: &[Summary]) -> SeedSummary {
+    let mut sources: BTreeMap<String, BTreeMap<String, Vec<&PhaseSummary>>> = BTreeMap::new();
+    let mut by_sequence: BTreeMap<String, BTreeMap<String, BTreeMap<String, Vec<&PhaseSummary>>>> =
+        BTreeMap::new();
+    let mut skip: BTreeMap<String, Vec<&SkipSummary>> = BTreeMap::new();
+    for s in per_seed {
+        for (src, phases) in &s.sources {
+            for (ph, v) in phases {
+                sources.entry(src.clone()).or_default().entry(ph.clone()).or_default().push(v);
+            }
+        }
+        for (seq, srcs) in &s.by_sequence {
+            for (src, phases) in srcs {
+                for (ph, v) in phases {
+                    by_sequence
+                        .entry(seq.clone())
+                        .or_default()
+                        .entry(src.clone())
+                        .or_default()
+                        .entry(ph.clone())
+                        .or_default()
+                        .push(v);
+                }
+            }
+        }
+        for (m, v) in &s.skip {
+            skip.entry(m.clone()).or_default().push(v);
+        }
+    }
+    let phases = |m: BTreeMap<String, Vec<&PhaseSummary>>| -> BTreeMap<String, Figures> {
+        m.into_iter().map(|(ph, v)| (ph, merge(&v))).collect()
+    };
+    SeedSummary {
+        seeds: seeds.to_vec(),
+        sources: sources.into_iter().map(|(k, v)| (k, phases(v))).collect(),
+        by_sequence: by_sequence
+            .into_iter()
+            .map(|(seq, srcs)| (seq, srcs.into_iter().map(|(k, v)| (k, phases(v))).collect()))
+            .collect(),
+        skip: skip.into_iter().map(|(k, v)| (k, merge(&v))).collect(),
+    }
+}
+
+/// How one figure of a stream compares with another's over the seeds.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Verdict {
+    /// Better by more than the spread.
+    Better,
+    /// Worse by more than the spread.
+    Worse,
+    /// The means differ by no more than the larger spread: no verdict.
+    WithinSpread,
+    /// Fewer than two seeds on either side: no spread to judge against, no verdict.
+    OneSeed,
+}
+
+impl Verdict {
+    /// The word navbench.md uses.
+    pub fn word(self) -> &'static str {
+        match self {
+            Verdict::Better => "better",
+            Verdict::Worse => "worse",
+            Verdict::WithinSpread => "within the seed spread",
+            Verdict::OneSeed => "one seed: no verdict",
+        }
+    }
+}
+
+/// `a` against `b`: better or worse only when the means differ by more than the larger of the
+/// two standard deviations over seeds (and both come from at least two seeds).
+pub fn verdict(a: Stat, b: Stat, higher_is_better: bool) -> Verdict {
+    if a.n < 2 || b.n < 2 {
+        return Verdict::OneSeed;
+    }
+    let d = a.mean - b.mean;
+    if d.abs() <= a.sd.max(b.sd) {
+        return Verdict::WithinSpread;
+    }
+    if (d > 0.0) == higher_is_better { Verdict::Better } else { Verdict::Worse }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn stat_is_mean_and_sample_sd_and_serialises_by_seed_count() {
+        let s = Stat::of(&[1.0, 2.0, 3.0]).unwrap();
+        assert_eq!((s.mean, s.sd, s.n), (2.0, 1.0, 3));
+        assert_eq!(serde_json::to_string(&s).unwrap(), r#"{"mean":2.0,"sd":1.0}"#);
+        assert_eq!(serde_json::to_string(&Stat::of(&[0.5]).unwrap()).unwrap(), "0.5");
+        assert!(Stat::of(&[]).is_none());
+    }
+
+    /// A difference inside the spread gets no verdict, one outside it does, one seed none.
+    #[test]
+    fn verdicts_only_outside_the_spread() {
+        let a = Stat { mean: 1.0, sd: 0.2, n: 3 };
+        let b = Stat { mean: 1.15, sd: 0.1, n: 3 };
+        assert_eq!(verdict(a, b, false), Verdict::WithinSpread);
+        let c = Stat { mean: 1.5, sd: 0.1, n: 3 };
+        assert_eq!(verdict(a, c, false), Verdict::Better);
+        assert_eq!(verdict(c, a, false), Verdict::Worse);
+        assert_eq!(verdict(c, a, true), Verdict::Better);
+        assert_eq!(verdict(Stat { n: 1, ..a }, c, false), Verdict::OneSeed);
+    }
+}

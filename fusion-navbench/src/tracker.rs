@@ -1,0 +1,296 @@
+//! The model-based front end: features tracked over many frames, their 3D positions from the
+//! target model at the estimated pose, the pose by PnP inside RANSAC and a non-linear
+//! refinement.
+//!
+//! Per frame:
+//! 1. **Track** the features into this frame: pyramidal Lucas–Kanade with a forward–backward
+//!    check (`optical-flow-lk`: OpenCV's `calcOpticalFlowPyrLK` scheme, its fixed-point window
+//!    arithmetic), from the frame each feature was anchored in (its pyramid is kept for
+//!    [`TrackerParams::max_age`] frames: tracking frame to frame lets Lucas–Kanade's error add
+//!    up, ≈ 0.25 px per frame on the rendered fly-around, clean frames included), seeded at
+//!    the feature's 3D point projected with the filter's predicted pose. A feature the model
+//!    says is hidden at the prediction is dropped.
+//! 2. **Pose**: RANSAC over SQPnP on the tracked features ([`crate::pose::pnp_ransac`], 2 px),
+//!    then Levenberg–Marquardt on the inliers ([`crate::pose::refine`]) with its covariance.
+//!    Features outside the refined pose's 2 px are dropped. Fewer than
+//!    [`crate::pose::MIN_INLIERS`] inliers: no pose this frame (the filter coasts).
+//! 3. **Replenish** ([`ModelTracker::replenish`], after the filter's update): when fewer than
+//!    [`TrackerParams::min_tracks`] remain, Shi–Tomasi corners (`optical-flow-lk`'s detector,
+//!    on a grid, kept clear of the surviving tracks) inside the box where the model stands at
+//!    the estimate, each back-projected onto the model at the estimate
+//!    ([`crate::model::TargetModel::back_project`]).
+//!
+//! Nothing here reads the true pose: the truth enters the run only through the first frame's
+//! (perturbed) initialisation of the filter.
+
+use crate::features::PRESMOOTH_SIGMA;
+use crate::model::TargetModel;
+use crate::pose::{INLIER_THRESHOLD_PX, RefinedPose, estimate};
+use image::GrayImage;
+use imageproc::filter::gaussian_blur_f32;
+use nalgebra::Matrix6;
+use optical_flow_lk::{DetectorContext, Grid, TrackParams, TrackStatus, build_pyramid, calc_optical_flow_fb};
+use render_host::Camera;
+use render_host::glam::{DVec2, DVec3};
+
+/// Tuning of the front end.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TrackerParams {
+    /// Lucas–Kanade window side, px (odd).
+    pub window: usize,
+    /// Pyramid levels (level 0 included).
+    pub levels: usize,
+    /// Iterations per level.
+    pub iterations: usize,
+    /// Forward–backward round trip allowed, px.
+    pub fb_threshold: f32,
+    /// Below this many tracks, new features are detected.
+    pub min_tracks: usize,
+    /// At most this many tracks.
+    pub max_tracks: usize,
+    /// Shi–Tomasi quality level (of the strongest corner in the box).
+    pub quality: f32,
+    /// Smallest spacing of two features, px.
+    pub min_distance: u32,
+    /// Lucas–Kanade refuses a window whose smaller gradient eigenvalue (per pixel,
+    /// (grey levels / px)²) is below this: flat or noise-only windows drift.
+    pub min_eigen: f32,
+    /// A track followed this many frames is retired and its place detected anew: Lucas–Kanade
+    /// drifts by a few tenths of a pixel per frame on noisy frames, and an old track's 2D
+    /// position no longer shows its 3D point.
+    pub max_age: usize,
+}
+
+impl Default for TrackerParams {
+    fn default() -> Self {
+        TrackerParams {
+            window: 21,
+            levels: 4,
+            iterations: 30,
+            fb_threshold: 1.0,
+            min_tracks: 150,
+            max_tracks: 300,
+            quality: 0.02,
+            min_distance: 6,
+            min_eigen: 2.0,
+            max_age: 10,
+        }
+    }
+}
+
+/// A frame's image pyramid, kept while tracks anchored in it live.
+struct Keyframe {
+    index: u64,
+    pyramid: Vec<GrayImage>,
+}
+
+/// A feature followed over frames.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Track {
+    /// Position in the last frame, px (pixel centres at integers, as `optical-flow-lk`).
+    pub pos: (f32, f32),
+    /// Its point on the model, target frame, m.
+    pub point: DVec3,
+    /// The frame it was detected (and its point anchored) in, and its position there: it is
+    /// tracked from there into every later frame, so Lucas–Kanade's error does not add up
+    /// frame after frame.
+    pub anchor_frame: u64,
+    /// Its position in the anchor frame, px.
+    pub anchor_pos: (f32, f32),
+    /// Frames it has been followed.
+    pub age: usize,
+    /// The covariance of the pose estimate its point was back-projected from (the filter's
+    /// `(δθ, δp)`): the point carries that error into every pose measured from it.
+    pub anchor_covariance: Matrix6<f64>,
+}
+
+/// What the front end made of one frame.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FrontEndFrame {
+    /// Tracks carried into this frame (before RANSAC).
+    pub tracked: usize,
+    /// PnP inliers.
+    pub inliers: usize,
+    /// The refined pose (target → camera) and covariance, when there were enough inliers.
+    pub pose: Option<RefinedPose>,
+    /// The mean anchor covariance of the tracks the pose was measured from: the error of the
+    /// estimates their points were taken at, which the measurement shares with the filter's
+    /// own past (a consider covariance: add it to the measurement's).
+    pub anchor_covariance: Matrix6<f64>,
+}
+
+/// The front end's state over a sequence.
+pub struct ModelTracker {
+    params: TrackerParams,
+    tracks: Vec<Track>,
+    detector: DetectorContext,
+    /// The pyramids of the last [`TrackerParams::max_age`] frames: tracks are followed from
+    /// the frame they were anchored in.
+    keyframes: Vec<Keyframe>,
+    /// The index of the frame last tracked.
+    frame_index: u64,
+    seed: u64,
+}
+
+/// The smoothed frame the tracker works on ([`PRESMOOTH_SIGMA`], as the detector of the
+/// frame-to-frame front end).
+pub fn smooth(img: &GrayImage) -> GrayImage {
+    gaussian_blur_f32(img, PRESMOOTH_SIGMA)
+}
+
+/// Normalised image coordinates of a tracker position (pixel centres at integers).
+fn normalised(cam: &Camera, p: (f32, f32)) -> DVec2 {
+    let f = f64::from(cam.focal_px);
+    DVec2::new((f64::from(p.0) + 0.5 - f64::from(cam.cx)) / f, (f64::from(p.1) + 0.5 - f64::from(cam.cy)) / f)
+}
+
+impl ModelTracker {
+    /// A front end with no tracks; `seed` seeds its RANSAC.
+    pub fn new(params: TrackerParams, seed: u64) -> Self {
+        ModelTracker {
+            params,
+            tracks: Vec::new(),
+            detector: DetectorContext::new(),
+            keyframes: Vec::new(),
+            frame_index: 0,
+            seed,
+        }
+    }
+
+    /// The current tracks.
+    pub fn tracks(&self) -> &[Track] {
+        &self.tracks
+    }
+
+    /// Tracks the features into `frame` (already [`smooth`]ed), `predicted` the camera at the
+    /// filter's prediction for it, and measures the pose. `index` seeds this frame's RANSAC.
+    pub fn track(
+        &mut self,
+        frame: &GrayImage,
+        predicted: &Camera,
+        model: &TargetModel,
+        index: u64,
+    ) -> FrontEndFrame {
+        let p = self.params;
+        let pyramid = build_pyramid(frame, p.levels);
+        if !self.tracks.is_empty()
+            && self.keyframes.iter().all(|k| k.pyramid[0].dimensions() == frame.dimensions())
+        {
+            let params = TrackParams {
+                window_size: p.window,
+                max_iterations: p.iterations,
+                min_eigen_threshold: p.min_eigen,
+            };
+            let mut kept = Vec::with_capacity(self.tracks.len());
+            // Each track from the frame its point was anchored in (no template drift).
+            for key in &self.keyframes {
+                let group: Vec<&Track> = self.tracks.iter().filter(|t| t.anchor_frame == key.index).collect();
+                if group.is_empty() {
+                    continue;
+                }
+                let from: Vec<(f32, f32)> = group.iter().map(|t| t.anchor_pos).collect();
+                let guess: Vec<(f32, f32)> = group
+                    .iter()
+                    .map(|t| predicted.project(t.point.as_vec3()).map_or(t.pos, |(u, v)| (u - 0.5, v - 0.5)))
+                    .collect();
+                let results =
+                    calc_optical_flow_fb(&key.pyramid, &pyramid, &from, Some(&guess), params, p.fb_threshold);
+                for (t, r) in group.into_iter().zip(&results) {
+                    if r.status == TrackStatus::Tracked
+                        && t.age < p.max_age
+                        && model.visible(predicted, t.point)
+                    {
+                        kept.push(Track { pos: r.pos, age: t.age + 1, ..*t });
+                    }
+                }
+            }
+            self.tracks = kept;
+        } else {
+            self.tracks.clear();
+        }
+        self.frame_index = index;
+        self.keyframes.retain(|k| index.saturating_sub(k.index) < p.max_age as u64);
+        self.keyframes.push(Keyframe { index, pyramid });
+        let tracked = self.tracks.len();
+        let points: Vec<DVec3> = self.tracks.iter().map(|t| t.point).collect();
+        let image: Vec<DVec2> = self.tracks.iter().map(|t| normalised(predicted, t.pos)).collect();
+        let f = f64::from(predicted.focal_px);
+        let Some((found, pose)) = estimate(&points, &image, f, self.seed ^ index.wrapping_mul(0x9E37_79B9))
+        else {
+            return FrontEndFrame { tracked, inliers: 0, pose: None, anchor_covariance: Matrix6::zeros() };
+        };
+        if pose.is_none() {
+            return FrontEndFrame {
+                tracked,
+                inliers: found.inliers,
+                pose: None,
+                anchor_covariance: Matrix6::zeros(),
+            };
+        }
+        // Keep the features the final pose explains.
+        let final_pose = pose.map_or(found.pose, |r| r.pose);
+        let threshold = INLIER_THRESHOLD_PX / f;
+        let keep: Vec<bool> = points
+            .iter()
+            .zip(&image)
+            .map(|(&x, &u)| final_pose.project(x).is_some_and(|q| (q - u).length() <= threshold))
+            .collect();
+        let mut k = keep.iter();
+        self.tracks.retain(|_| *k.next().unwrap_or(&false));
+        let n = self.tracks.len().max(1) as f64;
+        let anchor_covariance = self.tracks.iter().map(|t| t.anchor_covariance).sum::<Matrix6<f64>>() / n;
+        FrontEndFrame { tracked, inliers: found.inliers, pose, anchor_covariance }
+    }
+
+    /// Tops the tracks up from `frame` (the one just tracked) when fewer than
+    /// [`TrackerParams::min_tracks`] remain: corners inside the model's box at the estimate
+    /// `estimate` (whose pose covariance is `covariance`), back-projected onto the model there.
+    /// Returns how many were added.
+    pub fn replenish(
+        &mut self,
+        frame: &GrayImage,
+        estimate: &Camera,
+        covariance: &Matrix6<f64>,
+        model: &TargetModel,
+    ) -> usize {
+        let p = self.params;
+        if self.tracks.len() >= p.min_tracks {
+            return 0;
+        }
+        let Some((x0, y0, x1, y1)) = model.image_box(estimate, 0.1) else { return 0 };
+        let (w, h) = (x1 - x0, y1 - y0);
+        if w < 16 || h < 16 {
+            return 0;
+        }
+        let crop = image::imageops::crop_imm(frame, x0, y0, w, h).to_image();
+        let existing: Vec<(f32, f32)> =
+            self.tracks.iter().map(|t| (t.pos.0 - x0 as f32, t.pos.1 - y0 as f32)).collect();
+        let cells = (w.max(h) / 32).clamp(2, 12);
+        // Cells over space hold only noise corners, which the model refuses below: give each
+        // cell room for a share of the whole budget, not of the cell count.
+        let per_cell = ((p.max_tracks as u32) / 16).max(2);
+        let grid = Grid { cols: cells, rows: cells, max_per_cell: per_cell };
+        let corners = self.detector.detect_grid(&crop, grid, p.quality, p.min_distance, &existing).to_vec();
+        let mut added = 0;
+        for c in corners {
+            if self.tracks.len() >= p.max_tracks {
+                break;
+            }
+            let pos = ((c.x + x0) as f32, (c.y + y0) as f32);
+            let Some(point) = model.back_project(estimate, f64::from(pos.0) + 0.5, f64::from(pos.1) + 0.5)
+            else {
+                continue;
+            };
+            self.tracks.push(Track {
+                pos,
+                point,
+                anchor_frame: self.frame_index,
+                anchor_pos: pos,
+                age: 0,
+                anchor_covariance: *covariance,
+            });
+            added += 1;
+        }
+        added
+    }
+}

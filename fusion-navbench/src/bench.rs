@@ -794,7 +794,7 @@ pub fn run_sequence(
 /// The phase name of a whole sequence in the summaries.
 pub const PHASE_ALL: &str = "all";
 
-/// The `navbench.json` document (of one seed; [`aggregate`] merges seeds).
+/// The `navbench.json` document (of one seed; [`crate::seeds::aggregate`] merges seeds).
 #[derive(Debug, Clone, Serialize)]
 pub struct Summary {
     /// Per stream, per phase, over all sequences.

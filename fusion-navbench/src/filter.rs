@@ -236,17 +236,30 @@ impl PoseFilter {
         let mut h = SMatrix::<f64, 6, 12>::zeros();
         h.fixed_view_mut::<3, 3>(0, 0).copy_from(&Matrix3::identity());
         h.fixed_view_mut::<3, 3>(3, 6).copy_from(&Matrix3::identity());
+        self.correct(&h, &y, &m.covariance, &si);
+        UpdateOutcome::Accepted
+    }
+
+    /// The Kalman correction for a measurement `y = H δx + v` (`r` its noise covariance, `si`
+    /// the inverse innovation covariance): the Joseph-form covariance update, then the error
+    /// state injected into the attitude (multiplicatively), rate, position and velocity.
+    fn correct<const M: usize>(
+        &mut self,
+        h: &SMatrix<f64, M, 12>,
+        y: &SVector<f64, M>,
+        r: &SMatrix<f64, M, M>,
+        si: &SMatrix<f64, M, M>,
+    ) {
         let k = self.covariance * h.transpose() * si;
         let dx: SVector<f64, 12> = k * y;
         let ikh = Cov12::identity() - k * h;
-        self.covariance = ikh * self.covariance * ikh.transpose() + k * m.covariance * k.transpose();
+        self.covariance = ikh * self.covariance * ikh.transpose() + k * r * k.transpose();
         self.covariance = 0.5 * (self.covariance + self.covariance.transpose());
         let dtheta = d3(&dx.fixed_rows::<3>(0).into_owned());
         self.attitude = (self.attitude * DQuat::from_scaled_axis(dtheta)).normalize();
         self.rate += d3(&dx.fixed_rows::<3>(3).into_owned());
         self.position += d3(&dx.fixed_rows::<3>(6).into_owned());
         self.velocity += d3(&dx.fixed_rows::<3>(9).into_owned());
-        UpdateOutcome::Accepted
     }
 
     /// Uses a position-only measurement `p` (target frame, m) with covariance `r` (after
@@ -261,16 +274,7 @@ impl PoseFilter {
         if (y.transpose() * si * y)[(0, 0)] > 16.27 {
             return false;
         }
-        let k = self.covariance * h.transpose() * si;
-        let dx: SVector<f64, 12> = k * y;
-        let ikh = Cov12::identity() - k * h;
-        self.covariance = ikh * self.covariance * ikh.transpose() + k * r * k.transpose();
-        self.covariance = 0.5 * (self.covariance + self.covariance.transpose());
-        let dtheta = d3(&dx.fixed_rows::<3>(0).into_owned());
-        self.attitude = (self.attitude * DQuat::from_scaled_axis(dtheta)).normalize();
-        self.rate += d3(&dx.fixed_rows::<3>(3).into_owned());
-        self.position += d3(&dx.fixed_rows::<3>(6).into_owned());
-        self.velocity += d3(&dx.fixed_rows::<3>(9).into_owned());
+        self.correct(&h, &y, r, &si);
         true
     }
 

@@ -566,6 +566,17 @@ fn mark_reacquisition(rows: &mut [FrameResult]) {
     }
 }
 
+/// What one source carries from frame to frame.
+struct StreamState {
+    filter: PoseFilter,
+    tracker: ModelTracker,
+    /// The BRIEF test pattern of the pairwise front end.
+    pairs: Vec<imageproc::binary_descriptors::brief::TestPair>,
+    prev_pairwise: Option<Tracked>,
+    /// The previous frame's measured pose (the frame-to-frame measures).
+    prev_measurement: Option<PoseMeasurement>,
+}
+
 /// Everything a source's run over a sequence reads.
 struct SequenceRun<'a> {
     name: &'a str,
@@ -584,118 +595,131 @@ impl SequenceRun<'_> {
     /// One source over the whole sequence, frames in order.
     fn source(&self, source: &str, stream: &Stream) -> Result<Vec<FrameResult>> {
         let mut rows = Vec::with_capacity(self.data.len());
-        let mut filter = initial_filter(&self.data[0], &self.data[1], self.seed);
+        let mut st = StreamState {
+            filter: initial_filter(&self.data[0], &self.data[1], self.seed),
+            tracker: ModelTracker::new(TrackerParams::default(), mix64(self.seed ^ 0x7EAC)),
+            pairs: test_pairs(),
+            prev_pairwise: None,
+            prev_measurement: None,
+        };
         if matches!(stream, Stream::ZeroMotion) {
             // No motion: the estimate stays where it started.
-            filter.rate = DVec3::ZERO;
-            filter.velocity = DVec3::ZERO;
+            st.filter.rate = DVec3::ZERO;
+            st.filter.velocity = DVec3::ZERO;
         }
-        let mut tracker = ModelTracker::new(TrackerParams::default(), mix64(self.seed ^ 0x7EAC));
-        let pairs = test_pairs();
-        let mut prev_pairwise: Option<Tracked> = None;
-        let mut prev_meas: Option<PoseMeasurement> = None;
         for (i, fd) in self.data.iter().enumerate() {
             let mut row = FrameResult::new(self.name, self.seed, i, fd.phase, source);
             if i > 0 {
-                filter.predict(fd.time_s - self.data[i - 1].time_s);
+                st.filter.predict(fd.time_s - self.data[i - 1].time_s);
             }
-            let cam = &fd.camera;
-            let f = f64::from(cam.focal_px);
-            let meas = match stream {
+            match stream {
                 Stream::ZeroMotion => {
                     if i > 0 {
                         row.rot_err_deg =
                             RelativePose { rotation: DQuat::IDENTITY, translation: DVec3::ZERO }
                                 .rotation_error_deg(&self.truth_pair(i));
                     }
-                    None
                 }
                 Stream::Oracle => {
-                    let mut rng = SplitMix64::new(mix64(self.seed ^ (i as u64) << 20 ^ 0x0AC1E));
-                    if i > 0 {
-                        // Frame to frame: frame i − 1's surface points seen in frame i.
-                        let prev = &self.data[i - 1].camera;
-                        let pts = surface_points(prev, &self.depths[i - 1]);
-                        let truth = self.truth_pair(i);
-                        let (q1, p1) = true_pose(prev);
-                        let to_target = |x: DVec3| render_host::glam::DMat3::from_quat(q1) * x + p1;
-                        let (p3, p2) =
-                            observe(&pts, &truth, f, &mut rng, |x| self.model.visible(cam, to_target(x)));
-                        if let Some((_, Some(refined))) = estimate(&p3, &p2, f, i as u64) {
-                            row.rot_err_deg = refined.pose.rotation_error_deg(&truth);
-                            row.trans_dir_err_deg = refined.pose.translation_direction_error_deg(&truth);
-                        } else {
-                            row.lost = true;
-                        }
+                    if let Some(m) = self.oracle_frame(&mut row, i) {
+                        st.filter.update(&m);
                     }
-                    // The pose: this frame's surface points in the target frame.
-                    let (q, p) = true_pose(cam);
-                    let rot = render_host::glam::DMat3::from_quat(q);
-                    let pts: Vec<DVec3> =
-                        surface_points(cam, &self.depths[i]).into_iter().map(|x| rot * x + p).collect();
-                    let to_cam = RelativePose { rotation: q.inverse(), translation: -(rot.transpose() * p) };
-                    let (p3, p2) = observe(&pts, &to_cam, f, &mut rng, |_| true);
-                    row.tracks = p3.len();
-                    estimate(&p3, &p2, f, (i as u64) ^ 0x5EED).and_then(|(found, refined)| {
-                        row.inliers = found.inliers;
-                        refined.map(|r| r.measurement())
-                    })
                 }
-                _ => {
-                    let (img, target_coverage, window_frac) = stream_image(stream, fd)
-                        .with_context(|| format!("{} frame {i} {source}", self.name))?;
-                    row.target_coverage = target_coverage;
-                    row.window_frac = window_frac;
-                    let (w, h) = (img.width, img.height);
-                    row.cnr = cnr(&img.data, &fd.vis_mask, &fd.ring_mask);
-                    let gray = GrayImage::from_raw(w as u32, h as u32, img.data).context("image size")?;
-                    prev_pairwise = Some(self.pairwise(&mut row, &gray, &pairs, prev_pairwise.as_ref(), i));
-                    let smoothed = smooth(&gray);
-                    let predicted = camera_at(cam.width, filter.attitude, filter.position);
-                    let fe = tracker.track(&smoothed, &predicted, &self.model, i as u64);
-                    row.tracks = fe.tracked;
-                    row.inliers = fe.inliers;
-                    let m = fe.pose.map(|r| {
-                        let mut m = r.measurement();
-                        m.covariance = m.covariance * FRONT_END_COVARIANCE_INFLATION + fe.anchor_covariance;
-                        m
-                    });
-                    if let Some(m) = &m {
-                        filter.update(m);
-                    }
-                    // The outline against the model's at the estimate: a position independent
-                    // of the anchored points.
-                    let estimate = camera_at(cam.width, filter.attitude, filter.position);
-                    if let Some(bbox) = self.model.image_box(&estimate, 0.3)
-                        && let Some(seen) = segment(&smoothed, bbox)
-                    {
-                        let step = ((bbox.2 - bbox.0).max(bbox.3 - bbox.1) / 96).max(1);
-                        if let Some(at) = self.model.silhouette(&estimate, bbox, step)
-                            && let Some((p, r)) = position_measurement(&seen, &at, &estimate, &self.model)
-                        {
-                            filter.update_position(p, &r);
-                        }
-                    }
-                    let estimate = camera_at(cam.width, filter.attitude, filter.position);
-                    tracker.replenish(&smoothed, &estimate, &filter.pose_covariance(), &self.model);
-                    if i > 0 {
-                        score_pair(&mut row, prev_meas.as_ref(), m.as_ref(), &self.truth_pair(i));
-                    }
-                    prev_meas = m;
-                    score_filter(&mut row, &filter, fd);
-                    rows.push(row);
-                    continue;
-                }
-            };
-            if let Some(m) = &meas {
-                filter.update(m);
+                _ => self
+                    .image_frame(&mut row, i, stream, &mut st)
+                    .with_context(|| format!("{} frame {i} {source}", self.name))?,
             }
-            prev_meas = meas;
-            score_filter(&mut row, &filter, fd);
+            score_filter(&mut row, &st.filter, fd);
             rows.push(row);
         }
         mark_reacquisition(&mut rows);
         Ok(rows)
+    }
+
+    /// The oracle on frame `i`: frame to frame, frame i − 1's surface points seen in frame i;
+    /// the pose, this frame's surface points in the target frame. Returns the pose measurement.
+    fn oracle_frame(&self, row: &mut FrameResult, i: usize) -> Option<PoseMeasurement> {
+        let cam = &self.data[i].camera;
+        let f = f64::from(cam.focal_px);
+        let mut rng = SplitMix64::new(mix64(self.seed ^ (i as u64) << 20 ^ 0x0AC1E));
+        if i > 0 {
+            let prev = &self.data[i - 1].camera;
+            let pts = surface_points(prev, &self.depths[i - 1]);
+            let truth = self.truth_pair(i);
+            let (q1, p1) = true_pose(prev);
+            let to_target = |x: DVec3| render_host::glam::DMat3::from_quat(q1) * x + p1;
+            let (p3, p2) = observe(&pts, &truth, f, &mut rng, |x| self.model.visible(cam, to_target(x)));
+            if let Some((_, Some(refined))) = estimate(&p3, &p2, f, i as u64) {
+                row.rot_err_deg = refined.pose.rotation_error_deg(&truth);
+                row.trans_dir_err_deg = refined.pose.translation_direction_error_deg(&truth);
+            } else {
+                row.lost = true;
+            }
+        }
+        let (q, p) = true_pose(cam);
+        let rot = render_host::glam::DMat3::from_quat(q);
+        let pts: Vec<DVec3> = surface_points(cam, &self.depths[i]).into_iter().map(|x| rot * x + p).collect();
+        let to_cam = RelativePose { rotation: q.inverse(), translation: -(rot.transpose() * p) };
+        let (p3, p2) = observe(&pts, &to_cam, f, &mut rng, |_| true);
+        row.tracks = p3.len();
+        estimate(&p3, &p2, f, (i as u64) ^ 0x5EED).and_then(|(found, refined)| {
+            row.inliers = found.inliers;
+            refined.map(|r| r.measurement())
+        })
+    }
+
+    /// An image stream on frame `i`: the pairwise measures, then the model-based front end's
+    /// pose into the filter, the outline's position, new features at the updated estimate, and
+    /// the frame-to-frame pose between this frame's and the previous frame's measurements.
+    fn image_frame(
+        &self,
+        row: &mut FrameResult,
+        i: usize,
+        stream: &Stream,
+        st: &mut StreamState,
+    ) -> Result<()> {
+        let fd = &self.data[i];
+        let cam = &fd.camera;
+        let (img, target_coverage, window_frac) = stream_image(stream, fd)?;
+        row.target_coverage = target_coverage;
+        row.window_frac = window_frac;
+        row.cnr = cnr(&img.data, &fd.vis_mask, &fd.ring_mask);
+        let gray =
+            GrayImage::from_raw(img.width as u32, img.height as u32, img.data).context("image size")?;
+        st.prev_pairwise = Some(self.pairwise(row, &gray, &st.pairs, st.prev_pairwise.as_ref(), i));
+        let smoothed = smooth(&gray);
+        let predicted = camera_at(cam.width, st.filter.attitude, st.filter.position);
+        let fe = st.tracker.track(&smoothed, &predicted, &self.model, i as u64);
+        row.tracks = fe.tracked;
+        row.inliers = fe.inliers;
+        let m = fe.pose.map(|r| {
+            let mut m = r.measurement();
+            m.covariance = m.covariance * FRONT_END_COVARIANCE_INFLATION + fe.anchor_covariance;
+            m
+        });
+        if let Some(m) = &m {
+            st.filter.update(m);
+        }
+        // The outline against the model's at the estimate: a position independent of the
+        // anchored points.
+        let estimate = camera_at(cam.width, st.filter.attitude, st.filter.position);
+        if let Some(bbox) = self.model.image_box(&estimate, 0.3)
+            && let Some(seen) = segment(&smoothed, bbox)
+        {
+            let step = ((bbox.2 - bbox.0).max(bbox.3 - bbox.1) / 96).max(1);
+            if let Some(at) = self.model.silhouette(&estimate, bbox, step)
+                && let Some((p, r)) = position_measurement(&seen, &at, &estimate, &self.model)
+            {
+                st.filter.update_position(p, &r);
+            }
+        }
+        let estimate = camera_at(cam.width, st.filter.attitude, st.filter.position);
+        st.tracker.replenish(&smoothed, &estimate, &st.filter.pose_covariance(), &self.model);
+        if i > 0 {
+            score_pair(row, st.prev_measurement.as_ref(), m.as_ref(), &self.truth_pair(i));
+        }
+        st.prev_measurement = m;
+        Ok(())
     }
 
     /// Today's pairwise front end on one frame: FAST-9 + BRIEF, matched against the previous

@@ -50,6 +50,22 @@ fn demo_writes_fused_images_sheet_and_summary() {
     };
     let (vis_light, vis_eclipse) = (mean(left + 4, top + 4), mean(left + 4, top + 264));
     assert!(vis_eclipse < 0.5 * vis_light, "eclipse VIS {vis_eclipse} vs light {vis_light}");
+    // Navigation in short: the chart, and the availability of each source; the oracle (ground
+    // truth correspondences through the same filter) must keep navigation available.
+    let chart = out.join("navigation_attitude_error.png");
+    assert!(chart.is_file() || out.join("navigation_attitude_error.svg").is_file());
+    let md = std::fs::read_to_string(out.join("summary.md")).unwrap();
+    let available = |src: &str| -> f64 {
+        let line = md
+            .lines()
+            .find(|l| l.starts_with(&format!("| {src} |")))
+            .unwrap_or_else(|| panic!("{src}: {md}"));
+        line.split('|').nth(2).unwrap().trim().parse().unwrap()
+    };
+    assert!(available("oracle") >= 0.9, "oracle {}", available("oracle"));
+    for src in ["zero-motion", "vis", "tir", "adaptive"] {
+        assert!((0.0..=1.0).contains(&available(src)), "{src}");
+    }
     let summary = std::fs::read_to_string(out.join("summary.csv")).unwrap();
     assert_eq!(summary.lines().count(), 1 + 2 * methods.len());
     for line in summary.lines().skip(1) {

@@ -192,40 +192,20 @@ fn charts(out: &Path, rows: &[FrameResult], seed: u64) -> Result<Vec<PathBuf>> {
                 })
                 .collect()
         };
-        for (stem, title, y, value, bound) in [
-            (
-                "attitude_error",
-                "filter attitude error and its 3σ (thin)",
-                "attitude error, degrees (log)",
-                (&|r: &FrameResult| r.att_err_deg) as &dyn Fn(&FrameResult) -> f64,
-                (&|r: &FrameResult| r.att_3sigma_deg) as &dyn Fn(&FrameResult) -> f64,
-            ),
-            (
-                "position_error",
-                "filter position error and its 3σ (thin)",
-                "position error, % of range (log)",
-                &|r: &FrameResult| r.pos_err_pct,
-                &|r: &FrameResult| r.pos_3sigma_pct,
-            ),
-        ] {
-            let mut bounds = series(bound);
-            // The zero-motion baseline's growing bound says nothing: leave it out.
-            if let Some(b) = bounds.first_mut().filter(|b| b.name == "zero-motion") {
-                b.points.clear();
-            }
-            written.push(chart_bounded(
-                &out.join(format!("{}_{stem}", name.as_str())),
-                Labels {
-                    title: &format!("{}, seed {seed}: {title} (grey: penumbra and eclipse)", name.as_str()),
-                    x: "frame",
-                    y,
-                },
-                &series(value),
-                &bounds,
-                Style::LinesLogY,
-                &shaded,
-            )?);
-        }
+        written.push(error_chart(
+            &out.join(format!("{}_attitude_error", name.as_str())),
+            &format!("{}, seed {seed}: filter attitude error and its 3σ (thin)", name.as_str()),
+            "attitude error, degrees (log)",
+            &seq,
+            &|r| (r.att_err_deg, r.att_3sigma_deg),
+        )?);
+        written.push(error_chart(
+            &out.join(format!("{}_position_error", name.as_str())),
+            &format!("{}, seed {seed}: filter position error and its 3σ (thin)", name.as_str()),
+            "position error, % of range (log)",
+            &seq,
+            &|r| (r.pos_err_pct, r.pos_3sigma_pct),
+        )?);
         let image_streams: Vec<Series> = series(&|r| r.target_features as f64)
             .into_iter()
             .filter(|s| !["zero-motion", "oracle"].contains(&s.name.as_str()))
@@ -246,6 +226,44 @@ fn charts(out: &Path, rows: &[FrameResult], seed: u64) -> Result<Vec<PathBuf>> {
         )?);
     }
     Ok(written)
+}
+
+/// One sequence's filter error against the frame (log y) with its 3σ as a thin line, for the
+/// sources of [`SHOWN`] that ran (the zero-motion baseline's growing bound is left out),
+/// penumbra and eclipse shaded. `value` gives (error, 3σ) of a row.
+pub fn error_chart(
+    stem: &Path,
+    title: &str,
+    y: &str,
+    seq: &[&FrameResult],
+    value: &dyn Fn(&FrameResult) -> (f64, f64),
+) -> Result<PathBuf> {
+    let mut shaded = Vec::new();
+    for r in seq.iter().filter(|r| r.source == "zero-motion" && r.phase != Phase::Light) {
+        shaded.push((r.frame as f64 - 0.5, r.frame as f64 + 0.5));
+    }
+    let shown: Vec<&str> = SHOWN.iter().copied().filter(|s| seq.iter().any(|r| r.source == *s)).collect();
+    let series = |pick: &dyn Fn(&FrameResult) -> f64| -> Vec<Series> {
+        shown
+            .iter()
+            .map(|src| Series {
+                name: (*src).to_string(),
+                points: seq.iter().filter(|r| r.source == *src).map(|r| (r.frame as f64, pick(r))).collect(),
+            })
+            .collect()
+    };
+    let mut bounds = series(&|r| value(r).1);
+    if let Some(b) = bounds.first_mut().filter(|b| b.name == "zero-motion") {
+        b.points.clear();
+    }
+    chart_bounded(
+        stem,
+        Labels { title: &format!("{title} (grey: penumbra and eclipse)"), x: "frame", y },
+        &series(&|r| value(r).0),
+        &bounds,
+        Style::LinesLogY,
+        &shaded,
+    )
 }
 
 /// `mean ± sd` (the mean alone for one seed), `—` when missing.

@@ -1,6 +1,7 @@
 //! Probes the model-based front end on a rendered sequence with the true pose as its estimate:
 //! per frame the tracks carried, the PnP inliers, the features added, and the pose's error.
-//! `cargo run --release -p fusion-navbench --example tracker_probe -- DIR [vis|tir] [FRAMES]`
+//! `cargo run --release -p fusion-navbench --example tracker_probe -- DIR [vis|tir|vis_clean|tir_clean] [FRAMES]`;
+//! `… -- render-lambertian DIR` renders the default fly-around without VIS's specular lobe.
 
 use fusion_io::{ColorPolicy, load_gray_u8};
 use fusion_navbench::model::TargetModel;
@@ -11,6 +12,17 @@ use render_host::{Camera, Scene};
 
 fn main() -> anyhow::Result<()> {
     let args: Vec<String> = std::env::args().collect();
+    // `tracker_probe render-lambertian DIR`: the default fly-around without the VIS specular
+    // lobe, to tell the tracker's limits from the scene's view-dependent look.
+    if args.get(1).map(String::as_str) == Some("render-lambertian") {
+        use render_host::sequence::{SequenceConfig, SequenceName, render_sequence};
+        let mut cfg = SequenceConfig::new(SequenceName::Flyaround);
+        cfg.vis.specular = false;
+        let dir = std::path::PathBuf::from(args.get(2).map_or("flyaround-lambertian", String::as_str));
+        render_sequence(&cfg, &dir, false)?;
+        println!("rendered {} without the specular lobe", dir.display());
+        return Ok(());
+    }
     let dir = std::path::PathBuf::from(args.get(1).map_or("data/flyaround", String::as_str));
     let band = args.get(2).map_or("vis", String::as_str);
     let m = read_manifest(&dir)?;

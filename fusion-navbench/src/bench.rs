@@ -65,9 +65,10 @@ pub const INIT_RATE_ERR_DEG_S: f64 = 0.2;
 pub const INIT_VEL_ERR_FRAC_S: f64 = 0.005;
 /// The image front end's pose covariance (Levenberg–Marquardt's `σ² (JᵀJ)⁻¹`) is multiplied by
 /// this before the filter takes it. Its errors are not white: tracked corners leave their model
-/// points together (the look of the MLI and the specular parts changes with the view: 0.25–0.5
-/// px per frame on clean frames at the true pose), so a measurement that claims 0.2° (1σ) is
-/// 1–2° off. Measured with `cargo run --release -p fusion-navbench --example tracker_probe`.
+/// points together (≈ 0.25 px per frame, about 5 % of the image motion, on clean frames at the
+/// true pose, with or without the specular lobe: most likely the translation-only Lucas–Kanade
+/// model against patches whose foreshortening changes with the view), so a measurement that
+/// claims 0.2° (1σ) is 1–2° off. Measured with `cargo run --release -p fusion-navbench --example tracker_probe`.
 /// 25 (5× in σ) brings the claim to the errors seen; the oracle's white noise needs none.
 pub const FRONT_END_COVARIANCE_INFLATION: f64 = 25.0;
 

@@ -6,8 +6,8 @@
 //! 1. **Track** the features into this frame: pyramidal Lucas–Kanade with a forward–backward
 //!    check (`optical-flow-lk`: OpenCV's `calcOpticalFlowPyrLK` scheme, its fixed-point window
 //!    arithmetic), from the frame each feature was anchored in (its pyramid is kept for
-//!    [`TrackerParams::max_age`] frames: tracking frame to frame lets Lucas–Kanade's error add
-//!    up, ≈ 0.25 px per frame on the rendered fly-around, clean frames included), seeded at
+//!    [`TrackerParams::max_age`] frames, so that the template's error does not add up frame
+//!    after frame), seeded at
 //!    the feature's 3D point projected with the filter's predicted pose. A feature the model
 //!    says is hidden at the prediction is dropped.
 //! 2. **Pose**: RANSAC over SQPnP on the tracked features ([`crate::pose::pnp_ransac`], 2 px),
@@ -55,9 +55,9 @@ pub struct TrackerParams {
     /// Lucas–Kanade refuses a window whose smaller gradient eigenvalue (per pixel,
     /// (grey levels / px)²) is below this: flat or noise-only windows drift.
     pub min_eigen: f32,
-    /// A track followed this many frames is retired and its place detected anew: Lucas–Kanade
-    /// drifts by a few tenths of a pixel per frame on noisy frames, and an old track's 2D
-    /// position no longer shows its 3D point.
+    /// A track followed this many frames is retired and its place detected anew: an old
+    /// track's 2D position drifts from its 3D point's projection (≈ 0.25 px per frame on the
+    /// rendered fly-around, BENCHMARKS.md "The navigation judge").
     pub max_age: usize,
 }
 
@@ -92,8 +92,7 @@ pub struct Track {
     /// Its point on the model, target frame, m.
     pub point: DVec3,
     /// The frame it was detected (and its point anchored) in, and its position there: it is
-    /// tracked from there into every later frame, so Lucas–Kanade's error does not add up
-    /// frame after frame.
+    /// tracked from there into every later frame.
     pub anchor_frame: u64,
     /// Its position in the anchor frame, px.
     pub anchor_pos: (f32, f32),

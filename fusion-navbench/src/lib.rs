@@ -1,19 +1,27 @@
 //! # fusion-navbench
 //!
-//! The navigation judge (`fusion navbench`): what a chaser's feature-based relative navigation
-//! gets out of VIS, TIR or a fused stream of a rendered rendezvous sequence, against the
-//! rendered ground truth.
+//! The navigation judge (`fusion navbench`): what a chaser's relative navigation gets out of
+//! VIS, TIR or a fused stream of a rendered rendezvous sequence, against the rendered ground
+//! truth, beside the judge's floor and ceiling, over several noise seeds.
 //!
-//! * [`features`] — FAST-9 corners on the target (`imageproc`), after a Gaussian pre-smoothing
-//!   that keeps the sensor noise from firing the test.
-//! * [`track`] — BRIEF descriptors (`imageproc`) and mutual-best matching frame to frame.
-//! * [`pose`] — the frame-to-frame relative pose by PnP-RANSAC (`sqpnp_simple`) against the
-//!   rendered depth, and its error against the ground truth.
-//! * [`bench`](mod@bench) — `fusion navbench`'s engine: every stream of a rendezvous sequence
-//!   (`render_host::sequence`) through the three, summarised per illumination phase.
+//! The chain, one module per stage:
+//! * [`model`] — the target's shape as a model-based tracker knows it: back-projection of a
+//!   pixel at the *estimated* pose, visibility, the image box, the silhouette.
+//! * [`tracker`] — the front end: Shi–Tomasi corners tracked over frames by pyramidal
+//!   Lucas–Kanade with a forward–backward check (`optical-flow-lk`), anchored on the model.
+//! * [`pose`] — PnP-RANSAC (`sqpnp_simple`) and Levenberg–Marquardt refinement
+//!   (`levenberg-marquardt`) with its covariance; relative poses and their errors.
+//! * [`silhouette`] — the target's outline against the model's: a position measurement.
+//! * [`filter`] — the navigation filter: an MEKF on the relative attitude and position.
+//! * [`baseline`] — `zero-motion` and `oracle` (ground-truth correspondences).
+//! * [`bench`](mod@bench) — `fusion navbench`'s engine: every source of a sequence through the
+//!   chain, per frame and per illumination phase.
+//! * [`seeds`] — figures over seeds (mean, spread) and verdicts only outside the spread.
+//! * [`features`], [`track`] — the earlier pairwise front end (FAST-9 + BRIEF frame to frame,
+//!   PnP against the rendered depth), kept beside the new one as `pairwise_*`.
 //!
-//! Written here only what no maintained crate does: the RANSAC loop, the matching window and
-//! the measures.
+//! Written here only what no maintained crate does: the RANSAC loop, the MEKF, the model
+//! back-projection, the outline cue, the matching window and the measures.
 
 //! ```
 //! use fusion_navbench::pose::{RelativePose, pnp_ransac};

@@ -9,6 +9,7 @@
 //!   as the streams. It is what a perfect feature front end would give; no stream can be
 //!   expected to do better.
 
+use crate::model::normalised;
 use crate::pose::RelativePose;
 use render_host::Camera;
 use render_host::glam::{DVec2, DVec3};
@@ -36,12 +37,6 @@ pub fn unit_vector(rng: &mut SplitMix64) -> DVec3 {
     }
 }
 
-/// Normalised image coordinates of the centre of pixel `(x, y)`.
-pub fn pixel_normalised(cam: &Camera, x: usize, y: usize) -> DVec2 {
-    let f = f64::from(cam.focal_px);
-    DVec2::new((x as f64 + 0.5 - f64::from(cam.cx)) / f, (y as f64 + 0.5 - f64::from(cam.cy)) / f)
-}
-
 /// Camera-frame target points of a frame: a grid over the pixels that see the target, about
 /// [`ORACLE_POINTS`] of them, each at its rendered depth along its pixel's ray.
 pub fn surface_points(cam: &Camera, depth: &[Option<f32>]) -> Vec<DVec3> {
@@ -55,7 +50,9 @@ pub fn surface_points(cam: &Camera, depth: &[Option<f32>]) -> Vec<DVec3> {
     for y in (0..depth.len() / w.max(1)).step_by(step) {
         for x in (0..w).step_by(step) {
             if let Some(d) = depth[y * w + x] {
-                out.push(pixel_normalised(cam, x, y).extend(1.0).normalize() * f64::from(d));
+                out.push(
+                    normalised(cam, x as f64 + 0.5, y as f64 + 0.5).extend(1.0).normalize() * f64::from(d),
+                );
             }
         }
     }

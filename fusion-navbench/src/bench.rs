@@ -30,7 +30,7 @@
 use super::baseline::{observe, surface_points, unit_vector};
 use super::features::{detect, grow_mask};
 use super::filter::{FilterParams, PoseFilter, PoseMeasurement, rotation_vector};
-use super::model::{TargetModel, camera_at};
+use super::model::{TargetModel, camera_at, normalised};
 use super::pose::{MIN_INLIERS, RelativePose, estimate, pnp_ransac};
 use super::silhouette::{position_measurement, segment};
 use super::track::{Feature, describe, match_features, test_pairs};
@@ -432,12 +432,6 @@ fn load_frame(dir: &Path, m: &SequenceManifest, i: usize, clean: bool) -> Result
     })
 }
 
-/// Normalised image coordinates `((x + ½ − cx)/f, (y + ½ − cy)/f)` of pixel `(x, y)`'s centre.
-fn normalised(cam: &Camera, x: u32, y: u32) -> DVec2 {
-    let f = f64::from(cam.focal_px);
-    DVec2::new((f64::from(x) + 0.5 - f64::from(cam.cx)) / f, (f64::from(y) + 0.5 - f64::from(cam.cy)) / f)
-}
-
 /// The stream's image of one frame (VIS grid) and, for skip streams, (coverage, window share).
 fn stream_image(stream: &Stream, fd: &FrameData) -> Result<(Gray<u8>, f64, f64)> {
     let (w, h) = (fd.vis.width, fd.vis.height);
@@ -565,6 +559,11 @@ fn mark_reacquisition(rows: &mut [FrameResult]) {
         }
         rows[start].reacquire_frames = (i - start) as f64;
     }
+}
+
+/// Normalised image coordinates of the centre of pixel `(x, y)`.
+fn pixel_centre(cam: &Camera, x: u32, y: u32) -> DVec2 {
+    normalised(cam, f64::from(x) + 0.5, f64::from(y) + 0.5)
 }
 
 /// What one source carries from frame to frame.
@@ -742,7 +741,7 @@ impl SequenceRun<'_> {
             .iter()
             .map(|f| {
                 self.depths[i][f.y as usize * w + f.x as usize]
-                    .map(|d| normalised(cam, f.x, f.y).extend(1.0).normalize() * f64::from(d))
+                    .map(|d| pixel_centre(cam, f.x, f.y).extend(1.0).normalize() * f64::from(d))
             })
             .collect();
         row.target_features = corners.len();
@@ -753,7 +752,7 @@ impl SequenceRun<'_> {
             for &(a, b) in &matches {
                 if let Some(x) = p.points[a] {
                     x3.push(x);
-                    x2.push(normalised(cam, features[b].x, features[b].y));
+                    x2.push(pixel_centre(cam, features[b].x, features[b].y));
                 }
             }
             let truth = self.truth_pair(i);

@@ -7,7 +7,7 @@
 //! Here the ray-traced scene of the renderer plays the CAD model (the same triangles; the
 //! surface detail is texture, not shape).
 
-use render_host::glam::{DMat3, DQuat, DVec3, Mat3, Vec3};
+use render_host::glam::{DMat3, DQuat, DVec2, DVec3, Mat3, Vec3};
 use render_host::{Camera, Pose, Scene};
 
 /// Offset of the four neighbour rays of the depth-edge test, px.
@@ -23,6 +23,13 @@ pub fn camera_at(size: u32, attitude: DQuat, position: DVec3) -> Camera {
     let m = DMat3::from_quat(attitude.normalize());
     let rotation = Mat3::from_cols(m.x_axis.as_vec3(), m.y_axis.as_vec3(), m.z_axis.as_vec3());
     Camera::study(size, Pose { position: position.as_vec3(), rotation })
+}
+
+/// Normalised image coordinates `((u − cx)/f, (v − cy)/f)` of the continuous image position
+/// `(u, v)` (pixel centres at `x + 0.5`): what PnP takes.
+pub fn normalised(cam: &Camera, u: f64, v: f64) -> DVec2 {
+    let f = f64::from(cam.focal_px);
+    DVec2::new((u - f64::from(cam.cx)) / f, (v - f64::from(cam.cy)) / f)
 }
 
 /// The target's shape.

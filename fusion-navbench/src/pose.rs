@@ -80,12 +80,8 @@ pub fn pnp_ransac(points: &[DVec3], image: &[DVec2], focal_px: f64, seed: u64) -
     if n < SAMPLE {
         return None;
     }
-    let threshold = INLIER_THRESHOLD_PX / focal_px;
-    let inliers_of = |pose: &RelativePose| -> Vec<usize> {
-        (0..n)
-            .filter(|&i| pose.project(points[i]).is_some_and(|p| (p - image[i]).length() <= threshold))
-            .collect()
-    };
+    let (points, image) = (&points[..n], &image[..n]);
+    let inliers_of = |pose: &RelativePose| inliers(pose, points, image, focal_px);
     let mut state = seed ^ 0xD1B5_4A32_D192_ED03;
     let mut best: Option<(RelativePose, Vec<usize>)> = None;
     for _ in 0..RANSAC_ITERATIONS {

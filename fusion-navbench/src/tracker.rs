@@ -24,7 +24,7 @@
 //! (perturbed) initialisation of the filter.
 
 use crate::features::PRESMOOTH_SIGMA;
-use crate::model::TargetModel;
+use crate::model::{TargetModel, normalised};
 use crate::pose::{INLIER_THRESHOLD_PX, RefinedPose, estimate};
 use image::GrayImage;
 use imageproc::filter::gaussian_blur_f32;
@@ -137,12 +137,6 @@ pub fn smooth(img: &GrayImage) -> GrayImage {
     gaussian_blur_f32(img, PRESMOOTH_SIGMA)
 }
 
-/// Normalised image coordinates of a tracker position (pixel centres at integers).
-fn normalised(cam: &Camera, p: (f32, f32)) -> DVec2 {
-    let f = f64::from(cam.focal_px);
-    DVec2::new((f64::from(p.0) + 0.5 - f64::from(cam.cx)) / f, (f64::from(p.1) + 0.5 - f64::from(cam.cy)) / f)
-}
-
 impl ModelTracker {
     /// A front end with no tracks; `seed` seeds its RANSAC.
     pub fn new(params: TrackerParams, seed: u64) -> Self {
@@ -212,7 +206,11 @@ impl ModelTracker {
         self.keyframes.push(Keyframe { index, pyramid });
         let tracked = self.tracks.len();
         let points: Vec<DVec3> = self.tracks.iter().map(|t| t.point).collect();
-        let image: Vec<DVec2> = self.tracks.iter().map(|t| normalised(predicted, t.pos)).collect();
+        let image: Vec<DVec2> = self
+            .tracks
+            .iter()
+            .map(|t| normalised(predicted, f64::from(t.pos.0) + 0.5, f64::from(t.pos.1) + 0.5))
+            .collect();
         let f = f64::from(predicted.focal_px);
         let Some((found, pose)) = estimate(&points, &image, f, self.seed ^ index.wrapping_mul(0x9E37_79B9))
         else {

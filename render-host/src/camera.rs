@@ -91,6 +91,18 @@ impl Camera {
         self.ray_dir(x as f32 + 0.5, y as f32 + 0.5)
     }
 
+    /// The centres of an `n × n` grid of equal sub-pixels of pixel `(x, y)` (continuous
+    /// coordinates), row by row; `n = 1` gives the pixel centre. Averaging a render over them
+    /// integrates the pixel's area, as a detector does.
+    pub fn subpixels(x: u32, y: u32, n: u32) -> impl Iterator<Item = (f32, f32)> {
+        let n = n.max(1);
+        (0..n).flat_map(move |j| {
+            (0..n).map(move |i| {
+                (x as f32 + (i as f32 + 0.5) / n as f32, y as f32 + (j as f32 + 0.5) / n as f32)
+            })
+        })
+    }
+
     /// Continuous image coordinates of a target-frame point, or `None` behind the camera.
     pub fn project(&self, p: Vec3) -> Option<(f32, f32)> {
         let c = self.pose.rotation.transpose() * (p - self.pose.position);
@@ -131,6 +143,18 @@ mod tests {
             let b = vis.ray_dir(2.0 * x as f32 + 1.0, 2.0 * y as f32 + 1.0);
             assert!((a - b).length() < 1e-6);
         }
+    }
+
+    #[test]
+    fn subpixels_tile_the_pixel() {
+        let one: Vec<_> = Camera::subpixels(7, 3, 1).collect();
+        assert_eq!(one, vec![(7.5, 3.5)]);
+        let four: Vec<_> = Camera::subpixels(7, 3, 4).collect();
+        assert_eq!(four.len(), 16);
+        let mean = four.iter().fold((0.0, 0.0), |a, p| (a.0 + p.0 / 16.0, a.1 + p.1 / 16.0));
+        assert!((mean.0 - 7.5).abs() < 1e-5 && (mean.1 - 3.5).abs() < 1e-5);
+        assert!(four.iter().all(|&(u, v)| (7.0..8.0).contains(&u) && (3.0..4.0).contains(&v)));
+        assert_eq!(four[1].0 - four[0].0, 0.25);
     }
 
     #[test]

@@ -3,8 +3,9 @@
 
 use crate::dataset::{DatasetConfig, render_dataset};
 use crate::scene::Material;
-use crate::sequence::{SequenceConfig, SequenceName, render_sequence};
+use crate::sequence::{SEQUENCE_SAMPLES, SequenceConfig, SequenceName, render_sequence};
 use crate::tir::{DnMapping, Radiometry};
+use crate::{TirParams, VisParams};
 use anyhow::{Result, bail};
 use std::path::PathBuf;
 use std::time::Instant;
@@ -60,6 +61,9 @@ pub struct RenderOptions {
     pub sheet_frames: usize,
     /// A quick demo: 4 frames unless --frames is given.
     pub demo: bool,
+    /// Sub-pixel samples per axis, VIS and TIR (each pixel integrates n × n rays) [default: 1,
+    /// the study's datasets; 4 with --sequence, `sequence::SEQUENCE_SAMPLES`].
+    pub samples: Option<u32>,
 }
 
 impl Default for RenderOptions {
@@ -86,6 +90,7 @@ impl Default for RenderOptions {
             sheet_thumb: 160,
             sheet_frames: 5,
             demo: false,
+            samples: None,
         }
     }
 }
@@ -121,6 +126,13 @@ impl RenderOptions {
         if self.vis_size == 0 || self.tir_sizes.is_empty() || self.tir_sizes.contains(&0) {
             bail!("--vis-size and --tir-sizes must be positive");
         }
+        if let Some(n) = self.samples
+            && !(1..=MAX_SAMPLES).contains(&n)
+        {
+            bail!("--samples must be between 1 and {MAX_SAMPLES}");
+        }
+        cfg.vis.samples = self.samples.unwrap_or(1);
+        cfg.tir.samples = cfg.vis.samples;
         cfg.vis_size = self.vis_size;
         cfg.tir_sizes = self.tir_sizes.clone();
         cfg.seed = self.seed;
@@ -143,8 +155,12 @@ impl RenderOptions {
     }
 }
 
-/// The sequence these options describe (frames 120 unless `--frames`; sizes, seed, noise,
-/// radiometry and lighting from the dataset options).
+/// Most sub-pixel samples per axis `--samples` takes (16² = 256 rays per pixel).
+pub const MAX_SAMPLES: u32 = 16;
+
+/// The sequence these options describe (frames 120 unless `--frames`, sub-pixel samples
+/// [`SEQUENCE_SAMPLES`] unless `--samples`; sizes, seed, noise, radiometry and lighting from the
+/// dataset options).
 pub fn sequence_config(name: SequenceName, args: &RenderOptions, cfg: &DatasetConfig) -> SequenceConfig {
     SequenceConfig {
         frames: args.frames.unwrap_or(120),
@@ -152,8 +168,8 @@ pub fn sequence_config(name: SequenceName, args: &RenderOptions, cfg: &DatasetCo
         surface_seed: cfg.surface_seed,
         vis_size: cfg.vis_size,
         tir_size: cfg.tir_sizes.first().copied().unwrap_or(512),
-        vis: cfg.vis,
-        tir: cfg.tir,
+        vis: VisParams { samples: args.samples.unwrap_or(SEQUENCE_SAMPLES), ..cfg.vis },
+        tir: TirParams { samples: args.samples.unwrap_or(SEQUENCE_SAMPLES), ..cfg.tir },
         noise: cfg.noise,
         write_tir16: args.tir16,
         ..SequenceConfig::new(name)

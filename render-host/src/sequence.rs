@@ -105,6 +105,13 @@ impl Phase {
     }
 }
 
+/// Sub-pixel samples per axis of the sequences' renders (VIS and TIR): a pixel integrates
+/// 4 × 4 rays, so that the surface detail moves with the surface as the view turns. One ray
+/// per pixel (the study's datasets) aliases the detail on slanted faces (the solar cells' grid,
+/// the blanket's crinkles): rendered features then slide against their 3D points by
+/// 0.2–1 px per frame and a model-based tracker drifts (BENCHMARKS.md, "The navigation judge").
+pub const SEQUENCE_SAMPLES: u32 = 4;
+
 /// Everything that defines a sequence.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct SequenceConfig {
@@ -149,9 +156,9 @@ impl SequenceConfig {
             surface_seed: 0,
             vis_size: 1024,
             tir_size: 512,
-            vis: VisParams::light(),
+            vis: VisParams { samples: SEQUENCE_SAMPLES, ..VisParams::light() },
             thermal: ThermalParams::default(),
-            tir: TirParams::default(),
+            tir: TirParams { samples: SEQUENCE_SAMPLES, ..TirParams::default() },
             noise: NoiseParams::default(),
             write_clean: true,
             write_tir16: false,

@@ -66,6 +66,10 @@ pub struct TirParams {
     /// towards it (see [`render_tir`]). Manifests without the field read the default.
     #[serde(default = "crate::vis::default_earth_dir")]
     pub earth_dir: glam::Vec3,
+    /// Sub-pixel samples per axis: each pixel averages the radiance of `n × n` rays over its
+    /// area (as [`crate::VisParams::samples`]). Written datasets without the field read 1.
+    #[serde(default = "crate::vis::one_sample", skip_serializing_if = "crate::vis::is_one_sample")]
+    pub samples: u32,
 }
 
 /// Brightness temperature of the Earth's infrared emission seen from orbit, K (≈ 240 W/m²).
@@ -84,6 +88,7 @@ impl Default for TirParams {
             // The mean of the ellipse's semi-axes (7.25 m, 4 m).
             study_reference_range: 5.625,
             earth_dir: crate::vis::default_earth_dir(),
+            samples: 1,
         }
     }
 }
@@ -114,43 +119,46 @@ impl TirParams {
 pub fn render_tir(scene: &Scene, camera: &Camera, face_temperatures: &[f32], params: &TirParams) -> Image {
     let mut img = Image::new(camera.width, camera.height);
     let w = camera.width as usize;
-    let background = params.value_of_radiance(0.0) as f32;
     let axis = camera.pose.forward();
     let earth = params.earth_dir.normalize_or_zero();
     let earth_radiance = TirParams::blackbody_radiance(EARTH_IR_TEMPERATURE_K);
+    let n = params.samples.max(1);
+    // The footprint divisor: a sub-pixel sees 1/n of the pixel's footprint.
+    let focal = camera.focal_px * n as f32;
+    // The radiance along the ray `d` (0: space).
+    let radiance = |d: glam::Vec3| -> f64 {
+        let Some(hit) = scene.intersect(camera.pose.position, d, 0.0) else { return 0.0 };
+        let face = &scene.faces[hit.face as usize];
+        let t = f64::from(face_temperatures.get(hit.face as usize).copied().unwrap_or(0.0));
+        let (t, eps, reflected) = match &scene.detail {
+            Some(detail) => {
+                let s = detail.at(&scene.faces, hit.face, hit.point, hit.t / focal, t);
+                // The relief's mirror image of the Earth: (1 − ε) of its radiance where the
+                // reflected ray points inside the Earth's disc (soft limb).
+                let n = if s.normal.dot(d) > 0.0 { -s.normal } else { s.normal };
+                let r = d - 2.0 * d.dot(n) * n;
+                let c = r.dot(earth);
+                let cover = ((c - EARTH_COS_HALF_ANGLE) / 0.1 + 0.5).clamp(0.0, 1.0);
+                (t + s.delta_t, s.emittance, (1.0 - s.emittance) * f64::from(cover) * earth_radiance)
+            }
+            None => (t, face.material.props().ir_emittance, 0.0),
+        };
+        let cos_c = f64::from(axis.dot(d)).max(0.0);
+        let weight = match params.radiometry {
+            Radiometry::Radiometric => cos_c.powi(4),
+            Radiometry::Study => {
+                let cos_f = f64::from(face.normal.dot(d)).abs();
+                let s = f64::from(hit.t);
+                cos_c * cos_f * (params.study_reference_range / s).powi(2)
+            }
+        };
+        weight * (eps * TirParams::blackbody_radiance(t) + reflected)
+    };
     img.data.par_chunks_mut(w.max(1)).enumerate().for_each(|(y, row)| {
         for (x, px) in row.iter_mut().enumerate() {
-            let d = camera.pixel_ray(x as u32, y as u32);
-            let Some(hit) = scene.intersect(camera.pose.position, d, 0.0) else {
-                *px = background;
-                continue;
-            };
-            let face = &scene.faces[hit.face as usize];
-            let t = f64::from(face_temperatures.get(hit.face as usize).copied().unwrap_or(0.0));
-            let (t, eps, reflected) = match &scene.detail {
-                Some(detail) => {
-                    let s = detail.at(&scene.faces, hit.face, hit.point, hit.t / camera.focal_px, t);
-                    // The relief's mirror image of the Earth: (1 − ε) of its radiance where the
-                    // reflected ray points inside the Earth's disc (soft limb).
-                    let n = if s.normal.dot(d) > 0.0 { -s.normal } else { s.normal };
-                    let r = d - 2.0 * d.dot(n) * n;
-                    let c = r.dot(earth);
-                    let cover = ((c - EARTH_COS_HALF_ANGLE) / 0.1 + 0.5).clamp(0.0, 1.0);
-                    (t + s.delta_t, s.emittance, (1.0 - s.emittance) * f64::from(cover) * earth_radiance)
-                }
-                None => (t, face.material.props().ir_emittance, 0.0),
-            };
-            let cos_c = f64::from(axis.dot(d)).max(0.0);
-            let weight = match params.radiometry {
-                Radiometry::Radiometric => cos_c.powi(4),
-                Radiometry::Study => {
-                    let cos_f = f64::from(face.normal.dot(d)).abs();
-                    let s = f64::from(hit.t);
-                    cos_c * cos_f * (params.study_reference_range / s).powi(2)
-                }
-            };
-            *px = params.value_of_radiance(weight * (eps * TirParams::blackbody_radiance(t) + reflected))
-                as f32;
+            let sum: f64 =
+                Camera::subpixels(x as u32, y as u32, n).map(|(u, v)| radiance(camera.ray_dir(u, v))).sum();
+            *px = params.value_of_radiance(sum / f64::from(n * n)) as f32;
         }
     });
     img

@@ -43,10 +43,27 @@ pub struct VisParams {
     /// 0). Written datasets without the field read as 1.
     #[serde(default = "full_sun")]
     pub sun_fraction: f32,
+    /// Sub-pixel samples per axis: each pixel averages `n × n` rays over its area
+    /// ([`Camera::subpixels`]), the surface detail filtered over each sub-pixel's footprint.
+    /// 1 (one ray through the pixel centre, the study's datasets) point-samples the scene:
+    /// detail finer than a few pixels then aliases and slides against the surface as the view
+    /// turns, which a feature tracker sees as drift. Written datasets without the field read 1.
+    #[serde(default = "one_sample", skip_serializing_if = "is_one_sample")]
+    pub samples: u32,
 }
 
 fn full_sun() -> f32 {
     1.0
+}
+
+/// One sample per pixel (the pixel centre).
+pub(crate) fn one_sample() -> u32 {
+    1
+}
+
+/// Whether `samples` is the default (not written: the study's manifests stay as they were).
+pub(crate) fn is_one_sample(samples: &u32) -> bool {
+    *samples == 1
 }
 
 impl VisParams {
@@ -61,6 +78,7 @@ impl VisParams {
             exposure: DEFAULT_EXPOSURE,
             specular: true,
             sun_fraction: 1.0,
+            samples: 1,
         }
     }
 
@@ -86,28 +104,36 @@ pub fn default_earth_dir() -> Vec3 {
     Vec3::new(-0.2, 0.1, -1.0).normalize()
 }
 
-/// Renders one VIS frame: one primary ray per pixel centre, a shadow ray per light per hit.
-/// Pixel values are linear in reflected radiance, `exposure × (albedo cos θ_s + specular)`,
-/// not clipped (the DN conversion clips).
+/// Renders one VIS frame: [`VisParams::samples`]² primary rays per pixel (one through the
+/// centre by default), a shadow ray per light per hit. Pixel values are linear in reflected
+/// radiance, `exposure × (albedo cos θ_s + specular)` averaged over the pixel, not clipped (the
+/// DN conversion clips).
 pub fn render_vis(scene: &Scene, camera: &Camera, params: &VisParams) -> Image {
     let mut img = Image::new(camera.width, camera.height);
     let w = camera.width as usize;
+    let n = params.samples.max(1);
+    // The footprint divisor: a sub-pixel sees 1/n of the pixel's footprint.
+    let focal = camera.focal_px * n as f32;
     img.data.par_chunks_mut(w.max(1)).enumerate().for_each(|(y, row)| {
         for (x, px) in row.iter_mut().enumerate() {
-            *px = shade(scene, camera, params, x as u32, y as u32);
+            let sum: f32 = Camera::subpixels(x as u32, y as u32, n)
+                .map(|(u, v)| shade(scene, camera, params, camera.ray_dir(u, v), focal))
+                .sum();
+            *px = sum / (n * n) as f32;
         }
     });
     img
 }
 
-fn shade(scene: &Scene, camera: &Camera, p: &VisParams, x: u32, y: u32) -> f32 {
+/// The radiance seen along the ray `d`; a hit at range `t` sees a footprint of `t / focal`
+/// metres.
+fn shade(scene: &Scene, camera: &Camera, p: &VisParams, d: Vec3, focal: f32) -> f32 {
     let origin = camera.pose.position;
-    let d = camera.pixel_ray(x, y);
     let Some(hit) = scene.intersect(origin, d, 0.0) else { return 0.0 };
     let props = scene.faces[hit.face as usize].material.props();
     let (albedo, specular, shading_normal) = match &scene.detail {
         Some(detail) => {
-            let s = detail.at(&scene.faces, hit.face, hit.point, hit.t / camera.focal_px, 0.0);
+            let s = detail.at(&scene.faces, hit.face, hit.point, hit.t / focal, 0.0);
             (s.albedo, s.specular, s.normal)
         }
         None => (props.diffuse_albedo, props.specular, hit.normal),

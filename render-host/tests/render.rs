@@ -173,6 +173,35 @@ fn tango_pose(frame: usize) -> (Scene, Pose) {
     (sc, pose)
 }
 
+/// A pixel of an `n × n`-sampled render is the mean of the `n × n` pixels of a render at `n`
+/// times the resolution (its sub-pixel centres are their centres, its footprint theirs): the
+/// sampled VIS render against the box-filtered large one, surface detail included.
+#[test]
+fn sub_pixel_samples_average_the_finer_render() {
+    let (scene, pose) = tango_pose(3);
+    let scene = scene.with_surface_detail(0);
+    let (size, n) = (96u32, 4u32);
+    let params = VisParams::light();
+    let sampled = render_vis(&scene, &Camera::study(size, pose), &VisParams { samples: n, ..params });
+    let fine = render_vis(&scene, &Camera::study(size * n, pose), &params);
+    let (mut partial, mut covered) = (0, 0);
+    for y in 0..size {
+        for x in 0..size {
+            let block: Vec<f32> = (0..n)
+                .flat_map(|j| (0..n).map(move |i| (x * n + i, y * n + j)))
+                .map(|(u, v)| fine.at(u, v))
+                .collect();
+            let mean = block.iter().sum::<f32>() / (n * n) as f32;
+            let v = sampled.at(x, y);
+            assert!((v - mean).abs() <= 1e-6 * mean.abs().max(1.0), "({x}, {y}): {v} vs {mean}");
+            covered += usize::from(v > 0.0);
+            partial += usize::from(block.contains(&0.0) && block.iter().any(|&b| b > 0.0));
+        }
+    }
+    // The target is in view, and its outline is anti-aliased (pixels part target, part space).
+    assert!(covered > 100 && partial > 20, "{covered} covered, {partial} on the outline");
+}
+
 /// In eclipse only the weak earthshine lights the target; without it the frame is all zero.
 #[test]
 fn eclipse_vis_is_dark() {

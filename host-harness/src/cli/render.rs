@@ -77,6 +77,10 @@ pub struct RenderArgs {
     /// A quick demo: 4 frames unless --frames is given.
     #[arg(long)]
     pub demo: bool,
+    /// Sub-pixel samples per axis, VIS and TIR: each pixel integrates N × N rays, so that fine
+    /// surface detail does not alias [default: 1; 4 with --sequence]
+    #[arg(long, value_name = "N")]
+    pub samples: Option<u32>,
 }
 
 impl From<RenderArgs> for RenderOptions {
@@ -103,6 +107,7 @@ impl From<RenderArgs> for RenderOptions {
             sheet_thumb: a.sheet_thumb,
             sheet_frames: a.sheet_frames,
             demo: a.demo,
+            samples: a.samples,
         }
     }
 }

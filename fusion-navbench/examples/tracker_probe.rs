@@ -30,6 +30,8 @@ fn main() -> anyhow::Result<()> {
     let scene = Scene::tango()?.with_surface_detail(m.config.surface_seed);
     let model = TargetModel::new(&scene);
     let mut tracker = ModelTracker::new(TrackerParams::default(), 1);
+    // Residuals by track age: 0–29 frames, the last bin 30 and older.
+    let mut by_age: Vec<Vec<f64>> = vec![Vec::new(); 31];
     for (i, f) in m.frames.iter().take(n).enumerate() {
         let file = match band {
             "vis" => &f.files.vis,
@@ -74,7 +76,10 @@ fn main() -> anyhow::Result<()> {
             .iter()
             .filter_map(|t| {
                 let (u, v) = cam.project(t.point.as_vec3())?;
-                Some((f64::from(u - 0.5 - t.pos.0).powi(2) + f64::from(v - 0.5 - t.pos.1).powi(2)).sqrt())
+                let r = (f64::from(u - 0.5 - t.pos.0).powi(2) + f64::from(v - 0.5 - t.pos.1).powi(2)).sqrt();
+                let last = by_age.len() - 1;
+                by_age[t.age.min(last)].push(r);
+                Some(r)
             })
             .collect();
         res.sort_by(f64::total_cmp);
@@ -112,6 +117,13 @@ fn main() -> anyhow::Result<()> {
             err,
             model.image_box(&cam, 0.1)
         );
+    }
+    println!("true-pose residual by track age (frames since anchored): median, p90, count");
+    for (age, r) in by_age.iter_mut().enumerate() {
+        r.sort_by(f64::total_cmp);
+        if let (Some(m), Some(p)) = (r.get(r.len() / 2), r.get(r.len() * 9 / 10)) {
+            println!("  age {age:2}: {m:.3} px, {p:.3} px, {}", r.len());
+        }
     }
     Ok(())
 }

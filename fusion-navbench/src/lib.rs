@@ -46,3 +46,4 @@ pub mod seeds;
 pub mod silhouette;
 pub mod track;
 pub mod tracker;
+pub mod warp;

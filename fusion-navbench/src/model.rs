@@ -32,6 +32,17 @@ pub fn normalised(cam: &Camera, u: f64, v: f64) -> DVec2 {
     DVec2::new((u - f64::from(cam.cx)) / f, (v - f64::from(cam.cy)) / f)
 }
 
+/// A point on the model, as back-projection finds it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ModelPoint {
+    /// The point, target frame, m.
+    pub point: DVec3,
+    /// The face it lies on (index into the scene's faces).
+    pub face: u32,
+    /// The face's outward unit normal, target frame.
+    pub normal: DVec3,
+}
+
 /// The target's shape.
 pub struct TargetModel<'a> {
     scene: &'a Scene,
@@ -48,11 +59,19 @@ impl<'a> TargetModel<'a> {
         self.scene.intersect(cam.pose.position, dir, 0.0).map(|h| f64::from(h.t))
     }
 
-    /// The target-frame point seen at continuous image position `(u, v)` (pixel centres at
+    /// The model face seen at continuous image position `(u, v)` by `cam`.
+    pub fn face_at(&self, cam: &Camera, u: f64, v: f64) -> Option<u32> {
+        let dir = cam.ray_dir(u as f32, v as f32);
+        self.scene.intersect(cam.pose.position, dir, 0.0).map(|h| h.face)
+    }
+
+    /// The model point seen at continuous image position `(u, v)` (pixel centres at
     /// `x + 0.5`) by the camera `cam`, when the ray hits the model away from a depth edge
     /// ([`EDGE_PROBE_PX`], [`EDGE_DEPTH_TOLERANCE`]).
-    pub fn back_project(&self, cam: &Camera, u: f64, v: f64) -> Option<DVec3> {
-        let t = self.range(cam, u, v)?;
+    pub fn back_project(&self, cam: &Camera, u: f64, v: f64) -> Option<ModelPoint> {
+        let dir = cam.ray_dir(u as f32, v as f32);
+        let hit = self.scene.intersect(cam.pose.position, dir, 0.0)?;
+        let t = f64::from(hit.t);
         let d = EDGE_PROBE_PX;
         for (du, dv) in [(d, 0.0), (-d, 0.0), (0.0, d), (0.0, -d)] {
             let tn = self.range(cam, u + du, v + dv)?;
@@ -60,8 +79,11 @@ impl<'a> TargetModel<'a> {
                 return None;
             }
         }
-        let dir = cam.ray_dir(u as f32, v as f32).as_dvec3();
-        Some(cam.pose.position.as_dvec3() + dir * t)
+        Some(ModelPoint {
+            point: cam.pose.position.as_dvec3() + dir.as_dvec3() * t,
+            face: hit.face,
+            normal: hit.normal.as_dvec3().normalize(),
+        })
     }
 
     /// Whether the target-frame point `x` is seen by `cam`: in front of it, inside the image
@@ -170,7 +192,7 @@ mod tests {
                     continue;
                 }
                 let (u, v) = (f64::from(x) + 0.5, f64::from(y) + 0.5);
-                match model.back_project(&est, u, v) {
+                match model.back_project(&est, u, v).map(|m| m.point) {
                     Some(p) => {
                         let (pu, pv) = est.project(p.as_vec3()).expect("in front");
                         assert!((f64::from(pu) - u).abs() < 1e-2 && (f64::from(pv) - v).abs() < 1e-2);
@@ -184,7 +206,7 @@ mod tests {
         assert!(inner > 50 && edges > 0, "{inner} inner, {edges} on edges");
         // A point 20 cm behind a visible surface point, on the same ray, is hidden by it.
         let (u, v) = (f64::from(x0 + x1) / 2.0, f64::from(y0 + y1) / 2.0);
-        if let Some(p) = model.back_project(&est, u, v) {
+        if let Some(p) = model.back_project(&est, u, v).map(|m| m.point) {
             let dir = (p - est.pose.position.as_dvec3()).normalize();
             assert!(!model.visible(&est, p + dir * 0.2));
         }

@@ -3,13 +3,15 @@
 //! refinement.
 //!
 //! Per frame:
-//! 1. **Track** the features into this frame: pyramidal Lucas–Kanade with a forward–backward
-//!    check (`optical-flow-lk`: OpenCV's `calcOpticalFlowPyrLK` scheme, its fixed-point window
-//!    arithmetic), from the frame each feature was anchored in (its pyramid is kept for
-//!    [`TrackerParams::max_age`] frames, so that the template's error does not add up frame
-//!    after frame), seeded at
-//!    the feature's 3D point projected with the filter's predicted pose. A feature the model
-//!    says is hidden at the prediction is dropped.
+//! 1. **Track** the features into this frame, in two steps. Coarse: pyramidal Lucas–Kanade
+//!    with a forward–backward check (`optical-flow-lk`: OpenCV's `calcOpticalFlowPyrLK`
+//!    scheme) from the previous frame, seeded at the feature's 3D point projected with the
+//!    filter's predicted pose. Exact: the feature's window cut in the frame it was anchored in,
+//!    warped by its model face's plane to the prediction and matched by Gauss–Newton
+//!    ([`crate::warp`]), so that the track stays on its 3D point however long it lives (a
+//!    translation-only window slides off it by a fraction of a pixel per frame as the face
+//!    turns). A feature the model says is hidden at the prediction is dropped, and so is one
+//!    whose window no longer correlates with its template.
 //! 2. **Pose**: RANSAC over SQPnP on the tracked features ([`crate::pose::pnp_ransac`], 2 px),
 //!    then Levenberg–Marquardt on the inliers ([`crate::pose::refine`]) with its covariance.
 //!    Features outside the refined pose's 2 px are dropped. Fewer than
@@ -26,6 +28,7 @@
 use crate::features::PRESMOOTH_SIGMA;
 use crate::model::{TargetModel, normalised};
 use crate::pose::{INLIER_THRESHOLD_PX, RefinedPose, estimate};
+use crate::warp::{GradientImage, Template};
 use image::GrayImage;
 use imageproc::filter::gaussian_blur_f32;
 use nalgebra::Matrix6;
@@ -55,10 +58,8 @@ pub struct TrackerParams {
     /// Lucas–Kanade refuses a window whose smaller gradient eigenvalue (per pixel,
     /// (grey levels / px)²) is below this: flat or noise-only windows drift.
     pub min_eigen: f32,
-    /// A track followed this many frames is retired and its place detected anew: an old
-    /// track's 2D position drifts from its 3D point's projection (≈ 0.25 px per frame on the
-    /// rendered fly-around, BENCHMARKS.md "The navigation judge").
-    pub max_age: usize,
+    /// Largest move of the template match away from the Lucas–Kanade position, px.
+    pub max_refinement_px: f32,
 }
 
 impl Default for TrackerParams {
@@ -73,34 +74,25 @@ impl Default for TrackerParams {
             quality: 0.02,
             min_distance: 6,
             min_eigen: 2.0,
-            max_age: 10,
+            max_refinement_px: 3.0,
         }
     }
 }
 
-/// A frame's image pyramid, kept while tracks anchored in it live.
-struct Keyframe {
-    index: u64,
-    pyramid: Vec<GrayImage>,
-}
-
 /// A feature followed over frames.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct Track {
     /// Position in the last frame, px (pixel centres at integers, as `optical-flow-lk`).
     pub pos: (f32, f32),
     /// Its point on the model, target frame, m.
     pub point: DVec3,
-    /// The frame it was detected (and its point anchored) in, and its position there: it is
-    /// tracked from there into every later frame.
-    pub anchor_frame: u64,
-    /// Its position in the anchor frame, px.
-    pub anchor_pos: (f32, f32),
-    /// Frames it has been followed.
+    /// Frames it has been followed since it was anchored.
     pub age: usize,
     /// The covariance of the pose estimate its point was back-projected from (the filter's
     /// `(δθ, δp)`): the point carries that error into every pose measured from it.
     pub anchor_covariance: Matrix6<f64>,
+    /// Its window in the anchor frame on its model face, warped into each later frame.
+    pub template: Template,
 }
 
 /// What the front end made of one frame.
@@ -123,11 +115,8 @@ pub struct ModelTracker {
     params: TrackerParams,
     tracks: Vec<Track>,
     detector: DetectorContext,
-    /// The pyramids of the last [`TrackerParams::max_age`] frames: tracks are followed from
-    /// the frame they were anchored in.
-    keyframes: Vec<Keyframe>,
-    /// The index of the frame last tracked.
-    frame_index: u64,
+    /// The pyramid of the frame last tracked.
+    previous: Option<Vec<GrayImage>>,
     seed: u64,
 }
 
@@ -140,14 +129,7 @@ pub fn smooth(img: &GrayImage) -> GrayImage {
 impl ModelTracker {
     /// A front end with no tracks; `seed` seeds its RANSAC.
     pub fn new(params: TrackerParams, seed: u64) -> Self {
-        ModelTracker {
-            params,
-            tracks: Vec::new(),
-            detector: DetectorContext::new(),
-            keyframes: Vec::new(),
-            frame_index: 0,
-            seed,
-        }
+        ModelTracker { params, tracks: Vec::new(), detector: DetectorContext::new(), previous: None, seed }
     }
 
     /// The current tracks.
@@ -166,44 +148,36 @@ impl ModelTracker {
     ) -> FrontEndFrame {
         let p = self.params;
         let pyramid = build_pyramid(frame, p.levels);
-        if !self.tracks.is_empty()
-            && self.keyframes.iter().all(|k| k.pyramid[0].dimensions() == frame.dimensions())
-        {
-            let params = TrackParams {
-                window_size: p.window,
-                max_iterations: p.iterations,
-                min_eigen_threshold: p.min_eigen,
-            };
-            let mut kept = Vec::with_capacity(self.tracks.len());
-            // Each track from the frame its point was anchored in (no template drift).
-            for key in &self.keyframes {
-                let group: Vec<&Track> = self.tracks.iter().filter(|t| t.anchor_frame == key.index).collect();
-                if group.is_empty() {
-                    continue;
-                }
-                let from: Vec<(f32, f32)> = group.iter().map(|t| t.anchor_pos).collect();
-                let guess: Vec<(f32, f32)> = group
+        match self.previous.take() {
+            Some(previous) if !self.tracks.is_empty() && previous[0].dimensions() == frame.dimensions() => {
+                let params = TrackParams {
+                    window_size: p.window,
+                    max_iterations: p.iterations,
+                    min_eigen_threshold: p.min_eigen,
+                };
+                let from: Vec<(f32, f32)> = self.tracks.iter().map(|t| t.pos).collect();
+                let guess: Vec<(f32, f32)> = self
+                    .tracks
                     .iter()
                     .map(|t| predicted.project(t.point.as_vec3()).map_or(t.pos, |(u, v)| (u - 0.5, v - 0.5)))
                     .collect();
                 let results =
-                    calc_optical_flow_fb(&key.pyramid, &pyramid, &from, Some(&guess), params, p.fb_threshold);
-                for (t, r) in group.into_iter().zip(&results) {
-                    if r.status == TrackStatus::Tracked
-                        && t.age < p.max_age
-                        && model.visible(predicted, t.point)
-                    {
-                        kept.push(Track { pos: r.pos, age: t.age + 1, ..*t });
+                    calc_optical_flow_fb(&previous, &pyramid, &from, Some(&guess), params, p.fb_threshold);
+                let gradients = GradientImage::new(frame);
+                let tracks = std::mem::take(&mut self.tracks);
+                for (t, r) in tracks.into_iter().zip(&results) {
+                    if r.status != TrackStatus::Tracked || !model.visible(predicted, t.point) {
+                        continue;
+                    }
+                    let Some(q) = t.template.refine(&gradients, predicted, r.pos) else { continue };
+                    if (q.0 - r.pos.0).hypot(q.1 - r.pos.1) <= p.max_refinement_px {
+                        self.tracks.push(Track { pos: q, age: t.age + 1, ..t });
                     }
                 }
             }
-            self.tracks = kept;
-        } else {
-            self.tracks.clear();
+            _ => self.tracks.clear(),
         }
-        self.frame_index = index;
-        self.keyframes.retain(|k| index.saturating_sub(k.index) < p.max_age as u64);
-        self.keyframes.push(Keyframe { index, pyramid });
+        self.previous = Some(pyramid);
         let tracked = self.tracks.len();
         let points: Vec<DVec3> = self.tracks.iter().map(|t| t.point).collect();
         let image: Vec<DVec2> = self
@@ -273,16 +247,21 @@ impl ModelTracker {
             if self.tracks.len() >= p.max_tracks {
                 break;
             }
-            let pos = ((c.x + x0) as f32, (c.y + y0) as f32);
-            let Some(point) = model.back_project(estimate, f64::from(pos.0) + 0.5, f64::from(pos.1) + 0.5)
+            let (x, y) = (c.x + x0, c.y + y0);
+            let pos = (x as f32, y as f32);
+            let Some(hit) = model.back_project(estimate, f64::from(pos.0) + 0.5, f64::from(pos.1) + 0.5)
+            else {
+                continue;
+            };
+            let Some(template) =
+                Template::cut(frame, estimate, model, (x, y), hit.point, (hit.face, hit.normal))
             else {
                 continue;
             };
             self.tracks.push(Track {
                 pos,
-                point,
-                anchor_frame: self.frame_index,
-                anchor_pos: pos,
+                point: hit.point,
+                template,
                 age: 0,
                 anchor_covariance: *covariance,
             });

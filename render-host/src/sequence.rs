@@ -18,6 +18,10 @@
 //!   fraction of the solar disc as the Earth's limb crosses it: a circular segment, not a
 //!   switch).
 //!
+//! Each pixel integrates [`SEQUENCE_SAMPLES`]² rays over its area (the study's datasets shoot
+//! one through its centre): the surface detail then moves with the surface as the view turns,
+//! as a feature tracker needs it to.
+//!
 //! The thermal state follows the sequence: the node temperatures start from the sunlit steady
 //! state and are integrated frame to frame ([`crate::thermal::advance`]) with the sun direction
 //! in the target frame and the visible sun fraction of that moment, so the target cools in

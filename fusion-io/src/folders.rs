@@ -62,13 +62,34 @@ pub fn natural_order(a: &str, b: &str) -> std::cmp::Ordering {
 /// Refuses an output folder that is one of the input folders (the outputs would land beside,
 /// or over, the inputs).
 pub fn check_output_folder(out: &Path, inputs: &[&Path]) -> Result<()> {
-    let Ok(out_real) = out.canonicalize() else { return Ok(()) };
-    for input in inputs {
-        if input.canonicalize().is_ok_and(|i| i == out_real) {
-            bail!("{} is an input folder: give the outputs a folder of their own", out.display());
-        }
+    if inputs.iter().any(|input| same_file(out, input)) {
+        bail!("{} is an input folder: give the outputs a folder of their own", out.display());
     }
     Ok(())
+}
+
+/// Refuses an output file that is one of the input files (by any name: the same path, a
+/// symbolic link to it, or a hard link), which the run would overwrite.
+pub fn check_output_file(out: &Path, inputs: &[&Path]) -> Result<()> {
+    if let Some(input) = inputs.iter().find(|input| same_file(out, input)) {
+        bail!("{} is the input {}: give the output a name of its own", out.display(), input.display());
+    }
+    Ok(())
+}
+
+/// Whether two paths name one existing file or folder.
+fn same_file(a: &Path, b: &Path) -> bool {
+    let (Ok(ma), Ok(mb)) = (std::fs::metadata(a), std::fs::metadata(b)) else { return false };
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::MetadataExt;
+        ma.dev() == mb.dev() && ma.ino() == mb.ino()
+    }
+    #[cfg(not(unix))]
+    {
+        let _ = (ma, mb);
+        matches!((a.canonicalize(), b.canonicalize()), (Ok(x), Ok(y)) if x == y)
+    }
 }
 
 /// Names with what each gave, and names with why each failed.

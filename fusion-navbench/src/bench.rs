@@ -64,11 +64,11 @@ pub const INIT_RATE_ERR_DEG_S: f64 = 0.2;
 /// … and its velocity off by this share of the range per second.
 pub const INIT_VEL_ERR_FRAC_S: f64 = 0.005;
 /// The image front end's pose covariance (Levenberg–Marquardt's `σ² (JᵀJ)⁻¹`) is multiplied by
-/// this before the filter takes it. Its errors are not white: tracked corners leave their model
-/// points together (≈ 0.25 px per frame, about 5 % of the image motion, on clean frames at the
-/// true pose, with or without the specular lobe: most likely the translation-only Lucas–Kanade
-/// model against patches whose foreshortening changes with the view), so a measurement that
-/// claims 0.2° (1σ) is 1–2° off. Measured with `cargo run --release -p fusion-navbench --example tracker_probe`.
+/// this before the filter takes it. Its errors are not white: the tracks of one face share
+/// their errors (at the true pose, on the supersampled fly-around, their residuals grow from
+/// ≈ 0.37 px one frame after anchoring to ≈ 0.7 px after seven, together), so a measurement
+/// that claims 0.1° (1σ) is 0.3–0.5° off. Measured with
+/// `cargo run --release -p fusion-navbench --example tracker_probe -- DIR vis`.
 /// 25 (5× in σ) brings the claim to the errors seen; the oracle's white noise needs none.
 pub const FRONT_END_COVARIANCE_INFLATION: f64 = 25.0;
 
@@ -391,6 +391,39 @@ struct FrameData {
     range_m: f64,
 }
 
+/// Largest camera size (square, px) a manifest may give.
+pub const MAX_CAMERA_SIZE: u32 = 16384;
+/// Host memory per VIS pixel per frame held by a run: the frames, masks and rendered depth of
+/// every frame (≈ 14 B, measured 1.8 GB peak for 120 frames at 1024²) and the streams'
+/// working images beside them.
+pub const BYTES_PER_PIXEL_FRAME: u64 = 16;
+
+/// Refuses a manifest whose cameras cannot be run: sizes outside 16 px to
+/// [`MAX_CAMERA_SIZE`], or a run of `n` frames whose memory exceeds `--max-memory`.
+fn check_cameras(dir: &Path, m: &SequenceManifest, n: usize) -> Result<()> {
+    let manifest = dir.join("manifest.json");
+    for (name, size) in [("vis_camera", m.vis_camera.size), ("tir_camera", m.tir_camera.size)] {
+        if !(16..=MAX_CAMERA_SIZE).contains(&size) {
+            anyhow::bail!("{}: {name}.size {size} is outside 16 to {MAX_CAMERA_SIZE} px", manifest.display());
+        }
+    }
+    let px = u64::from(m.vis_camera.size).pow(2) * n as u64;
+    fusion_io::memory::check(
+        &manifest.display().to_string(),
+        "judging",
+        fusion_io::memory::estimate(px, BYTES_PER_PIXEL_FRAME),
+    )
+}
+
+/// Loads one of a frame's images and refuses it unless it is `size`² as the manifest says.
+fn load_sized(path: &Path, size: u32) -> Result<Gray<u8>> {
+    let img = load_gray_u8(path, ColorPolicy::Refuse)?;
+    if img.width != size as usize || img.height != size as usize {
+        anyhow::bail!("{}: {}×{}, the manifest says {size}×{size}", path.display(), img.width, img.height);
+    }
+    Ok(img)
+}
+
 fn load_frame(dir: &Path, m: &SequenceManifest, i: usize, clean: bool) -> Result<FrameData> {
     let f = &m.frames[i];
     let pick = |noisy: &String, clean_file: &Option<String>| -> Result<std::path::PathBuf> {
@@ -400,14 +433,12 @@ fn load_frame(dir: &Path, m: &SequenceManifest, i: usize, clean: bool) -> Result
         let rel = clean_file.as_ref().context("the sequence was rendered without clean frames")?;
         Ok(dir.join(rel))
     };
-    let vis = load_gray_u8(&pick(&f.files.vis, &f.files.vis_clean)?, ColorPolicy::Refuse)?;
-    let tir = load_gray_u8(&pick(&f.files.tir, &f.files.tir_clean)?, ColorPolicy::Refuse)?;
-    let vis_mask: Vec<bool> = load_gray_u8(&dir.join(&f.files.vis_mask), ColorPolicy::Refuse)?
-        .data
-        .iter()
-        .map(|&v| v > 127)
-        .collect();
-    let tir_mask = load_gray_u8(&dir.join(&f.files.tir_mask), ColorPolicy::Refuse)?;
+    let (vs, ts) = (m.vis_camera.size, m.tir_camera.size);
+    let vis = load_sized(&pick(&f.files.vis, &f.files.vis_clean)?, vs)?;
+    let tir = load_sized(&pick(&f.files.tir, &f.files.tir_clean)?, ts)?;
+    let vis_mask: Vec<bool> =
+        load_sized(&dir.join(&f.files.vis_mask), vs)?.data.iter().map(|&v| v > 127).collect();
+    let tir_mask = load_sized(&dir.join(&f.files.tir_mask), ts)?;
     let (w, h) = (vis.width, vis.height);
     let (sx, sy) = (tir_mask.width as f64 / w as f64, tir_mask.height as f64 / h as f64);
     let either_mask = (0..w * h)
@@ -791,6 +822,7 @@ pub fn run_sequence(
     if n < 2 {
         anyhow::bail!("{}: a sequence needs at least 2 frames, it has {n}", dir.display());
     }
+    check_cameras(dir, &m, n)?;
     let scene = Scene::tango()?.with_surface_detail(m.config.surface_seed);
     let name = m.config.name.as_str().to_string();
     let all = selected(only)?;

@@ -23,7 +23,8 @@ fn main() -> ExitCode {
             .or_else(|| info.payload().downcast_ref::<String>().cloned())
             .unwrap_or_default();
         let at = info.location().map(|l| format!(" at {}:{}", l.file(), l.line())).unwrap_or_default();
-        fusion_io::console::stderr_note(format_args!(
+        // Printed whatever `--quiet` says: it silences notes, not errors.
+        fusion_io::console::stderr_line(format_args!(
             "fusion: internal error: {}{at}",
             msg.replace('\n', " ")
         ));
@@ -40,8 +41,8 @@ fn main() -> ExitCode {
         Ok(()) if fusion_io::console::stderr_failed() => ExitCode::FAILURE,
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            // One line, whatever the underlying messages hold.
-            fusion_io::console::stderr_note(format_args!(
+            // One line, whatever the underlying messages hold, and whatever `--quiet` says.
+            fusion_io::console::stderr_line(format_args!(
                 "fusion: error: {}",
                 format!("{e:#}").replace('\n', " ")
             ));

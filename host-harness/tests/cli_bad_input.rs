@@ -336,6 +336,43 @@ fn unwritable_outputs_leave_nothing_behind() {
     assert!(extra.is_empty(), "files left behind: {extra:?}");
 }
 
+/// Issue 44, classes 3 and 4: `--quiet` silences notes, not errors (the one-line error is
+/// printed with and without it); a single-pair fuse refuses to write over one of its inputs,
+/// by its own name, a symbolic link or a hard link, and leaves it as it was.
+#[test]
+fn quiet_still_prints_errors_and_inputs_are_never_outputs() {
+    let s = setup();
+    let missing = s.dir.path().join("nonexist.png");
+    for quiet in [false, true] {
+        let mut args = vec!["fuse", p(&missing), p(&s.tir), p(&s.out)];
+        if quiet {
+            args.insert(0, "--quiet");
+        }
+        assert_clean_failure(&fusion(&args), "nonexist.png");
+    }
+    // Class 11: missing inputs are named, before the output's name is judged.
+    let o = fusion(&[
+        "fuse",
+        p(&s.dir.path().join("nodir1")),
+        p(&s.dir.path().join("nodir2")),
+        p(&s.dir.path().join("o")),
+    ]);
+    assert_clean_failure(&o, "nodir1: no such file");
+    let vis_before = std::fs::read(&s.vis).unwrap();
+    let tir_before = std::fs::read(&s.tir).unwrap();
+    let link = s.dir.path().join("link.png");
+    std::os::unix::fs::symlink(&s.vis, &link).unwrap();
+    let hard = s.dir.path().join("hard.png");
+    std::fs::hard_link(&s.tir, &hard).unwrap();
+    for target in [&s.vis, &s.tir, &link, &hard] {
+        let o = fusion(&["fuse", p(&s.vis), p(&s.tir), p(target)]);
+        assert_clean_failure(&o, "is the input");
+    }
+    assert_eq!(std::fs::read(&s.vis).unwrap(), vis_before, "visible input changed");
+    assert_eq!(std::fs::read(&s.tir).unwrap(), tir_before, "thermal input changed");
+    s.assert_nothing_written(&[&link, &hard]);
+}
+
 /// Memory is judged before it is taken (issue 24, item 2): from the headers, in one line naming
 /// the input, against `--max-memory` (default 8 GiB) — never an allocation-failure abort.
 #[test]

@@ -180,6 +180,113 @@ fn navbench_refuses_bad_arguments_in_one_line() {
     assert!(!out.exists(), "nothing written");
 }
 
+/// Issue 44, class 5: damaged sequence data is refused in one line naming the file (exit 1),
+/// never a panic, an abort or silently wrong figures — a mask or a frame of the wrong size,
+/// camera sizes of 0 or 100 000 in the manifest, a manifest with one frame; and sizes the run
+/// could not hold are refused before anything is rendered.
+#[test]
+fn navbench_refuses_damaged_data_in_one_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let clean = dir.path().join("clean");
+    for seq in ["approach", "flyaround"] {
+        let o = fusion(&[
+            "--quiet",
+            "render",
+            "--sequence",
+            seq,
+            "--frames",
+            "3",
+            "--vis-size",
+            "64",
+            "--tir-sizes",
+            "32",
+            "--samples",
+            "1",
+            "--out",
+            clean.join("seed-1").join(seq).to_str().unwrap(),
+        ]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    }
+    let copy = |name: &str| {
+        let to = dir.path().join(name);
+        for seq in ["approach", "flyaround"] {
+            let (src, dst) = (clean.join("seed-1").join(seq), to.join("seed-1").join(seq));
+            for sub in ["", "vis", "tir", "vis_clean", "tir_clean", "vis_mask", "tir_mask"] {
+                std::fs::create_dir_all(dst.join(sub)).unwrap();
+                for e in std::fs::read_dir(src.join(sub)).unwrap() {
+                    let e = e.unwrap();
+                    if e.file_type().unwrap().is_file() {
+                        std::fs::copy(e.path(), dst.join(sub).join(e.file_name())).unwrap();
+                    }
+                }
+            }
+        }
+        to
+    };
+    let approach = |data: &std::path::Path| data.join("seed-1").join("approach");
+    let edit_manifest = |data: &std::path::Path, edit: &dyn Fn(&mut serde_json::Value)| {
+        let path = approach(data).join("manifest.json");
+        let mut m: serde_json::Value = serde_json::from_slice(&std::fs::read(&path).unwrap()).unwrap();
+        edit(&mut m);
+        std::fs::write(&path, serde_json::to_vec(&m).unwrap()).unwrap();
+    };
+    let tiny = image::GrayImage::new(3, 3);
+    let mut cases: Vec<(std::path::PathBuf, &str)> = Vec::new();
+    let d = copy("mask");
+    tiny.save(approach(&d).join("vis_mask/frame_001.png")).unwrap();
+    cases.push((d, "frame_001.png: 3×3"));
+    let d = copy("frame");
+    image::GrayImage::new(48, 48).save(approach(&d).join("vis/frame_002.png")).unwrap();
+    cases.push((d, "frame_002.png: 48×48"));
+    for size in [0, 100_000] {
+        let d = copy(&format!("size{size}"));
+        edit_manifest(&d, &|m| m["vis_camera"]["size"] = size.into());
+        cases.push((d, "vis_camera.size"));
+    }
+    let d = copy("one");
+    edit_manifest(&d, &|m| {
+        let first = m["frames"][0].clone();
+        m["frames"] = serde_json::Value::Array(vec![first]);
+    });
+    cases.push((d, "at least 2 frames"));
+    for (data, needle) in &cases {
+        let out = data.join("nb");
+        let o = fusion(&[
+            "navbench",
+            "--data",
+            data.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+            "--seeds",
+            "1",
+            "--vis-size",
+            "64",
+            "--sources",
+            "vis",
+        ]);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(1), "{needle}: {err}");
+        let last = err.trim().lines().last().unwrap_or_default();
+        assert!(last.starts_with("fusion: error: ") && last.contains(needle), "{needle}: {err}");
+        assert!(!err.contains("panicked") && !out.join("navbench.md").exists(), "{needle}: {err}");
+    }
+    // Class 11: an output that is a file is named.
+    let afile = dir.path().join("afile");
+    std::fs::write(&afile, b"x").unwrap();
+    let o = fusion(&["navbench", "--out", afile.to_str().unwrap(), "--frames", "2", "--vis-size", "64"]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.code() == Some(1) && err.contains("afile"), "{err}");
+    // A size the run cannot hold, refused before anything is rendered.
+    let out = dir.path().join("big");
+    let o = fusion(&["navbench", "--out", out.to_str().unwrap(), "--vis-size", "65536"]);
+    assert_eq!(o.status.code(), Some(1));
+    let o =
+        fusion(&["--max-memory", "100M", "navbench", "--out", out.to_str().unwrap(), "--vis-size", "2048"]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.code() == Some(1) && err.contains("memory limit"), "{err}");
+    assert!(!out.join("data").exists(), "nothing rendered");
+}
+
 #[test]
 fn render_sequence_writes_frames_masks_and_manifest() {
     let dir = tempfile::tempdir().unwrap();

@@ -2,7 +2,7 @@
 //! through the navigation chain (model-based front end, filter) against the rendered ground
 //! truth, over several seeds (`fusion_navbench::bench`, `fusion_navbench::seeds`).
 
-use anyhow::{Result, bail};
+use anyhow::{Context, Result, bail};
 use clap::Args;
 use fusion_io::write_bytes;
 use fusion_navbench::bench::{FrameResult, PHASE_ALL, run_sequence, selected, summary};
@@ -30,7 +30,7 @@ pub struct NavbenchArgs {
     /// Frames per sequence (rendered, and used) [default: 120].
     #[arg(long)]
     pub frames: Option<usize>,
-    /// VIS size of sequences rendered here (TIR is half) [default: 1024].
+    /// VIS size of sequences rendered here (TIR is half).
     #[arg(long, default_value_t = 1024, value_name = "PX")]
     pub vis_size: u32,
     /// Only these sources, comma-separated (e.g. `vis,tir,adaptive`) [default: all]; the
@@ -54,9 +54,17 @@ pub fn run(args: &NavbenchArgs) -> Result<()> {
     if args.frames == Some(0) || args.frames == Some(1) {
         bail!("--frames must be at least 2 (tracking needs frame pairs)");
     }
-    if args.vis_size < 64 || !args.vis_size.is_multiple_of(2) {
-        bail!("--vis-size must be even and at least 64");
+    let max = fusion_navbench::bench::MAX_CAMERA_SIZE;
+    if args.vis_size < 64 || args.vis_size > max || !args.vis_size.is_multiple_of(2) {
+        bail!("--vis-size must be even, at least 64 and at most {max}");
     }
+    // What a run of freshly rendered sequences holds (existing ones are checked when read).
+    let px = u64::from(args.vis_size).pow(2) * args.frames.unwrap_or(120) as u64;
+    fusion_io::memory::check(
+        &format!("--vis-size {}", args.vis_size),
+        "judging",
+        fusion_io::memory::estimate(px, fusion_navbench::bench::BYTES_PER_PIXEL_FRAME),
+    )?;
     let mut seen = std::collections::BTreeSet::new();
     let seeds: Vec<u64> = args.seeds.iter().copied().filter(|s| seen.insert(*s)).collect();
     if seeds.is_empty() {
@@ -66,7 +74,7 @@ pub fn run(args: &NavbenchArgs) -> Result<()> {
     let streams = selected(only)?.len();
     let start = Instant::now();
     let data = args.data.clone().unwrap_or_else(|| args.out.join("data"));
-    std::fs::create_dir_all(&args.out)?;
+    std::fs::create_dir_all(&args.out).with_context(|| format!("cannot create {}", args.out.display()))?;
     let mut rows: Vec<FrameResult> = Vec::new();
     let mut per_seed = Vec::new();
     for &seed in &seeds {
@@ -77,6 +85,27 @@ pub fn run(args: &NavbenchArgs) -> Result<()> {
                 let m = read_manifest(&dir)?;
                 if m.config.seed != seed {
                     bail!("{}: rendered with seed {}, not {seed}", dir.display(), m.config.seed);
+                }
+                // Existing data is used as it is: say where it differs from what was asked.
+                if let Some(f) = args.frames
+                    && m.frames.len() < f
+                {
+                    note!(
+                        "navbench: {} has {} frames, fewer than --frames {f}: using {}",
+                        dir.display(),
+                        m.frames.len(),
+                        m.frames.len()
+                    );
+                }
+                let samples = render_host::sequence::SEQUENCE_SAMPLES;
+                if m.vis_camera.size != args.vis_size || m.config.vis.samples != samples {
+                    note!(
+                        "navbench: {} was rendered at {} px with {}² samples per pixel (a new render: {} px, {samples}²); using it as it is",
+                        dir.display(),
+                        m.vis_camera.size,
+                        m.config.vis.samples,
+                        args.vis_size
+                    );
                 }
             } else {
                 let cfg = SequenceConfig {

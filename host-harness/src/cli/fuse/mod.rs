@@ -16,6 +16,12 @@ use pair::fuse_files;
 /// Runs `fusion fuse`: one pair, or two folders of pairs.
 pub fn run(args: &FuseArgs) -> Result<()> {
     args::check_options(args)?;
+    // The inputs first: a missing one is the error to report, not the output's name.
+    for (what, path) in [("visible image", &args.vis), ("thermal image", &args.tir)] {
+        if !path.exists() {
+            bail!("{what}: cannot open {}: no such file or folder", path.display());
+        }
+    }
     match (args.vis.is_dir(), args.tir.is_dir()) {
         (false, false) => {
             if args.agc_smoothing.is_some() {
@@ -24,6 +30,7 @@ pub fn run(args: &FuseArgs) -> Result<()> {
             if args.jobs.is_some() || args.format.is_some() {
                 bail!("--jobs and --format are for folders; one output's format follows its extension");
             }
+            fusion_io::folders::check_output_file(&args.output, &[&args.vis, &args.tir])?;
             let (report, guards) = fuse_files(args, &args.vis, &args.tir, None, &args.output)?;
             out!("{report}")?;
             if guards != Guards::NONE {

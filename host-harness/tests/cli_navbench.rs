@@ -285,6 +285,29 @@ fn navbench_refuses_damaged_data_in_one_line() {
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(o.status.code() == Some(1) && err.contains("memory limit"), "{err}");
     assert!(!out.join("data").exists(), "nothing rendered");
+    // Class 6: the render's estimate counts the thermal sizes too.
+    let seq = dir.path().join("rs");
+    let o = fusion(&[
+        "--max-memory",
+        "20M",
+        "render",
+        "--sequence",
+        "approach",
+        "--frames",
+        "1",
+        "--vis-size",
+        "16",
+        "--tir-sizes",
+        "2048",
+        "--out",
+        seq.to_str().unwrap(),
+    ]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        o.status.code() == Some(1) && err.contains("--tir-sizes 2048") && err.contains("memory limit"),
+        "{err}"
+    );
+    assert!(!seq.exists(), "nothing rendered");
 }
 
 #[test]

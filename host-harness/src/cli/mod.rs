@@ -81,9 +81,17 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Fuse(args) => fuse::run(&args),
         Command::SkipStudy(args) => skip_study::run(&args),
         Command::Render(args) => {
-            let px = (args.vis_size as u64).saturating_mul(args.vis_size as u64);
+            // Every camera's frames are in flight: the VIS size and each TIR size count.
+            let px = std::iter::once(args.vis_size)
+                .chain(args.tir_sizes.iter().copied())
+                .fold(0u64, |sum, s| sum.saturating_add(u64::from(s).saturating_mul(u64::from(s))));
             let bytes = fusion_io::memory::estimate(px, fusion_io::memory::per_pixel::RENDER);
-            fusion_io::memory::check(&format!("--vis-size {}", args.vis_size), "rendering", bytes)?;
+            let sizes = args.tir_sizes.iter().map(u32::to_string).collect::<Vec<_>>().join(",");
+            fusion_io::memory::check(
+                &format!("--vis-size {} --tir-sizes {sizes}", args.vis_size),
+                "rendering",
+                bytes,
+            )?;
             render::run(&args)
         }
         Command::Navbench(args) => navbench::run(&args),

@@ -9,6 +9,8 @@
 //!   pixel at the *estimated* pose, visibility, the image box, the silhouette.
 //! * [`tracker`] — the front end: Shi–Tomasi corners tracked over frames by pyramidal
 //!   Lucas–Kanade with a forward–backward check (`optical-flow-lk`), anchored on the model.
+//! * [`warp`] — each track's anchor window warped by its model face's plane to the predicted
+//!   pose and matched there (Gauss–Newton on position, gain and bias): the exact position.
 //! * [`pose`] — PnP-RANSAC (`sqpnp_simple`) and Levenberg–Marquardt refinement
 //!   (`levenberg-marquardt`) with its covariance; relative poses and their errors.
 //! * [`silhouette`] — the target's outline against the model's: a position measurement.
@@ -21,7 +23,8 @@
 //!   PnP against the rendered depth), kept beside the new one as `pairwise_*`.
 //!
 //! Written here only what no maintained crate does: the RANSAC loop, the MEKF, the model
-//! back-projection, the outline cue, the matching window and the measures.
+//! back-projection, the model-warped template match, the outline cue, the matching window and
+//! the measures.
 
 //! ```
 //! use fusion_navbench::pose::{RelativePose, pnp_ransac};

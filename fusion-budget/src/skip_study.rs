@@ -4,11 +4,14 @@
 //! byte for byte (and the skip report field by field) against the host's `fuse` with the same
 //! [`FuseConfig`](fusion_nostd::pipeline::FuseConfig).
 //!
-//! Runs: TSIFSD (flight) and ADF (flight) with `--skip none|roi|all`, IFEVIP (flight) with
-//! `--skip all` only (its plan always declines: one row shows the analysis on top of the whole
-//! fusion). One emulator job per frame pair. ADF and IFEVIP runs that fuse the whole frame
-//! (skip `none`, or a declined skip) take ~20 s each on QEMU at 1024², so they are emulated on
-//! the first `whole_frames` frames of each set and version only (the host still fuses them all).
+//! Runs: every method (flight variants; the adaptive method) with `--skip none|roi|all`. TSIFSD
+//! and the adaptive method skip exactly (the ROI bit-identical to the unskipped fusion); ADF and
+//! IFEVIP use the crop semantics on noisy frames (IFEVIP on every frame): the ROI is the fusion
+//! of the crop, and each row reports its PSNR and largest difference against the unskipped
+//! fusion inside the ROI (the quality guard of issue 38). One emulator job per frame pair. ADF,
+//! IFEVIP and adaptive runs that fuse the whole frame (skip `none`, or a declined skip) take
+//! ~20 s each on QEMU at 1024², so they are emulated on the first `whole_frames` frames of each
+//! set and version only (the host still fuses them all).
 
 use super::fw::{self, Grid, Job, RunOut, RunSpec, Target};
 use anyhow::{Context, Result, bail, ensure};
@@ -49,28 +52,40 @@ pub struct StudyOptions {
     pub report_dir: PathBuf,
 }
 
-/// The issue's target for the mean instructions per 1024² frame pair, if it states one.
+/// The issues' targets for the mean instructions per 1024² frame pair with skipping (issues 20
+/// and 38).
 pub fn target_mean(method: MethodArg) -> Option<u64> {
     match method {
-        MethodArg::Tsifsd => Some(40_000_000),
+        MethodArg::Tsifsd | MethodArg::Adaptive => Some(40_000_000),
         MethodArg::Adf => Some(80_000_000),
-        MethodArg::Ifevip | MethodArg::Adaptive => None,
+        MethodArg::Ifevip => Some(60_000_000),
     }
 }
 
-/// The runs of one frame pair: TSIFSD and ADF at every skip level, IFEVIP at `all`.
+/// The runs of one frame pair: every method at every skip level.
 pub fn study_runs() -> Vec<RunSpec> {
     let mut runs = Vec::new();
-    for method in [MethodArg::Tsifsd, MethodArg::Adf] {
+    for method in [MethodArg::Tsifsd, MethodArg::Adf, MethodArg::Ifevip, MethodArg::Adaptive] {
         for skip in [SkipArg::None, SkipArg::Roi, SkipArg::All] {
             runs.push(RunSpec { skip, ..RunSpec::plain(method, VariantArg::Flight, RescaleArg::TirUp) });
         }
     }
-    runs.push(RunSpec {
-        skip: SkipArg::All,
-        ..RunSpec::plain(MethodArg::Ifevip, VariantArg::Flight, RescaleArg::TirUp)
-    });
     runs
+}
+
+/// PSNR (dB) and largest absolute difference of `a` against `b` inside `r`.
+fn window_error(a: &Gray<u8>, b: &Gray<u8>, r: Rect) -> (f64, u8) {
+    let (mut se, mut max_abs, mut n) = (0f64, 0u8, 0usize);
+    for y in r.y0..r.y1 {
+        for x in r.x0..r.x1 {
+            let d = a.at(x, y).abs_diff(b.at(x, y));
+            se += f64::from(d) * f64::from(d);
+            max_abs = max_abs.max(d);
+            n += 1;
+        }
+    }
+    let mse = se / n.max(1) as f64;
+    (if mse == 0.0 { f64::INFINITY } else { 10.0 * (255.0 * 255.0 / mse).log10() }, max_abs)
 }
 
 fn skip_key(s: SkipArg) -> &'static str {
@@ -149,6 +164,10 @@ pub struct Row {
     pub declined: String,
     /// Target output identical to the host (`None`: not emulated).
     pub identical: Option<bool>,
+    /// PSNR (dB) against the unskipped fusion inside the ROI (∞: identical).
+    pub roi_psnr: f64,
+    /// Largest absolute difference against the unskipped fusion inside the ROI.
+    pub roi_max_abs: u8,
 }
 
 fn method_name(m: MethodArg) -> &'static str {
@@ -156,12 +175,13 @@ fn method_name(m: MethodArg) -> &'static str {
 }
 
 fn csv_text(rows: &[Row]) -> String {
-    let mut s =
-        String::from("set,version,frame,method,skip,instructions,window_fraction,taken,declined,identical\n");
+    let mut s = String::from(
+        "set,version,frame,method,skip,instructions,window_fraction,taken,declined,identical,roi_psnr_db,roi_max_abs\n",
+    );
     for r in rows {
         let _ = writeln!(
             s,
-            "{},{},{},{},{},{},{:.5},{},{},{}",
+            "{},{},{},{},{},{},{:.5},{},{},{},{:.2},{}",
             r.set,
             r.version,
             r.frame,
@@ -171,7 +191,9 @@ fn csv_text(rows: &[Row]) -> String {
             r.window,
             r.taken,
             r.declined,
-            r.identical.map_or("", |b| if b { "yes" } else { "NO" })
+            r.identical.map_or("", |b| if b { "yes" } else { "NO" }),
+            r.roi_psnr,
+            r.roi_max_abs
         );
     }
     s
@@ -192,8 +214,8 @@ pub fn summary(rows: &[Row]) -> String {
         }
     }
     let mut s = String::from(
-        "| set | version | method | skip | frames emulated | mean instr | worst instr | worst/mean | mean window | ROI taken | eclipse plan | declined | target mean | mean ok | worst ≤ 2× mean | identical to host |\n\
-         |---|---|---|---|---:|---:|---:|---:|---:|---:|---:|---|---:|---|---|---|\n",
+        "| set | version | method | skip | frames emulated | mean instr | worst instr | worst/mean | mean window | ROI taken | crop | eclipse plan | declined | target mean | mean ok | worst ≤ 2× mean | ROI PSNR (worst) | ROI max abs | identical to host |\n\
+         |---|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---|---:|---|---|---:|---:|---|\n",
     );
     for (set, ver, method, skip) in keys {
         let group: Vec<&Row> = rows
@@ -212,6 +234,9 @@ pub fn summary(rows: &[Row]) -> String {
         declined.sort_unstable();
         declined.dedup();
         let identical = group.iter().filter(|r| r.identical == Some(true)).count();
+        let crop = group.iter().filter(|r| r.taken & Skips::CROP.0 != 0).count();
+        let worst_psnr = group.iter().map(|r| r.roi_psnr).fold(f64::INFINITY, f64::min);
+        let max_abs = group.iter().map(|r| r.roi_max_abs).max().unwrap_or(0);
         let mean_w = windows.iter().sum::<f64>() / windows.len().max(1) as f64;
         let (mean, worst) = if counts.is_empty() {
             (f64::NAN, f64::NAN)
@@ -231,7 +256,7 @@ pub fn summary(rows: &[Row]) -> String {
         };
         let _ = writeln!(
             s,
-            "| {set} | {ver} | {} | {} | {}/{} | {} | {} | {} | {:.1} % | {roi_taken}/{} | {eclipse} | {} | {} | {mean_ok} | {worst_ok} | {identical}/{} |",
+            "| {set} | {ver} | {} | {} | {}/{} | {} | {} | {} | {:.1} % | {roi_taken}/{} | {crop} | {eclipse} | {} | {} | {mean_ok} | {worst_ok} | {} | {max_abs} | {identical}/{} |",
             method_name(method),
             skip_key(skip),
             counts.len(),
@@ -243,6 +268,11 @@ pub fn summary(rows: &[Row]) -> String {
             group.len(),
             if declined.is_empty() { "—".to_string() } else { declined.join(", ") },
             t.map_or("—".to_string(), |t| millions(t as f64)),
+            if worst_psnr.is_infinite() {
+                "∞ (identical)".to_string()
+            } else {
+                format!("{worst_psnr:.1} dB")
+            },
             counts.len(),
         );
     }
@@ -353,8 +383,7 @@ pub fn run(opts: &StudyOptions) -> Result<Vec<Row>> {
                 for spec in study_runs() {
                     let (image, report, _) = fuse_once(&vis, &tir, &spec.pipeline())?;
                     let whole = report.skip.computed == Rect::full(report.grid);
-                    let costly =
-                        spec.method != MethodArg::Tsifsd && (whole || spec.method == MethodArg::Ifevip);
+                    let costly = spec.method != MethodArg::Tsifsd && whole;
                     let first = pairs.iter().position(|&(s, _)| s == set).unwrap_or(0);
                     let emulate = !costly || k - first < opts.whole_frames;
                     if emulate {
@@ -371,7 +400,17 @@ pub fn run(opts: &StudyOptions) -> Result<Vec<Row>> {
                 };
                 let mut outs = report.as_ref().map(|r| r.runs.iter()).into_iter().flatten();
                 let mut line = String::new();
-                for (spec, image, fused, emulate) in host {
+                let unskipped = |m: MethodArg| {
+                    host.iter().find(|(s, ..)| s.method == m && s.skip == SkipArg::None).map(|h| &h.1)
+                };
+                let errors: Vec<(f64, u8)> = host
+                    .iter()
+                    .map(|(spec, image, fused, _)| {
+                        unskipped(spec.method)
+                            .map_or((f64::NAN, 0), |full| window_error(image, full, fused.skip.roi))
+                    })
+                    .collect();
+                for ((spec, image, fused, emulate), (roi_psnr, roi_max_abs)) in host.into_iter().zip(errors) {
                     let run = if emulate { outs.next() } else { None };
                     let (instructions, identical) = match run {
                         None => (None, None),
@@ -407,6 +446,8 @@ pub fn run(opts: &StudyOptions) -> Result<Vec<Row>> {
                         taken: fused.skip.taken.0,
                         declined: decline_text(&fused),
                         identical,
+                        roi_psnr,
+                        roi_max_abs,
                     });
                 }
                 let wall = report.as_ref().map_or(0.0, |r| r.wall.as_secs_f64());
@@ -426,15 +467,13 @@ pub fn run(opts: &StudyOptions) -> Result<Vec<Row>> {
     Ok(rows)
 }
 
-/// Chart `emulator_<target>_frames`: instructions per frame (millions) of TSIFSD and ADF with
-/// skipping (`roi` and `all`) on the clean frames, one series per set, method and level, with
-/// the two targets as flat lines.
+/// Chart `emulator_<target>_frames`: instructions per frame (millions) of every method with
+/// skip `all` on the clean frames (the noisy ones when the study ran only those), one series per
+/// set and method, with the targets as flat lines.
 fn chart_per_frame(opts: &StudyOptions, rows: &[Row]) -> Result<PathBuf> {
     let mut series: Vec<Series> = Vec::new();
     let shown = if rows.iter().any(|r| r.version == "clean") { "clean" } else { "noisy" };
-    for r in
-        rows.iter().filter(|r| r.version == shown && r.method != MethodArg::Ifevip && r.skip != SkipArg::None)
-    {
+    for r in rows.iter().filter(|r| r.version == shown && r.skip == SkipArg::All) {
         let Some(n) = r.instructions else { continue };
         let name =
             format!("{} {} {}", r.set.trim_start_matches("vis_"), method_name(r.method), skip_key(r.skip));
@@ -445,13 +484,12 @@ fn chart_per_frame(opts: &StudyOptions, rows: &[Row]) -> Result<PathBuf> {
         }
     }
     let last = rows.iter().map(|r| r.frame).max().unwrap_or(0) as f64;
-    for m in [MethodArg::Tsifsd, MethodArg::Adf] {
+    for (who, m) in
+        [("tsifsd, adaptive", MethodArg::Tsifsd), ("ifevip", MethodArg::Ifevip), ("adf", MethodArg::Adf)]
+    {
         if let Some(t) = target_mean(m) {
             let y = t as f64 / 1e6;
-            series.push(Series {
-                name: format!("target mean {}", method_name(m)),
-                points: vec![(0.0, y), (last, y)],
-            });
+            series.push(Series { name: format!("target mean {who}"), points: vec![(0.0, y), (last, y)] });
         }
     }
     let title =
@@ -474,9 +512,12 @@ pub fn markdown(opts: &StudyOptions, frames: usize, rows: &[Row]) -> String {
          analysis + rescale + method + background fill; includes the marker overhead of a few \
          instructions). Every emulated fused frame was compared byte for byte with the host's \
          `fuse` of the same pipeline, and the skip report (skips taken, decline, window) field \
-         by field. Window = pixels the method ran on / frame; eclipse plan = frames where ADF took \
-         VIS as its constant level (`Skips::ECLIPSE_VIS`) or TSIFSD followed the TIR target alone \
-         (`Skips::ECLIPSE_TIR_TARGET`). {}\n\n",
+         by field. Window = pixels the method ran on / frame; crop = frames where a frame-global \
+         method (ADF, IFEVIP) fused its crop as a frame of its own (`Skips::CROP`, issue 38's window \
+         semantics); eclipse plan = frames where ADF took VIS as its constant level \
+         (`Skips::ECLIPSE_VIS`) or the window followed the TIR target alone \
+         (`Skips::ECLIPSE_TIR_TARGET`). ROI PSNR / max abs: the skipped output against the same \
+         method's unskipped fusion inside the ROI, on the host, every frame (∞: bit-identical). {}\n\n",
         opts.target.core(),
         opts.target,
         opts.dataset.display(),
@@ -485,7 +526,7 @@ pub fn markdown(opts: &StudyOptions, frames: usize, rows: &[Row]) -> String {
             "Every run was emulated on every frame.".to_string()
         } else {
             format!(
-                "ADF and IFEVIP runs that fuse the whole frame (skip `none`, or a declined skip) \
+                "ADF, IFEVIP and adaptive runs that fuse the whole frame (skip `none`, or a declined skip) \
                  were emulated on the first {} frame(s) only (\"frames emulated\"); the window, ROI \
                  and decline columns are from the host over all frames.",
                 opts.whole_frames
@@ -583,11 +624,14 @@ mod tests {
             taken: 1,
             declined: "-".into(),
             identical: Some(true),
+            roi_psnr: if frame == 1 { 31.25 } else { f64::INFINITY },
+            roi_max_abs: frame as u8,
         };
         let ok = summary(&[row(0, 30_000_000), row(1, 40_000_000)]);
-        assert!(ok.contains("| 35.0 M | 40.0 M | 1.14 |") && ok.contains("| yes | yes | 2/2 |"), "{ok}");
-        assert!(ok.contains("| 2/2 | 0 | — |"), "ROI and eclipse-plan counts: {ok}");
+        assert!(ok.contains("| 35.0 M | 40.0 M | 1.14 |") && ok.contains("| yes | yes |"), "{ok}");
+        assert!(ok.contains("| 2/2 | 0 | 0 | — |"), "ROI, crop and eclipse-plan counts: {ok}");
+        assert!(ok.contains("| 31.2 dB | 1 | 2/2 |"), "the ROI's worst PSNR and max abs: {ok}");
         let bad = summary(&[row(0, 10_000_000), row(1, 10_000_000), row(2, 130_000_000)]);
-        assert!(bad.contains("**no** (1.2×)") && bad.contains("| **no** | 3/3 |"), "{bad}");
+        assert!(bad.contains("**no** (1.2×)") && bad.contains("| **no** | 31.2 dB | 2 | 3/3 |"), "{bad}");
     }
 }

@@ -55,3 +55,45 @@ pub fn first_difference_in(a: &Gray<u8>, b: &Gray<u8>, rect: Rect) -> Option<(us
     }
     None
 }
+
+/// The reference of the crop semantics ([`fusion_nostd::pipeline::Skips::CROP`]): both bands
+/// brought onto the fusion grid as the unskipped fusion brings them (the same rescale, whole
+/// frame), cut to `window`, and fused as a pair of their own by `pipeline`'s method without
+/// skipping (with the crop's parameters, `Method::on_crop`). The result sits at `window` in a grid-sized frame (zeros elsewhere), so it compares
+/// with a skipped output pixel for pixel.
+pub fn fuse_crop(vis: &Gray<u8>, tir: &Gray<u8>, pipeline: &FuseConfig, window: Rect) -> Result<Gray<u8>> {
+    use fusion_nostd::pipeline::{RescalePolicy, SkipPolicy, fusion_grid};
+    use fusion_nostd::{Filter, rescale};
+    let grid = fusion_grid((vis.width, vis.height), (tir.width, tir.height), pipeline.rescale)?;
+    let on_grid = |band: &Gray<u8>, filter: Filter| -> Result<Gray<u8>> {
+        if (band.width, band.height) == grid {
+            return Ok(band.clone());
+        }
+        let mut g = Gray::new(grid.0, grid.1);
+        rescale(band.view()?, g.view_mut()?, filter)?;
+        Ok(g)
+    };
+    // Only the band off the grid is rescaled: VIS down by area, TIR up by bicubic.
+    let (vis_g, tir_g) = (on_grid(vis, Filter::Area)?, on_grid(tir, Filter::Cubic)?);
+    let cut = |g: &Gray<u8>| {
+        let mut c = Gray::new(window.width(), window.height());
+        for (y, row) in c.data.chunks_exact_mut(window.width().max(1)).enumerate() {
+            let at = (window.y0 + y) * g.width + window.x0;
+            row.copy_from_slice(&g.data[at..at + window.width()]);
+        }
+        c
+    };
+    let crop_pipeline = FuseConfig {
+        rescale: RescalePolicy::None,
+        skip: SkipPolicy::None,
+        method: pipeline.method.on_crop((window.width(), window.height()), grid),
+        ..*pipeline
+    };
+    let (fused, _, _) = fuse_once(&cut(&vis_g), &cut(&tir_g), &crop_pipeline)?;
+    let mut out = Gray::new(grid.0, grid.1);
+    for (y, row) in fused.data.chunks_exact(window.width().max(1)).enumerate() {
+        let at = (window.y0 + y) * grid.0 + window.x0;
+        out.data[at..at + window.width()].copy_from_slice(row);
+    }
+    Ok(out)
+}

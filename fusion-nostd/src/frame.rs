@@ -380,6 +380,18 @@ impl Rect {
         }
     }
 
+    /// The pixels inside both (empty — [`Rect::default`] — when they do not overlap).
+    #[must_use]
+    pub fn intersect(self, other: Rect) -> Rect {
+        let r = Rect {
+            x0: self.x0.max(other.x0),
+            y0: self.y0.max(other.y0),
+            x1: self.x1.min(other.x1),
+            y1: self.y1.min(other.y1),
+        };
+        if r.is_empty() { Rect::default() } else { r }
+    }
+
     /// Grown by `r` on every side, clipped to a `w × h` frame.
     #[must_use]
     pub fn grow(self, r: usize, (w, h): (usize, usize)) -> Rect {

@@ -160,6 +160,7 @@ impl Run {
             SkipPolicy::None => "none",
             SkipPolicy::Roi => "roi",
             SkipPolicy::All => "all",
+            SkipPolicy::Window(_) => "window",
         }
     }
 

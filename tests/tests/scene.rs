@@ -4,26 +4,17 @@
 //! eclipse; bad input is still an `Err`.
 
 use anyhow::Result;
-use fusion_engine::skip::{first_difference_in, fuse_once, skip_error};
+use fusion_engine::skip::{first_difference_in, fuse_crop, fuse_once, skip_error};
 use fusion_engine::study::Dataset;
 use fusion_io::{Gray, vifb_pairs};
 use fusion_nostd::pipeline::{FuseConfig, Method, RescalePolicy, SkipPolicy, Skips};
 use fusion_nostd::scene::{Decline, Illumination, Rect, SceneParams, analyze};
-use fusion_nostd::{AdaptiveParams, AdfParams, Error, IfevipParams, TsifsdParams, Variant};
+use fusion_nostd::{AdaptiveParams, AdfParams, Error, IfevipParams, TsifsdParams};
 use render_host::{DatasetConfig, render_dataset};
 
+/// Every method and variant (ADF, TSIFSD, IFEVIP classic and flight; the adaptive method).
 fn methods() -> Vec<(&'static str, Method)> {
-    vec![
-        ("adf", Method::Adf(AdfParams::default())),
-        ("adf-classic", Method::Adf(AdfParams { variant: Variant::Classic, ..AdfParams::default() })),
-        ("tsifsd", Method::Tsifsd(TsifsdParams::default())),
-        (
-            "tsifsd-classic",
-            Method::Tsifsd(TsifsdParams { variant: Variant::Classic, ..TsifsdParams::default() }),
-        ),
-        ("ifevip", Method::Ifevip(IfevipParams::default())),
-        ("adaptive", Method::Adaptive(AdaptiveParams::default())),
-    ]
+    Method::all().into_iter().map(|m| (m.name(), m)).collect()
 }
 
 fn pipeline(method: Method, rescale: RescalePolicy, skip: SkipPolicy) -> FuseConfig {
@@ -55,7 +46,19 @@ fn check(
     assert!(s.computed.covers(&s.roi), "{name}: computed {:?} does not cover roi {:?}", s.computed, s.roi);
     let grid = Rect::full(report.grid);
     assert!(grid.covers(&s.computed), "{name}: window {:?} outside the grid", s.computed);
-    if !s.taken.contains(Skips::ECLIPSE_VIS) {
+    if s.taken.contains(Skips::CROP) {
+        // Frame-global methods: the ROI is the fusion of the crop, not of the whole frame.
+        assert!(method.frame_global(), "{name}: crop semantics for a local method");
+        let reference = fuse_crop(vis, tir, &pipeline(method, rescale, skip), s.computed)?;
+        assert_eq!(
+            first_difference_in(&got, &reference, s.roi),
+            None,
+            "{name} {skip:?}: ROI {:?} is not the fusion of the crop {:?}",
+            s.roi,
+            s.computed
+        );
+        assert!(!s.exact_outside, "{name}: a crop cannot be exact outside");
+    } else if !s.taken.contains(Skips::ECLIPSE_VIS) {
         assert_eq!(first_difference_in(&got, &full, s.roi), None, "{name} {skip:?}: ROI {:?} differs", s.roi);
         if s.exact_outside {
             assert_eq!(got.data, full.data, "{name} {skip:?}: report claims exact outside the ROI");
@@ -70,10 +73,12 @@ fn check(
     }
     let e = skip_error(&got, &full);
     if let Some(bg) = s.background {
-        // Outside the window every pixel is the background value.
+        // Outside the window every pixel is the background value (outside the ROI for the
+        // frame-global methods).
+        let written = if method.frame_global() { s.roi } else { s.computed };
         for (i, &v) in got.data.iter().enumerate() {
             let (x, y) = (i % got.width, i / got.width);
-            if !s.computed.contains(x, y) {
+            if !written.contains(x, y) {
                 assert_eq!(v, bg, "{name}: ({x}, {y}) outside the window is not the background");
             }
         }
@@ -155,7 +160,10 @@ fn synthetic_frames_roi_is_bit_identical_for_every_method() -> Result<()> {
                         );
                     }
                     if matches!(method, Method::Ifevip(_)) {
-                        assert_eq!(o.declined, Some(Decline::GlobalStatistic), "IFEVIP must decline");
+                        assert!(
+                            o.taken.contains(Skips::CROP) || o.declined == Some(Decline::RoiTooLarge),
+                            "{name} {label}: IFEVIP skips its crop (or finds it too large)"
+                        );
                     }
                     if matches!(method, Method::Adf(_)) && noise > 0 {
                         // Noise everywhere: the covariance is not reproducible from a window.
@@ -354,7 +362,8 @@ fn bad_input_is_still_an_error() -> Result<()> {
 /// Noisy rendezvous frames (the study's sensor model, both sequences, light, penumbra and
 /// eclipse): the analysis does not decline, the TSIFSD and adaptive windows hold every target
 /// pixel of both cameras' ground-truth masks, their ROI is bit-identical to the unskipped
-/// fusion (`check`), and ADF declines (its covariance is frame-global).
+/// fusion (`check`), and ADF and IFEVIP (frame-global) hold every target pixel in the ROI
+/// their crop's fusion is kept on.
 #[test]
 fn noisy_sequence_windows_hold_every_target_pixel() -> Result<()> {
     use render_host::sequence::{SequenceConfig, SequenceName, read_manifest, render_sequence};
@@ -374,16 +383,19 @@ fn noisy_sequence_windows_hold_every_target_pixel() -> Result<()> {
                 ("tsifsd", Method::Tsifsd(TsifsdParams::default())),
                 ("adaptive", Method::Adaptive(AdaptiveParams::default())),
                 ("adf", Method::Adf(AdfParams::default())),
+                ("ifevip", Method::Ifevip(IfevipParams::default())),
             ] {
                 for skip in [SkipPolicy::Roi, SkipPolicy::All] {
                     let o =
                         check(&format!("{label} {mname}"), &vis, &tir, method, RescalePolicy::TirUp, skip)?;
-                    if mname == "adf" {
-                        assert_eq!(o.declined, Some(Decline::GlobalStatistic), "{label}");
-                        continue;
-                    }
                     assert_eq!(o.declined, None, "{label} {mname} {skip:?}");
-                    let w = o.computed;
+                    // The frame-global methods keep their crop's output on the ROI only.
+                    let w = if method.frame_global() {
+                        assert!(o.taken.contains(Skips::CROP), "{label} {mname}: no crop");
+                        o.roi
+                    } else {
+                        o.computed
+                    };
                     for y in 0..vis.height {
                         for x in 0..vis.width {
                             let target = vm.at(x, y) > 127
@@ -403,6 +415,62 @@ fn noisy_sequence_windows_hold_every_target_pixel() -> Result<()> {
             }
         }
     }
-    assert_eq!(checked, 2 * 8 * 2 * 2);
+    assert_eq!(checked, 2 * 8 * 4 * 2);
+    Ok(())
+}
+
+/// The caller's window ([`SkipPolicy::Window`], e.g. the navigation filter's predicted box),
+/// on rendered noisy frames (both rescale directions) and on real pairs (VIFB, which the
+/// analysis declines): the local methods are bit-identical to the unskipped fusion on the ROI,
+/// the frame-global ones give the fusion of the crop there (`check`); the ROI holds the whole
+/// box; a box off the frame gives the background everywhere.
+#[test]
+fn caller_windows_follow_the_same_semantics() -> Result<()> {
+    let (_dir, ds) = render_small()?;
+    let mut runs = 0;
+    let mut cases: Vec<(String, Gray<u8>, Gray<u8>, RescalePolicy)> = Vec::new();
+    for frame in [0, ds.frames() - 1] {
+        let (vis, tir) = (ds.image("vis_light", frame, true)?, ds.image("tir128", frame, true)?);
+        for rescale in [RescalePolicy::TirUp, RescalePolicy::VisDown] {
+            cases.push((format!("rendered noisy {frame} {rescale:?}"), vis.clone(), tir.clone(), rescale));
+        }
+    }
+    for (name, vis, tir) in vifb_pairs(&fusion_io::testdata::vifb_dir())?.into_iter().take(2) {
+        cases.push((format!("vifb {name}"), vis, tir, RescalePolicy::None));
+    }
+    for (label, vis, tir, rescale) in &cases {
+        let grid =
+            fusion_nostd::pipeline::fusion_grid((vis.width, vis.height), (tir.width, tir.height), *rescale)?;
+        let (w, h) = grid;
+        let boxes = [
+            Rect { x0: w / 4 + 1, y0: h / 3, x1: 3 * w / 4, y1: 2 * h / 3 + 1 },
+            Rect { x0: 0, y0: h / 2, x1: w / 5, y1: 2 * h },
+        ];
+        for (name, method) in methods() {
+            for b in boxes {
+                let o = check(
+                    &format!("{label} {name} box {b:?}"),
+                    vis,
+                    tir,
+                    method,
+                    *rescale,
+                    SkipPolicy::Window(b),
+                )?;
+                assert_eq!(o.declined, None, "{label} {name}: the caller's window is never declined");
+                let want = b.intersect(Rect::full(grid));
+                assert!(o.roi.covers(&want), "{label} {name}: roi {:?} misses the box {want:?}", o.roi);
+                if method.frame_global() {
+                    assert_eq!(o.roi, want, "{label} {name}: the crop's output is kept on the box");
+                }
+                runs += 1;
+            }
+            let off = SkipPolicy::Window(Rect { x0: w + 3, y0: 0, x1: w + 40, y1: h });
+            let (got, report, _) = fuse_once(vis, tir, &pipeline(method, *rescale, off))?;
+            let bg = report.skip.background.expect("an empty window writes the background");
+            assert!(got.data.iter().all(|&v| v == bg), "{label} {name}: off-frame box");
+            assert!(report.skip.roi.is_empty());
+        }
+    }
+    assert_eq!(runs, cases.len() * methods().len() * 2);
     Ok(())
 }

@@ -14,7 +14,7 @@
 //!
 //! # Scene skipping
 //!
-//! With [`SkipPolicy::Roi`] or [`SkipPolicy::All`], [`fuse`] first runs
+//! With [`SkipPolicy::Roi`], [`SkipPolicy::All`] or [`SkipPolicy::Window`], [`fuse`] first runs
 //! [`crate::scene::analyze`] and then picks a plan per method ([`FuseReport::skip`] says which):
 //!
 //! * **TSIFSD** (both variants; local): window = target box grown by the halo
@@ -25,21 +25,33 @@
 //!   `None`; the halo ring keeps the window's values; outside the window the output is the
 //!   background rule `round(½(level_VIS + level_TIR))` (the method's exact value on a flat
 //!   pair). The error outside is measured, not bounded a priori.
-//! * **ADF** (global KL covariance): never on a noisy frame (a band analysed in blocks,
-//!   [`crate::scene::BlockStats`]): [`Decline::GlobalStatistic`]. Otherwise only when the frame
-//!   outside the *varying box* (pixels
-//!   differing from their band's level at all) is exactly constant — noiseless frames — and,
+//! * **ADF** (global KL covariance), **noiseless frames**: only when the frame outside the
+//!   *varying box* (pixels differing from their band's level at all) is exactly constant and,
 //!   classic (zero padding), that level is 0. Then the detail layers vanish outside the box
 //!   grown by N (iterations), the covariance is the sum over that region with the frame's
 //!   pixel count ([`crate::methods::adf::fuse_adf_window`]), and the **whole** output is
 //!   bit-identical (outside: the background rule, exact there). Otherwise declined:
 //!   [`Decline::GlobalStatistic`].
-//! * **IFEVIP** (global histograms, quadtree background of the whole IR, top-k peak): always
-//!   declined ([`Decline::GlobalStatistic`]).
+//! * **Crop semantics** — ADF on noisy frames, IFEVIP on every frame (frame-global statistics:
+//!   ADF's KL covariance, IFEVIP's entropies, quadtree background and peak, which no window can
+//!   reproduce bit for bit): with W the target box and W′ = W grown by
+//!   [`Method::halo`] (even corners for a 2× rescale, so the rescale's phase is kept), the
+//!   output inside W is, bit for bit, the method run on the crop W′ of both bands on the grid
+//!   as a frame of its own, restricted to W — `fuse(crop(VIS, W′), crop(TIR, W′))`; outside W
+//!   the background rule. IFEVIP's quadtree grid follows the crop ([`Method::on_crop`]: one of
+//!   its pixels covers about as many frame pixels as in the whole frame, instead of the crop
+//!   being resized up to 512²). The statistics are then those of the target region, which is what
+//!   the weights are meant to weigh ([`Skips::CROP`]; [`SkipReport::roi`] = W,
+//!   [`SkipReport::computed`] = W′). A crop above `max_roi_percent` is declined
+//!   ([`Decline::RoiTooLarge`]).
 //! * **Noisy frames** (sensor noise above `max_noise_spread`): the target box comes from the
 //!   analysis's block means ([`crate::scene::BlockStats`]), so TSIFSD and the adaptive method
-//!   skip them as above (outside the window: the background value, here the noise's level);
-//!   ADF declines them.
+//!   skip them as above (outside the window: the background value, here the noise's level),
+//!   ADF and IFEVIP with the crop semantics.
+//! * **The caller's window** ([`SkipPolicy::Window`], e.g. a navigation filter's predicted
+//!   target box): the same plans with that box in place of the analysis's target box and no
+//!   size limit — TSIFSD and the adaptive method exact on the ROI, ADF and IFEVIP the crop
+//!   semantics on every frame; no eclipse plan; never declined.
 //! * The analysis declines a non-dark background, or one whose block means are still noisy
 //!   ([`Decline::BackgroundNotDark`], [`Decline::TooNoisy`]), and a window above
 //!   `max_roi_percent` is not worth it
@@ -106,6 +118,12 @@ pub enum SkipPolicy {
     /// where the method allows (ADF: VIS is taken as its constant background level) and the
     /// window follows the TIR target alone.
     All,
+    /// Fuse only the caller's window (grid coordinates; e.g. the navigation filter's predicted
+    /// target box), whatever the analysis found: `Roi`'s semantics with this box in place of
+    /// the analysis's target box, the crop semantics for every frame-global method, no
+    /// eclipse plan. The analysis still runs (the background value, the adaptive decision).
+    /// The box is clipped to the grid; an empty one gives the background everywhere.
+    Window(Rect),
 }
 
 /// A whole per-frame configuration.
@@ -177,6 +195,10 @@ impl Skips {
     pub const ECLIPSE_TIR_TARGET: Skips = Skips(1 << 3);
     /// The frames already shared a grid: no rescale (also without scene skipping).
     pub const NO_RESCALE: Skips = Skips(1 << 4);
+    /// Crop semantics (a frame-global method, see "Scene skipping"): the method ran on the
+    /// crop [`SkipReport::computed`] as a frame of its own; [`SkipReport::roi`] holds that
+    /// fusion's output (not the whole frame's), the background value is everywhere else.
+    pub const CROP: Skips = Skips(1 << 5);
 
     /// Whether every bit of `other` is set in `self`.
     pub const fn contains(self, other: Skips) -> bool {
@@ -206,14 +228,16 @@ pub struct SkipReport {
     pub illumination: Option<Illumination>,
     /// The pixels guaranteed bit-identical to [`SkipPolicy::None`] (the whole grid when nothing
     /// was skipped; empty when the pair has no target). With [`Skips::ECLIPSE_VIS`] the
-    /// guarantee is against the same method on VIS replaced by its background level.
+    /// guarantee is against the same method on VIS replaced by its background level; with
+    /// [`Skips::CROP`] against the same method on the crop `computed` of both bands (on the
+    /// grid, after the rescale).
     pub roi: Rect,
-    /// The window the method actually ran on (`roi` plus its halo); outside it the output is
-    /// `background`.
+    /// The window the method actually ran on (`roi` plus its halo).
     pub computed: Rect,
-    /// The background value the plan wrote (`None` when `computed` is the whole grid): outside
-    /// `computed` for TSIFSD (its halo ring keeps the window's values), outside `roi` for ADF
-    /// (there it is the exact value, see `exact_outside`), everywhere for an empty frame.
+    /// The background value the plan wrote (`None` when it wrote none): outside `computed` for
+    /// TSIFSD and the adaptive method (their halo ring keeps the window's values), outside
+    /// `roi` for ADF and IFEVIP (for ADF's exact plans the exact value, see `exact_outside`),
+    /// everywhere for an empty frame.
     pub background: Option<u8>,
     /// Whether the output outside `roi` is proven bit-identical as well (ADF on an exactly
     /// constant background).
@@ -468,16 +492,36 @@ impl Method {
     }
 
     /// Radius of the neighbourhood an output pixel depends on (grid pixels): the window halo
-    /// of the ROI plan. ADF: one pixel per diffusion iteration; TSIFSD: the mean filter's
-    /// radius (the 3×3 median / Scharr is inside it) plus one; IFEVIP: none (it is global);
-    /// adaptive: the base box's radius (the 3×3 binomial is inside it).
-    pub fn halo(&self) -> Option<usize> {
+    /// of the skip plans. ADF: one pixel per diffusion iteration; TSIFSD: the mean filter's
+    /// radius (the 3×3 median / Scharr is inside it) plus one; adaptive: the base box's radius
+    /// (the 3×3 binomial is inside it). IFEVIP has no local radius (its background and peak
+    /// are frame-global); its halo is the context its crop is given: the erosion's radius plus
+    /// the Gaussian's (`erode_size/2 + gauss_size/2`, 20 by default), so that a target pixel
+    /// near the window's edge still sees the background around it.
+    pub fn halo(&self) -> usize {
         match self {
-            Method::Adf(p) => Some(usize::from(p.iterations)),
-            Method::Tsifsd(p) => Some(usize::from(p.mean_size / 2) + 1),
-            Method::Ifevip(_) => None,
-            Method::Adaptive(p) => Some(p.halo()),
+            Method::Adf(p) => usize::from(p.iterations),
+            Method::Tsifsd(p) => usize::from(p.mean_size / 2) + 1,
+            Method::Ifevip(p) => usize::from(p.erode_size / 2) + usize::from(p.gauss_size / 2),
+            Method::Adaptive(p) => p.halo(),
         }
+    }
+
+    /// The method as the crop semantics runs it on a `crop` of a `grid`-sized frame: IFEVIP with
+    /// its quadtree grid scaled to the crop ([`IfevipParams::on_crop`]); the others unchanged.
+    pub fn on_crop(&self, crop: (usize, usize), grid: (usize, usize)) -> Method {
+        match self {
+            Method::Ifevip(p) => Method::Ifevip(p.on_crop(crop.0.max(crop.1), grid.0.max(grid.1))),
+            m => *m,
+        }
+    }
+
+    /// Whether the output depends on statistics of the whole frame (ADF's KL covariance,
+    /// IFEVIP's entropies, quadtree background and peak), so that a window can reproduce it
+    /// only in special cases: these methods skip with the crop semantics (module docs, "Scene
+    /// skipping").
+    pub fn frame_global(&self) -> bool {
+        matches!(self, Method::Adf(_) | Method::Ifevip(_))
     }
 }
 

@@ -15,19 +15,78 @@ pub fn background_value(scene: &Scene) -> u8 {
 pub(super) enum Plan {
     /// Fuse the whole frame (the reason, if analysis declined).
     Full(Option<Decline>),
-    /// Nothing to fuse: the whole output is the background value.
-    Empty,
+    /// Nothing to fuse: the whole output is the background value (`exact`: that is the
+    /// unskipped output too — ADF on an exactly constant pair).
+    Empty { exact: bool },
     /// Fuse the window `computed`; `roi` inside it is exact.
     Window { computed: Rect, roi: Rect },
     /// ADF on an exactly constant background (or VIS taken constant): diffuse `computed`,
     /// covariance and output over `roi`; everything else is the background value, exactly.
     AdfWindow { computed: Rect, roi: Rect, vis_constant: bool },
+    /// A frame-global method on the crop `computed` (`roi` grown by the halo) as a frame of its
+    /// own; its output kept on `roi`, the background value everywhere else.
+    Crop { computed: Rect, roi: Rect },
 }
 
 /// Grows a window to even corners (a 2× rescale's phase), clipped to the grid.
 pub(super) fn align_even(r: Rect, (w, h): (usize, usize)) -> Rect {
     let hi = |v: usize, n: usize| if v >= n { n } else { (v.saturating_add(1) & !1).min(n) };
     Rect { x0: r.x0 & !1, y0: r.y0 & !1, x1: hi(r.x1, w), y1: hi(r.y1, h) }
+}
+
+/// What every plan needs to know about the frame besides the method.
+struct Frame {
+    grid: (usize, usize),
+    /// A 2× rescale runs on the window: its corners must be even.
+    rescale2: bool,
+    /// Largest window worth skipping around, per cent of the frame.
+    max_roi_percent: u8,
+}
+
+impl Frame {
+    fn too_large(&self, r: &Rect) -> bool {
+        // In u64: a usize product could saturate on the 32-bit targets and change the plan.
+        r.area() as u64 * 100 > Rect::full(self.grid).area() as u64 * u64::from(self.max_roi_percent)
+    }
+
+    /// `r` grown by `halo` (even corners for a 2× rescale).
+    fn grown(&self, r: Rect, halo: usize) -> Rect {
+        let computed = r.grow(halo, self.grid);
+        if self.rescale2 { align_even(computed, self.grid) } else { computed }
+    }
+
+    /// The crop plan around `target` (`None`: nothing to fuse); `check_size`: decline a window
+    /// above `max_roi_percent` (the caller's own window is always honoured).
+    fn crop(&self, target: Option<Rect>, halo: usize, check_size: bool) -> Plan {
+        let Some(roi) = target.filter(|t| !t.is_empty()) else { return Plan::Empty { exact: false } };
+        let computed = self.grown(roi, halo);
+        if check_size && self.too_large(&computed) {
+            return Plan::Full(Some(Decline::RoiTooLarge));
+        }
+        Plan::Crop { computed, roi }
+    }
+
+    /// The exact window of a local method around `target`; `circular`: TSIFSD classic, whose
+    /// circular mean wraps at the frame's edges.
+    fn local(&self, target: Option<Rect>, halo: usize, circular: bool, check_size: bool) -> Plan {
+        let Some(target) = target.filter(|t| !t.is_empty()) else { return Plan::Empty { exact: false } };
+        // Aligned first: the alignment can move an edge onto the frame's edge, and the
+        // classic rule below must see where the window really ends.
+        let mut computed = self.grown(target, halo);
+        if circular {
+            // Circular mean: a window touching a frame edge wraps to the opposite edge.
+            if computed.x0 == 0 || computed.x1 == self.grid.0 {
+                (computed.x0, computed.x1) = (0, self.grid.0);
+            }
+            if computed.y0 == 0 || computed.y1 == self.grid.1 {
+                (computed.y0, computed.y1) = (0, self.grid.1);
+            }
+        }
+        if check_size && self.too_large(&computed) {
+            return Plan::Full(Some(Decline::RoiTooLarge));
+        }
+        Plan::Window { computed, roi: computed.shrink_inner(halo, self.grid) }
+    }
 }
 
 pub(super) fn plan(
@@ -37,23 +96,28 @@ pub(super) fn plan(
     eclipse: bool,
     decision: Option<Decision>,
 ) -> Plan {
+    let frame =
+        Frame { grid, rescale2: scene.rescale_needed, max_roi_percent: pipeline.scene.max_roi_percent };
+    let halo = pipeline.method.halo();
+    let circular = matches!(&pipeline.method, Method::Tsifsd(p) if p.variant == crate::Variant::Classic);
+    if let SkipPolicy::Window(w) = pipeline.skip {
+        // The caller's window, whatever the analysis found.
+        let w = Some(w.intersect(Rect::full(grid)));
+        return if pipeline.method.frame_global() {
+            frame.crop(w, halo, false)
+        } else {
+            frame.local(w, halo, circular, false)
+        };
+    }
     if let Some(d) = scene.decline {
         return Plan::Full(Some(d));
     }
-    let Some(halo) = pipeline.method.halo() else {
-        return Plan::Full(Some(Decline::GlobalStatistic));
-    };
-    let full = Rect::full(grid);
-    // In u64: a usize product could saturate on the 32-bit targets and change the plan.
-    let too_large =
-        |r: &Rect| r.area() as u64 * 100 > full.area() as u64 * u64::from(pipeline.scene.max_roi_percent);
-    let rescale2 = scene.rescale_needed;
+    let noisy = scene.vis_blocks.is_some() || scene.tir_blocks.is_some();
+    let target = if eclipse { scene.target_tir } else { scene.target };
     match &pipeline.method {
         // Noisy frames: the KL covariance sums the detail layers of the whole frame, which a
-        // window cannot reproduce (and VIS is not the constant the eclipse plan assumes).
-        Method::Adf(_) if scene.vis_blocks.is_some() || scene.tir_blocks.is_some() => {
-            Plan::Full(Some(Decline::GlobalStatistic))
-        }
+        // window cannot reproduce: the crop semantics.
+        Method::Adf(_) if noisy => frame.crop(target, halo, true),
         Method::Adf(p) => {
             let vis_constant = eclipse;
             let varying = if vis_constant { scene.varying_tir } else { scene.varying };
@@ -64,17 +128,15 @@ pub(super) fn plan(
                 // its detail is not 0 there, so the rest of the frame is not provably silent.
                 return Plan::Full(Some(Decline::GlobalStatistic));
             }
-            let Some(varying) = varying else { return Plan::Empty };
+            let Some(varying) = varying else { return Plan::Empty { exact: !eclipse } };
             let roi = varying.grow(halo, grid);
-            let mut computed = roi.grow(halo, grid);
-            if rescale2 {
-                computed = align_even(computed, grid);
-            }
-            if too_large(&computed) {
+            let computed = frame.grown(roi, halo);
+            if frame.too_large(&computed) {
+                let full = Rect::full(grid);
                 return if vis_constant {
                     Plan::AdfWindow { computed: full, roi: full, vis_constant }
                 } else {
-                    Plan::Full(Some(if scene.varying == Some(full) || too_large(&varying) {
+                    Plan::Full(Some(if scene.varying == Some(full) || frame.too_large(&varying) {
                         Decline::GlobalStatistic
                     } else {
                         Decline::RoiTooLarge
@@ -83,45 +145,14 @@ pub(super) fn plan(
             }
             Plan::AdfWindow { computed, roi, vis_constant }
         }
-        Method::Tsifsd(p) => {
-            let target = if eclipse { scene.target_tir } else { scene.target };
-            let Some(target) = target else { return Plan::Empty };
-            let mut computed = target.grow(halo, grid);
-            // Aligned first: the alignment can move an edge onto the frame's edge, and the
-            // classic rule below must see where the window really ends.
-            if rescale2 {
-                computed = align_even(computed, grid);
-            }
-            if p.variant == crate::Variant::Classic {
-                // Circular mean: a window touching a frame edge wraps to the opposite edge.
-                if computed.x0 == 0 || computed.x1 == grid.0 {
-                    (computed.x0, computed.x1) = (0, grid.0);
-                }
-                if computed.y0 == 0 || computed.y1 == grid.1 {
-                    (computed.y0, computed.y1) = (0, grid.1);
-                }
-            }
-            if too_large(&computed) {
-                return Plan::Full(Some(Decline::RoiTooLarge));
-            }
-            Plan::Window { computed, roi: computed.shrink_inner(halo, grid) }
-        }
+        Method::Ifevip(_) => frame.crop(target, halo, true),
+        Method::Tsifsd(_) => frame.local(target, halo, circular, true),
         Method::Adaptive(_) => {
             // Local like TSIFSD flight (replicate borders); when the TIR frame passes through,
             // the window must hold its target alone.
-            let target =
-                if eclipse || decision == Some(Decision::TirOnly) { scene.target_tir } else { scene.target };
-            let Some(target) = target else { return Plan::Empty };
-            let mut computed = target.grow(halo, grid);
-            if rescale2 {
-                computed = align_even(computed, grid);
-            }
-            if too_large(&computed) {
-                return Plan::Full(Some(Decline::RoiTooLarge));
-            }
-            Plan::Window { computed, roi: computed.shrink_inner(halo, grid) }
+            let target = if decision == Some(Decision::TirOnly) { scene.target_tir } else { target };
+            frame.local(target, halo, false, true)
         }
-        Method::Ifevip(_) => Plan::Full(Some(Decline::GlobalStatistic)),
     }
 }
 
@@ -268,22 +299,25 @@ pub(super) fn fuse_skipping(
             r.skip = SkipReport { declined, ..report };
             return Ok(r);
         }
-        Plan::Empty => {
+        Plan::Empty { exact } => {
             out.fill(background);
             report.roi = Rect::default();
             report.computed = Rect::default();
             report.background = Some(background);
-            report.exact_outside = matches!(pipeline.method, Method::Adf(_)) && !eclipse;
+            report.exact_outside = exact;
             report.taken |= Skips::ROI;
             if eclipse {
                 report.taken |= Skips::ECLIPSE_TIR_TARGET;
             }
             return Ok(FuseReport { grid, rescaled: false, guards: Guards::NONE, skip: report });
         }
-        Plan::Window { computed, roi } => (computed, roi, false),
+        Plan::Window { computed, roi } | Plan::Crop { computed, roi } => (computed, roi, false),
         Plan::AdfWindow { computed, roi, vis_constant } => (computed, roi, vis_constant),
     };
+    let crop = matches!(plan, Plan::Crop { .. });
     let (cw, ch) = (computed.width(), computed.height());
+    // The method as it runs on the window (the crop's own parameters, see `Method::on_crop`).
+    let method_here = if crop { pipeline.method.on_crop((cw, ch), grid) } else { pipeline.method };
     let (filter_vis_side, vis_rescaled) = match pipeline.rescale {
         RescalePolicy::TirUp => (Filter::Cubic, false),
         RescalePolicy::VisDown | RescalePolicy::None => (Filter::Area, true),
@@ -294,7 +328,14 @@ pub(super) fn fuse_skipping(
         let (b, p) = scratch.split_band(grid.0 * grid.1)?;
         (b, p)
     } else {
-        let [a, b, c] = scratch.planes(cw * ch)?;
+        // A frame-global method on its crop needs its own scratch for the crop's size (IFEVIP's
+        // resizes and key classes), never more than the whole frame's checked above.
+        let pixels = if crop {
+            FuseConfig { method: method_here, ..*pipeline }.scratch_pixels((cw, ch), (cw, ch))?
+        } else {
+            cw * ch
+        };
+        let [a, b, c] = scratch.planes(pixels)?;
         (&mut no_band[..], ScratchMut::from_slices([a, b, c]))
     };
     let (vis_w, tir_w, window_rescale) = if vis_rescaled {
@@ -306,6 +347,13 @@ pub(super) fn fuse_skipping(
     };
     let mut out_w = out.sub_rect_mut(computed.x0, computed.y0, cw, ch)?;
     let guards = match &pipeline.method {
+        _ if crop => {
+            let g = fuse_method_decided(vis_w, tir_w, out_w.reborrow(), &method_here, &mut planes, decision)?;
+            fill_outside(&mut out, roi, background);
+            report.exact_outside = false;
+            report.taken |= Skips::CROP;
+            g
+        }
         Method::Adf(p) => {
             let exact = Rect {
                 x0: roi.x0 - computed.x0,
@@ -339,8 +387,9 @@ pub(super) fn fuse_skipping(
     };
     report.roi = roi;
     report.computed = computed;
-    report.background = (computed != Rect::full(grid)).then_some(background);
-    if computed != Rect::full(grid) || matches!(pipeline.method, Method::Adf(_)) && roi != Rect::full(grid) {
+    let written = if crop || matches!(pipeline.method, Method::Adf(_)) { roi } else { computed };
+    report.background = (written != Rect::full(grid)).then_some(background);
+    if computed != Rect::full(grid) || written != Rect::full(grid) {
         report.taken |= Skips::ROI;
     }
     if window_rescale {
@@ -349,7 +398,7 @@ pub(super) fn fuse_skipping(
     if vis_constant {
         report.taken |= Skips::ECLIPSE_VIS;
     }
-    if eclipse && matches!(pipeline.method, Method::Tsifsd(_) | Method::Adaptive(_)) {
+    if eclipse && (crop || matches!(pipeline.method, Method::Tsifsd(_) | Method::Adaptive(_))) {
         report.taken |= Skips::ECLIPSE_TIR_TARGET;
     }
     Ok(FuseReport { grid, rescaled, guards, skip: report })

@@ -100,7 +100,9 @@ pub enum Decline {
     /// frame: skipping would save little.
     RoiTooLarge,
     /// The method uses a frame-global statistic that the plan cannot reproduce exactly from
-    /// the window alone (ADF on a background that is not exactly constant; IFEVIP always).
+    /// the window alone: ADF on a noiseless frame whose background is not exactly constant
+    /// (or, classic, not 0). Noisy frames take the crop semantics instead (module docs of
+    /// [`crate::pipeline`]).
     GlobalStatistic,
 }
 

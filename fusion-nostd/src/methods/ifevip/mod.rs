@@ -126,6 +126,32 @@ impl Default for IfevipParams {
 }
 
 impl IfevipParams {
+    /// The parameters for a crop of a frame (the crop semantics of scene skipping,
+    /// [`crate::pipeline`]): the quadtree grid `D` scaled with the crop, so that one of its
+    /// pixels covers about as many frame pixels as in the whole frame's fusion, and a small
+    /// crop is not resized up to `D²`. `D′` = the power of two nearest (in ratio) to
+    /// `D · crop_side / frame_side` (the longer sides), within `8..=D`; the leaf side kept, but
+    /// within `D′/16..=D′` (the validated range). Everything else unchanged; `D′ = D` for the
+    /// whole frame.
+    pub fn on_crop(&self, crop_side: usize, frame_side: usize) -> IfevipParams {
+        let d = u64::from(self.quad_norm_dim);
+        let (n, g) = (d * crop_side as u64, (frame_side as u64).max(1));
+        // p = the largest power of two with p·g ≤ n; then p or 2p, whichever is nearer in ratio
+        // (2p when n/g ≥ √2·p).
+        let mut p = 1u64;
+        while 2 * p * g <= n && p < d {
+            p *= 2;
+        }
+        let p = if p < d && u128::from(n) * u128::from(n) >= 2 * u128::from(p * g) * u128::from(p * g) {
+            2 * p
+        } else {
+            p
+        };
+        let norm = p.clamp(8, d.max(8)) as u16;
+        let min = self.quad_min_dim.clamp((norm / 16).max(4), norm);
+        IfevipParams { quad_norm_dim: norm, quad_min_dim: min, ..*self }
+    }
+
     /// Checks every field against its documented range.
     pub fn validate(&self) -> Result<(), Error> {
         let norm = self.quad_norm_dim;

@@ -54,3 +54,22 @@ fn tabulated_output_equals_direct_output() -> Result<(), Error> {
     }
     Ok(())
 }
+
+#[test]
+fn the_quadtree_grid_follows_the_crop() {
+    let p = IfevipParams::default(); // D = 512, leaf 32
+    let d = |crop: usize, frame: usize| p.on_crop(crop, frame).quad_norm_dim;
+    // The whole frame keeps D; 512·290/1024 = 145 is nearer 128 than 256 (ratio 1.13 vs 1.77);
+    // 512·400/1024 = 200 ≥ √2·128 = 181 → 256; tiny crops stop at 8; never above D.
+    assert_eq!(d(1024, 1024), 512);
+    assert_eq!(d(290, 1024), 128);
+    assert_eq!(d(400, 1024), 256);
+    assert_eq!(d(3, 1024), 8);
+    assert_eq!(d(700, 640), 512);
+    // The leaf side stays valid: within D′/16..=D′.
+    for crop in [3, 17, 64, 290, 400, 1024] {
+        let q = p.on_crop(crop, 1024);
+        assert!(q.validate().is_ok(), "{crop}: {q:?}");
+        assert_eq!(q.quad_min_dim, 32u16.clamp((q.quad_norm_dim / 16).max(4), q.quad_norm_dim));
+    }
+}

@@ -40,7 +40,7 @@ pub use stages::*;
 
 use anyhow::{Context, Result, bail, ensure};
 use elf::Elf;
-use fusion_engine::methods::{MethodArg, RescaleArg, VariantArg, fuse_core, method_for};
+use fusion_engine::methods::{MethodArg, RescaleArg, SkipArg, VariantArg, fuse_core, method_for};
 use fusion_io::note;
 use fusion_io::{ColorPolicy, Gray, load_gray_u8};
 use fusion_nostd::pipeline::FuseConfig;
@@ -300,6 +300,12 @@ pub fn run(opts: &Options) -> Result<Outcome> {
                 strips: true,
                 ..RunSpec::plain(method, VariantArg::Flight, grid.policy())
             });
+            // The whole pipeline with scene skipping (`--skip all`) on the budget pair: the
+            // analysis and the window (the crop semantics for ADF and IFEVIP; issue 38).
+            let skipping = opts.methods.iter().map(|&method| RunSpec {
+                skip: SkipArg::All,
+                ..RunSpec::plain(method, VariantArg::Flight, grid.policy())
+            });
             // TSIFSD classic, whole frame and in strips (its circular window wraps around the
             // frame; no budget entry: the targets are the flight variant's).
             let classic = opts.methods.iter().filter(|&&m| m == MethodArg::Tsifsd).flat_map(|&method| {
@@ -312,7 +318,7 @@ pub fn run(opts: &Options) -> Result<Outcome> {
             let job = Job {
                 vis: pair.0.clone(),
                 tir: pair.1.clone(),
-                runs: staged.chain(strips).chain(classic).chain(agc).collect(),
+                runs: staged.chain(strips).chain(skipping).chain(classic).chain(agc).collect(),
                 tir16: (grid == Grid::G512).then(|| counts_of(&pair.1)),
             };
             let reps = opts.repeat.max(1);
@@ -355,7 +361,7 @@ pub fn run(opts: &Options) -> Result<Outcome> {
             )?;
             out.exact.push((
                 format!(
-                    "{target}: budget pair, {}² grid, flight (whole frame and strips), TSIFSD classic (whole frame and strips){}",
+                    "{target}: budget pair, {}² grid, flight (whole frame, strips, skipping), TSIFSD classic (whole frame and strips){}",
                     grid.side(),
                     if job.tir16.is_some() { ", thermal AGC (plateau, linear)" } else { "" }
                 ),
@@ -384,6 +390,20 @@ pub fn run(opts: &Options) -> Result<Outcome> {
                         report: run.strips.context("no strip report")?,
                         count,
                         whole: classic_whole.context("a classic strip run without its whole-frame run")?,
+                    });
+                    continue;
+                }
+                if spec.skip != SkipArg::None {
+                    let count = run.region("pipeline").context("no pipeline region in a skip run")?;
+                    let m = out
+                        .measured
+                        .iter_mut()
+                        .find(|m| m.target == target && m.grid == grid && m.method == spec.method)
+                        .context("a skip run without its staged run")?;
+                    m.stages.push(Stage {
+                        key: "skip",
+                        what: "whole pipeline with scene skipping (`all`) on the budget pair: analysis, window (crop for ADF, IFEVIP), background",
+                        count,
                     });
                     continue;
                 }

@@ -38,7 +38,8 @@ use super::tracker::{ModelTracker, TrackerParams, smooth};
 use anyhow::{Context, Result};
 use fusion_engine::CoreScratch;
 use fusion_io::{ColorPolicy, Gray, load_gray_u8};
-use fusion_nostd::pipeline::SkipPolicy;
+use fusion_nostd::pipeline::{SkipPolicy, Skips};
+use fusion_nostd::scene::Rect;
 use fusion_nostd::{AdaptiveParams, Filter, FuseConfig, Method, RescalePolicy};
 use image::GrayImage;
 use rayon::prelude::*;
@@ -85,6 +86,34 @@ pub enum Stream {
     Tir,
     /// A core fusion (TIR upscaled with bicubic, as in flight).
     Fused(FuseConfig),
+    /// The same, closed loop as on board: its skip window ([`SkipPolicy::Window`]) is the
+    /// target box the stream's own navigation filter predicts for the frame
+    /// ([`predicted_box`]).
+    Loop(FuseConfig),
+}
+
+/// Grid pixels added around the predicted box of a closed-loop stream, beyond its 3σ growth:
+/// the background ring the front end and the contrast measure look at (8–24 px outside the
+/// target).
+pub const LOOP_MARGIN_PX: f64 = 24.0;
+
+/// The target box a navigation filter predicts for the frame of `cam`'s size, as handed to the
+/// fusion in a closed loop: the image of the target model's bounding sphere at the filter's pose
+/// (which holds the target whatever its attitude), grown on each side by 3σ of the filter's
+/// attitude and position in pixels (`f·(σ_θ + σ_p/range)`, the root of each block's trace) and
+/// [`LOOP_MARGIN_PX`]. Empty when the sphere is predicted behind the camera or off the image.
+pub fn predicted_box(model: &TargetModel<'_>, filter: &PoseFilter, width: u32) -> Rect {
+    let predicted = camera_at(width, filter.attitude, filter.position);
+    let Some((x0, y0, x1, y1)) = model.image_box(&predicted, 0.0) else { return Rect::default() };
+    let c = filter.pose_covariance();
+    let sigma_att = (c[(0, 0)] + c[(1, 1)] + c[(2, 2)]).max(0.0).sqrt();
+    let sigma_pos = (c[(3, 3)] + c[(4, 4)] + c[(5, 5)]).max(0.0).sqrt();
+    let range = filter.position.length().max(1e-3);
+    let f = f64::from(predicted.focal_px);
+    let grow = 3.0 * f * (sigma_att + sigma_pos / range) + LOOP_MARGIN_PX;
+    let (w, h) = (f64::from(predicted.width), f64::from(predicted.height));
+    let at = |v: u32, d: f64, hi: f64| (f64::from(v) + d).clamp(0.0, hi) as usize;
+    Rect { x0: at(x0, -grow, w), y0: at(y0, -grow, h), x1: at(x1, grow, w), y1: at(y1, grow, h) }
 }
 
 /// The sources of the benchmark with their names: the baselines `zero-motion` and `oracle`,
@@ -106,6 +135,13 @@ pub fn streams() -> Vec<(String, Stream)> {
                 skip,
                 ..FuseConfig::default()
             }),
+        ));
+    }
+    // Closed loop: the adaptive method and each method's flight variant.
+    for method in Method::all().into_iter().filter(|m| m.variant() != Some(fusion_nostd::Variant::Classic)) {
+        out.push((
+            format!("{}-loop", method.name()),
+            Stream::Loop(FuseConfig { rescale: RescalePolicy::TirUp, method, ..FuseConfig::default() }),
         ));
     }
     for skip in [SkipPolicy::None, SkipPolicy::All] {
@@ -463,38 +499,35 @@ fn load_frame(dir: &Path, m: &SequenceManifest, i: usize, clean: bool) -> Result
     })
 }
 
-/// The stream's image of one frame (VIS grid) and, for skip streams, (coverage, window share).
-fn stream_image(stream: &Stream, fd: &FrameData) -> Result<(Gray<u8>, f64, f64)> {
+/// The stream's image of one frame (VIS grid) and, for skip streams, (coverage, window share);
+/// `window`: a closed-loop stream's predicted box.
+fn stream_image(stream: &Stream, fd: &FrameData, window: Rect) -> Result<(Gray<u8>, f64, f64)> {
     let (w, h) = (fd.vis.width, fd.vis.height);
-    match stream {
+    let p = &match *stream {
         Stream::ZeroMotion | Stream::Oracle => anyhow::bail!("a baseline has no image"),
-        Stream::Vis => Ok((fd.vis.clone(), 1.0, 1.0)),
+        Stream::Vis => return Ok((fd.vis.clone(), 1.0, 1.0)),
         Stream::Tir => {
             let mut up = Gray::<u8>::new(w, h);
             fusion_nostd::rescale(fd.tir.view()?, up.view_mut()?, Filter::Cubic)?;
-            Ok((up, 1.0, 1.0))
+            return Ok((up, 1.0, 1.0));
         }
-        Stream::Fused(p) => {
-            let mut out = Gray::<u8>::new(w, h);
-            let mut scratch = CoreScratch::new(p.scratch_pixels((w, h), (fd.tir.width, fd.tir.height))?);
-            let report = fusion_nostd::fuse(
-                fd.vis.view()?,
-                fd.tir.view()?,
-                out.view_mut()?,
-                &mut scratch.view_mut(),
-                p,
-            )?;
-            let win = report.skip.computed;
-            let (mut inside, mut total) = (0usize, 0usize);
-            for (k, _) in fd.either_mask.iter().enumerate().filter(|(_, m)| **m) {
-                total += 1;
-                inside += usize::from(win.contains(k % w, k / w));
-            }
-            let coverage = if total == 0 { 1.0 } else { inside as f64 / total as f64 };
-            let frac = ((win.x1 - win.x0) * (win.y1 - win.y0)) as f64 / (w * h) as f64;
-            Ok((out, coverage, frac))
-        }
+        Stream::Fused(p) => p,
+        Stream::Loop(p) => FuseConfig { skip: SkipPolicy::Window(window), ..p },
+    };
+    let mut out = Gray::<u8>::new(w, h);
+    let mut scratch = CoreScratch::new(p.scratch_pixels((w, h), (fd.tir.width, fd.tir.height))?);
+    let report =
+        fusion_nostd::fuse(fd.vis.view()?, fd.tir.view()?, out.view_mut()?, &mut scratch.view_mut(), p)?;
+    // The window whose pixels are the method's output: the ROI for a crop (the background value
+    // is written outside it), the computed window otherwise.
+    let win = if report.skip.taken.contains(Skips::CROP) { report.skip.roi } else { report.skip.computed };
+    let (mut inside, mut total) = (0usize, 0usize);
+    for (k, _) in fd.either_mask.iter().enumerate().filter(|(_, m)| **m) {
+        total += 1;
+        inside += usize::from(win.contains(k % w, k / w));
     }
+    let coverage = if total == 0 { 1.0 } else { inside as f64 / total as f64 };
+    Ok((out, coverage, win.area() as f64 / (w * h) as f64))
 }
 
 /// Per-frame state the next frame's pairwise matching needs: features with their 3D points.
@@ -711,7 +744,12 @@ impl SequenceRun<'_> {
     ) -> Result<()> {
         let fd = &self.data[i];
         let cam = &fd.camera;
-        let (img, target_coverage, window_frac) = stream_image(stream, fd)?;
+        // Closed loop: the box this frame's prediction puts the target in.
+        let window = match stream {
+            Stream::Loop(_) => predicted_box(&self.model, &st.filter, cam.width),
+            _ => Rect::default(),
+        };
+        let (img, target_coverage, window_frac) = stream_image(stream, fd, window)?;
         row.target_coverage = target_coverage;
         row.window_frac = window_frac;
         row.cnr = cnr(&img.data, &fd.vis_mask, &fd.ring_mask);
@@ -857,9 +895,12 @@ pub struct Summary {
     pub sources: BTreeMap<String, BTreeMap<String, PhaseSummary>>,
     /// The same per sequence.
     pub by_sequence: BTreeMap<String, BTreeMap<String, BTreeMap<String, PhaseSummary>>>,
-    /// Per skip stream: the smallest share of the target pixels inside the computed window and
-    /// the mean window share of the frame.
+    /// Per skip stream (keyed by its method, `-skip` dropped) and closed-loop stream (keyed by
+    /// its name, `…-loop`): the share of the target pixels inside the window the method's output
+    /// is kept on, and the window's share of the frame.
     pub skip: BTreeMap<String, SkipSummary>,
+    /// The same per sequence.
+    pub skip_by_sequence: BTreeMap<String, BTreeMap<String, SkipSummary>>,
 }
 
 /// The skip block of `navbench.json`.
@@ -867,6 +908,8 @@ pub struct Summary {
 pub struct SkipSummary {
     /// Smallest fraction of the target pixels (both cameras' masks) inside the window.
     pub target_coverage_min: f64,
+    /// Mean fraction of the target pixels inside the window.
+    pub target_coverage_mean: f64,
     /// Mean share of the frame the window covers.
     pub window_frac_mean: f64,
 }
@@ -895,16 +938,29 @@ pub fn summary(rows: &[FrameResult]) -> Summary {
             .insert(phase.clone(), summarise(v));
     }
     let mut skip = BTreeMap::new();
-    for src in sources.keys().filter(|s| s.ends_with("-skip")) {
+    let mut skip_by_sequence: BTreeMap<String, BTreeMap<String, SkipSummary>> = BTreeMap::new();
+    for src in sources.keys().filter(|s| s.ends_with("-skip") || s.ends_with("-loop")) {
+        let key = src.strip_suffix("-skip").unwrap_or(src).to_string();
         let v: Vec<&FrameResult> = rows.iter().filter(|r| &r.source == src).collect();
-        let min = v.iter().map(|r| r.target_coverage).fold(1.0f64, f64::min);
-        let mean = v.iter().map(|r| r.window_frac).sum::<f64>() / v.len().max(1) as f64;
-        skip.insert(
-            src.trim_end_matches("-skip").to_string(),
-            SkipSummary { target_coverage_min: min, window_frac_mean: mean },
-        );
+        skip.insert(key.clone(), skip_summary(&v));
+        for seq in by_sequence.keys() {
+            let of_seq: Vec<&FrameResult> = v.iter().copied().filter(|r| &r.sequence == seq).collect();
+            if !of_seq.is_empty() {
+                skip_by_sequence.entry(seq.clone()).or_default().insert(key.clone(), skip_summary(&of_seq));
+            }
+        }
     }
-    Summary { sources, by_sequence, skip }
+    Summary { sources, by_sequence, skip, skip_by_sequence }
+}
+
+/// The skip block's figures over some frames of one stream.
+fn skip_summary(v: &[&FrameResult]) -> SkipSummary {
+    let n = v.len().max(1) as f64;
+    SkipSummary {
+        target_coverage_min: v.iter().map(|r| r.target_coverage).fold(1.0f64, f64::min),
+        target_coverage_mean: v.iter().map(|r| r.target_coverage).sum::<f64>() / n,
+        window_frac_mean: v.iter().map(|r| r.window_frac).sum::<f64>() / n,
+    }
 }
 
 #[cfg(test)]

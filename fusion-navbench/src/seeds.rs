@@ -68,6 +68,8 @@ pub struct SeedSummary {
     pub by_sequence: BTreeMap<String, BTreeMap<String, BTreeMap<String, Figures>>>,
     /// Per skip method: the skip block's figures.
     pub skip: BTreeMap<String, Figures>,
+    /// The same per sequence.
+    pub skip_by_sequence: BTreeMap<String, BTreeMap<String, Figures>>,
 }
 
 fn figures_of<T: Serialize>(v: &T) -> BTreeMap<String, Option<f64>> {
@@ -96,7 +98,13 @@ pub fn aggregate(seeds: &[u64], per_seed: &[Summary]) -> SeedSummary {
     let mut by_sequence: BTreeMap<String, BTreeMap<String, BTreeMap<String, Vec<&PhaseSummary>>>> =
         BTreeMap::new();
     let mut skip: BTreeMap<String, Vec<&SkipSummary>> = BTreeMap::new();
+    let mut skip_by_sequence: BTreeMap<String, BTreeMap<String, Vec<&SkipSummary>>> = BTreeMap::new();
     for s in per_seed {
+        for (seq, methods) in &s.skip_by_sequence {
+            for (m, v) in methods {
+                skip_by_sequence.entry(seq.clone()).or_default().entry(m.clone()).or_default().push(v);
+            }
+        }
         for (src, phases) in &s.sources {
             for (ph, v) in phases {
                 sources.entry(src.clone()).or_default().entry(ph.clone()).or_default().push(v);
@@ -131,6 +139,10 @@ pub fn aggregate(seeds: &[u64], per_seed: &[Summary]) -> SeedSummary {
             .map(|(seq, srcs)| (seq, srcs.into_iter().map(|(k, v)| (k, phases(v))).collect()))
             .collect(),
         skip: skip.into_iter().map(|(k, v)| (k, merge(&v))).collect(),
+        skip_by_sequence: skip_by_sequence
+            .into_iter()
+            .map(|(seq, m)| (seq, m.into_iter().map(|(k, v)| (k, merge(&v))).collect()))
+            .collect(),
     }
 }
 

@@ -106,3 +106,82 @@ fn bad_input_is_one_line_and_exit_1() {
         assert!(!out.exists(), "no output left behind");
     }
 }
+
+/// `--window X0,Y0,X1,Y1`: the caller's skip window. TSIFSD is bit-identical to the whole-frame
+/// run inside it, ADF gives the fusion of the crop there (the crop fused on its own, the same
+/// bits), the background value fills the rest; a malformed or empty box, or `--window` beside
+/// `--skip`, is refused in one line.
+#[test]
+fn a_caller_window_fuses_that_box_only() {
+    let dir = tempfile::tempdir().unwrap();
+    let (vis, tir) = (dir.path().join("vis.png"), dir.path().join("tir.png"));
+    let (v, t) = (frame(64, 48, 1), frame(64, 48, 2));
+    save_gray_u8(&vis, &v).unwrap();
+    save_gray_u8(&tir, &t).unwrap();
+    let (x0, y0, x1, y1) = (12usize, 10usize, 40usize, 30usize);
+    let run = |method: &str, extra: &[&str], out: &Path| {
+        let mut args = vec!["fuse", "--method", method, "--rescale", "none"];
+        args.extend_from_slice(extra);
+        args.extend_from_slice(&[p(&vis), p(&tir), p(out)]);
+        let o = fusion(&args);
+        assert!(o.status.success(), "{method} {extra:?}: {}", String::from_utf8_lossy(&o.stderr));
+        (load_gray_u8(out, ColorPolicy::Refuse).unwrap(), String::from_utf8_lossy(&o.stdout).to_string())
+    };
+    let inside = |x: usize, y: usize| x >= x0 && x < x1 && y >= y0 && y < y1;
+    // TSIFSD: exact inside the box.
+    let (whole, _) = run("tsifsd", &[], &dir.path().join("t_whole.png"));
+    let (win, text) = run("tsifsd", &["--window", "12,10,40,30"], &dir.path().join("t_win.png"));
+    assert!(text.contains("bit-identical to --skip none"), "{text}");
+    for y in 0..48 {
+        for x in 0..64 {
+            if inside(x, y) {
+                assert_eq!(win.at(x, y), whole.at(x, y), "tsifsd ({x}, {y})");
+            }
+        }
+    }
+    // ADF: the crop grown by its halo (10 iterations), fused as a pair of its own.
+    let h = 10;
+    let (cx0, cy0, cx1, cy1) = (x0 - h, y0 - h, x1 + h, y1 + h);
+    let crop = |g: &Gray<u8>| Gray {
+        width: cx1 - cx0,
+        height: cy1 - cy0,
+        data: (cy0..cy1).flat_map(|y| (cx0..cx1).map(move |x| (x, y))).map(|(x, y)| g.at(x, y)).collect(),
+    };
+    let (cv, ct) = (dir.path().join("cv.png"), dir.path().join("ct.png"));
+    save_gray_u8(&cv, &crop(&v)).unwrap();
+    save_gray_u8(&ct, &crop(&t)).unwrap();
+    let o = fusion(&[
+        "fuse",
+        "--method",
+        "adf",
+        "--rescale",
+        "none",
+        p(&cv),
+        p(&ct),
+        p(&dir.path().join("c.png")),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let cropped = load_gray_u8(&dir.path().join("c.png"), ColorPolicy::Refuse).unwrap();
+    let (win, text) = run("adf", &["--window", "12,10,40,30"], &dir.path().join("a_win.png"));
+    assert!(text.contains("crop semantics"), "{text}");
+    let bg = win.at(0, 0);
+    for y in 0..48 {
+        for x in 0..64 {
+            let want = if inside(x, y) { cropped.at(x - cx0, y - cy0) } else { bg };
+            assert_eq!(win.at(x, y), want, "adf ({x}, {y})");
+        }
+    }
+    // Refused: not four numbers, an empty box, beside --skip.
+    for bad in [
+        vec!["--window", "1,2,3"],
+        vec!["--window", "5,5,5,9"],
+        vec!["--window", "1,2,30,40", "--skip", "roi"],
+    ] {
+        let mut args = vec!["fuse"];
+        args.extend_from_slice(&bad);
+        args.extend_from_slice(&[p(&vis), p(&tir), "/nonexistent/out.png"]);
+        let o = fusion(&args);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success() && err.contains("--window"), "{bad:?}: {err}");
+    }
+}

@@ -168,3 +168,38 @@ fn sequences_are_deterministic_and_seeded() {
     let manifest = |d: &tempfile::TempDir| std::fs::read_to_string(d.path().join("manifest.json")).unwrap();
     assert_eq!(manifest(&a), manifest(&b));
 }
+
+/// The closed loop's window (issue 37, item 5): the box a filter at the true pose predicts holds
+/// every target pixel of the VIS mask on every frame; it grows with the filter's uncertainty (to
+/// the whole frame when that is large); a target behind the camera gives an empty box.
+#[test]
+fn the_predicted_box_holds_the_target_and_grows_with_the_uncertainty() {
+    use fusion_navbench::bench::predicted_box;
+    use fusion_navbench::filter::{FilterParams, PoseFilter};
+    use fusion_navbench::model::TargetModel;
+    use render_host::glam::DQuat;
+    let dir = tempfile::tempdir().unwrap();
+    let m = render_sequence(&small(SequenceName::Approach, 6), dir.path(), false).unwrap();
+    let scene = Scene::tango().unwrap();
+    let model = TargetModel::new(&scene);
+    for f in &m.frames {
+        let cam = Camera::study(160, f.pose());
+        let q = DQuat::from_mat3(&cam.pose.rotation.as_dmat3()).normalize();
+        let p = cam.pose.position.as_dvec3();
+        let tight = PoseFilter::new(q, p, 1e-6, 1e-6, FilterParams::default());
+        let b = predicted_box(&model, &tight, 160);
+        let mask =
+            fusion_io::load_gray_u8(&dir.path().join(&f.files.vis_mask), fusion_io::ColorPolicy::Refuse)
+                .unwrap();
+        let pixels = (0..160 * 160).filter(|&k| mask.data[k] > 127);
+        for k in pixels {
+            assert!(b.contains(k % 160, k / 160), "frame {}: target pixel {k} outside {b:?}", f.index);
+        }
+        let loose = PoseFilter::new(q, p, 0.2, 0.2 * f64::from(f.range_m), FilterParams::default());
+        let big = predicted_box(&model, &loose, 160);
+        assert!(big.covers(&b) && big.area() > b.area(), "frame {}: {big:?} vs {b:?}", f.index);
+        assert_eq!(big.area(), 160 * 160, "frame {}: 0.2 rad and 20 % of the range cover the frame", f.index);
+        let behind = PoseFilter::new(q, -p, 1e-6, 1e-6, FilterParams::default());
+        assert!(predicted_box(&model, &behind, 160).is_empty(), "frame {}", f.index);
+    }
+}

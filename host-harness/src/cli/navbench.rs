@@ -491,15 +491,27 @@ their spreads over the seeds.\n",
     if !s.skip.is_empty() {
         let _ = writeln!(
             md,
-            "## Scene skipping\n\n| method | target coverage (min) | window share of the frame (mean) |\n|---|---|---|"
+            "## Scene skipping and the closed loop\n\n`<method>`: the skip stream (the analysis's window); \
+             `<method>-loop`: the closed loop (the window is the box the stream's own filter predicts, \
+             `SkipPolicy::Window`). Coverage: the share of the target pixels (both cameras' masks) inside \
+             the window the method's output is kept on.\n\n\
+             | sequence | method | target coverage (min) | target coverage (mean) | window share of the frame (mean) |\n|---|---|---|---|---|"
         );
-        for (m, k) in &s.skip {
-            let _ = writeln!(
-                md,
-                "| {m} | {} | {} |",
-                cell(k, "target_coverage_min", 4),
-                cell(k, "window_frac_mean", 4)
-            );
+        let all = [("all".to_string(), &s.skip)];
+        let rows = all
+            .iter()
+            .map(|(q, m)| (q.as_str(), *m))
+            .chain(s.skip_by_sequence.iter().map(|(q, m)| (q.as_str(), m)));
+        for (seq, methods) in rows {
+            for (m, k) in methods {
+                let _ = writeln!(
+                    md,
+                    "| {seq} | {m} | {} | {} | {} |",
+                    cell(k, "target_coverage_min", 4),
+                    cell(k, "target_coverage_mean", 4),
+                    cell(k, "window_frac_mean", 4)
+                );
+            }
         }
         let _ = writeln!(md);
     }

@@ -65,11 +65,20 @@ pub struct FuseArgs {
     /// Also write the real-valued result before the 8-bit cast as a float32 `.npy` (0..255 units).
     #[arg(long, value_name = "OUT.npy")]
     pub raw: Option<PathBuf>,
-    /// Scene skipping (core engine, ADF/TSIFSD/IFEVIP): none fuses every pixel; roi fuses a
-    /// window around the target and writes the background elsewhere (pixels of the reported
-    /// ROI are bit-identical to none); all adds the eclipse plan. The report is printed.
+    /// Scene skipping (core engine): none fuses every pixel; roi fuses a window around the
+    /// target and writes the background elsewhere (the reported ROI is bit-identical to none
+    /// for TSIFSD, the adaptive method and ADF on noiseless frames; ADF on noisy frames and
+    /// IFEVIP fuse the crop as a frame of its own); all adds the eclipse plan. The report is
+    /// printed.
     #[arg(long, value_enum, default_value_t = SkipArg::None)]
     pub skip: SkipArg,
+    /// Skip with the caller's window instead of the analysis's (core engine): fuse only this
+    /// box of the fusion grid, `X0,Y0,X1,Y1` (columns X0..X1, rows Y0..Y1, end excluded), e.g.
+    /// a navigation filter's predicted target box. TSIFSD and the adaptive method are
+    /// bit-identical to `--skip none` inside it; ADF and IFEVIP fuse the crop as a frame of its
+    /// own; the background value elsewhere. The report is printed.
+    #[arg(long, value_name = "X0,Y0,X1,Y1", conflicts_with = "skip")]
+    pub window: Option<WindowArg>,
     /// Fuse strip by strip in the flight core's 512 KiB strip scratch (core engine, every
     /// method and variant; no --skip, no --raw): bit-identical to the whole-frame run. The value
     /// caps the strip height in grid rows (`max`: as tall as the scratch allows). The strip
@@ -128,6 +137,28 @@ impl std::str::FromStr for StripRows {
     }
 }
 
+/// `--window` value: a box of the fusion grid.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct WindowArg(pub fusion_nostd::scene::Rect);
+
+impl std::str::FromStr for WindowArg {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        let v: Vec<usize> = s
+            .split(',')
+            .map(|p| p.trim().parse::<usize>())
+            .collect::<Result<_, _>>()
+            .map_err(|_| format!("`{s}` is not four pixel coordinates X0,Y0,X1,Y1"))?;
+        let &[x0, y0, x1, y1] = v.as_slice() else {
+            return Err(format!("`{s}` is not four pixel coordinates X0,Y0,X1,Y1"));
+        };
+        if x1 <= x0 || y1 <= y0 {
+            return Err(format!("`{s}`: the box is empty (X1 must exceed X0 and Y1 exceed Y0)"));
+        }
+        Ok(WindowArg(fusion_nostd::scene::Rect { x0, y0, x1, y1 }))
+    }
+}
+
 /// `--color` values.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
 pub enum ColorArg {
@@ -143,22 +174,24 @@ pub(super) fn check_options(args: &FuseArgs) -> Result<()> {
     match args.method.split() {
         Ok(_) => {
             let engine = args.engine.unwrap_or(EngineArg::Core);
-            if args.strips.is_some()
-                && (engine != EngineArg::Core || args.raw.is_some() || args.skip != SkipArg::None)
-            {
+            let skipping = args.skip != SkipArg::None || args.window.is_some();
+            if args.strips.is_some() && (engine != EngineArg::Core || args.raw.is_some() || skipping) {
                 bail!(
-                    "--strips works with the core engine's 8-bit output only (no --engine reference, no --raw, no --skip)"
+                    "--strips works with the core engine's 8-bit output only (no --engine reference, no --raw, no --skip or --window)"
                 );
             }
-            if args.skip != SkipArg::None && (engine != EngineArg::Core || args.raw.is_some()) {
+            if skipping && (engine != EngineArg::Core || args.raw.is_some()) {
                 bail!(
-                    "--skip works with the core engine's 8-bit output only (no --engine reference, no --raw)"
+                    "--skip and --window work with the core engine's 8-bit output only (no --engine reference, no --raw)"
                 );
             }
         }
         Err(host) => {
-            if args.strips.is_some() || args.skip != SkipArg::None {
-                bail!("{} is a host-only method (f64): --strips and --skip are core options", host.name());
+            if args.strips.is_some() || args.skip != SkipArg::None || args.window.is_some() {
+                bail!(
+                    "{} is a host-only method (f64): --strips, --skip and --window are core options",
+                    host.name()
+                );
             }
             if args.variant.is_some() {
                 bail!("{} has one variant (the study's, f64): drop --variant", host.name());

@@ -4,12 +4,12 @@
 use super::args::{ColorArg, FuseArgs, StripRows};
 use anyhow::{Context, Result, bail};
 use fusion_engine::methods::{
-    AgcArg, EngineArg, Fused, RescaleArg, SkipArg, VariantArg, fuse_core, fuse_reference, method_for,
+    AgcArg, EngineArg, Fused, RescaleArg, VariantArg, fuse_core, fuse_reference, method_for,
 };
 use fusion_io::npy::encode_npy_f32;
 use fusion_io::{Batch, Channels, Gray, OutFormat, Picture, encode_channels};
 use fusion_nostd::methods::Guards;
-use fusion_nostd::pipeline::{FuseConfig, RescalePolicy, fusion_grid};
+use fusion_nostd::pipeline::{FuseConfig, RescalePolicy, SkipPolicy, Skips, fusion_grid};
 use fusion_reference as reference;
 use fusion_reference::study_methods::{HostMethod, cast_u8, drif, fuse_host_u8};
 use fusion_reference::to_f64;
@@ -44,9 +44,14 @@ pub fn skip_report_text(r: &fusion_nostd::pipeline::FuseReport) -> String {
         format!("x {}..{}, y {}..{} ({} px)", q.x0, q.x1, q.y0, q.y1, q.area())
     };
     let grid = r.grid.0 * r.grid.1;
+    let roi_is = if s.taken.contains(Skips::CROP) {
+        "the method on the computed window as a frame of its own (crop semantics)"
+    } else {
+        "bit-identical to --skip none"
+    };
     format!(
         "skip: policy {:?}, illumination {}, taken {:#x}{}\n\
-         skip: roi (bit-identical to --skip none) {}\n\
+         skip: roi ({roi_is}) {}\n\
          skip: computed window {} = {:.2} % of the frame; background value outside {}\n\
          skip: output outside the roi proven identical too: {}\n",
         s.policy,
@@ -187,7 +192,7 @@ pub(super) fn fuse_gray(args: &FuseArgs, vis: &Gray<u8>, tir: &Gray<u8>) -> Resu
             let pipeline = FuseConfig {
                 rescale: rescale.into(),
                 method: method_for(method, args.variant.unwrap_or(VariantArg::Flight)),
-                skip: args.skip.into(),
+                skip: args.window.map_or(args.skip.into(), |w| SkipPolicy::Window(w.0)),
                 ..Default::default()
             };
             let engine = args.engine.unwrap_or(EngineArg::Core);
@@ -198,7 +203,7 @@ pub(super) fn fuse_gray(args: &FuseArgs, vis: &Gray<u8>, tir: &Gray<u8>) -> Resu
                 let fused = Fused { image, raw: None, guards: report.guards };
                 return Ok(GrayResult { fused, report: strip_report_text(&strips, report.grid) });
             }
-            if args.skip != SkipArg::None {
+            if pipeline.skip != SkipPolicy::None {
                 let (image, report, _) = fusion_engine::skip::fuse_once(vis, tir, &pipeline)?;
                 let fused = Fused { image, raw: None, guards: report.guards };
                 return Ok(GrayResult { fused, report: skip_report_text(&report) });

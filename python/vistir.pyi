@@ -32,6 +32,7 @@ def fuse(
     agc: AgcName = "linear",
     plateau: Optional[int] = None,
     strips: Optional[int] = None,
+    window: Optional[Tuple[int, int, int, int]] = None,
     report: Literal[False] = False,
 ) -> npt.NDArray[np.uint8]: ...
 @overload
@@ -46,6 +47,7 @@ def fuse(
     agc: AgcName = "linear",
     plateau: Optional[int] = None,
     strips: Optional[int] = None,
+    window: Optional[Tuple[int, int, int, int]] = None,
     report: Literal[True],
 ) -> Tuple[npt.NDArray[np.uint8], dict[str, Any]]:
     """Fuses a visible and a thermal frame: the same bytes as `fusion fuse`.

@@ -203,6 +203,9 @@ fn millions(n: f64) -> String {
     format!("{:.1} M", n / 1e6)
 }
 
+/// The set name of the pooled rows of [`summary`].
+pub const ALL_SETS: &str = "all";
+
 /// The summary table: per (set, version, method, skip), frames emulated, mean and worst
 /// instructions, worst / mean, and the issue's targets.
 pub fn summary(rows: &[Row]) -> String {
@@ -213,6 +216,22 @@ pub fn summary(rows: &[Row]) -> String {
             keys.push(k);
         }
     }
+    // With several sets, the pooled rows (set `all`): the issues' targets are over every frame
+    // of every set.
+    let sets = rows.iter().map(|r| r.set).fold(Vec::new(), |mut v, s| {
+        if !v.contains(&s) {
+            v.push(s);
+        }
+        v
+    });
+    if sets.len() > 1 {
+        let pooled: Vec<_> = keys.iter().map(|&(_, v, m, k)| (ALL_SETS, v, m, k)).collect();
+        for k in pooled {
+            if !keys.contains(&k) {
+                keys.push(k);
+            }
+        }
+    }
     let mut s = String::from(
         "| set | version | method | skip | frames emulated | mean instr | worst instr | worst/mean | mean window | ROI taken | crop | eclipse plan | declined | target mean | mean ok | worst ≤ 2× mean | ROI PSNR (worst) | ROI max abs | identical to host |\n\
          |---|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---|---:|---|---|---:|---:|---|\n",
@@ -220,7 +239,9 @@ pub fn summary(rows: &[Row]) -> String {
     for (set, ver, method, skip) in keys {
         let group: Vec<&Row> = rows
             .iter()
-            .filter(|r| (r.set, r.version, r.method, r.skip) == (set, ver, method, skip))
+            .filter(|r| {
+                (set == ALL_SETS || r.set == set) && (r.version, r.method, r.skip) == (ver, method, skip)
+            })
             .collect();
         let counts: Vec<f64> = group.iter().filter_map(|r| r.instructions).map(|n| n as f64).collect();
         let windows: Vec<f64> = group.iter().map(|r| r.window).collect();
@@ -469,21 +490,28 @@ pub fn run(opts: &StudyOptions) -> Result<Vec<Row>> {
 
 /// Chart `emulator_<target>_frames`: instructions per frame (millions) of every method with
 /// skip `all` on the clean frames (the noisy ones when the study ran only those), one series per
-/// set and method, with the targets as flat lines.
+/// method with the sets one after the other on the frame axis, and the targets as flat lines.
 fn chart_per_frame(opts: &StudyOptions, rows: &[Row]) -> Result<PathBuf> {
     let mut series: Vec<Series> = Vec::new();
     let shown = if rows.iter().any(|r| r.version == "clean") { "clean" } else { "noisy" };
+    let sets = rows.iter().map(|r| r.set).fold(Vec::new(), |mut v, s| {
+        if !v.contains(&s) {
+            v.push(s);
+        }
+        v
+    });
+    let per_set = rows.iter().map(|r| r.frame).max().unwrap_or(0) + 1;
+    let offset = |set: &str| sets.iter().position(|s| *s == set).unwrap_or(0) * per_set;
     for r in rows.iter().filter(|r| r.version == shown && r.skip == SkipArg::All) {
         let Some(n) = r.instructions else { continue };
-        let name =
-            format!("{} {} {}", r.set.trim_start_matches("vis_"), method_name(r.method), skip_key(r.skip));
-        let point = (r.frame as f64, n as f64 / 1e6);
+        let name = format!("{} {}", method_name(r.method), skip_key(r.skip));
+        let point = ((offset(r.set) + r.frame) as f64, n as f64 / 1e6);
         match series.iter_mut().find(|s| s.name == name) {
             Some(s) => s.points.push(point),
             None => series.push(Series { name, points: vec![point] }),
         }
     }
-    let last = rows.iter().map(|r| r.frame).max().unwrap_or(0) as f64;
+    let last = (sets.len() * per_set).saturating_sub(1) as f64;
     for (who, m) in
         [("tsifsd, adaptive", MethodArg::Tsifsd), ("ifevip", MethodArg::Ifevip), ("adf", MethodArg::Adf)]
     {
@@ -494,9 +522,11 @@ fn chart_per_frame(opts: &StudyOptions, rows: &[Row]) -> Result<PathBuf> {
     }
     let title =
         format!("{} instructions per 1024² frame, {shown} renders, with skipping", opts.target.core());
+    let names: Vec<&str> = sets.iter().map(|s| s.trim_start_matches("vis_")).collect();
+    let x = format!("frame ({}, {per_set} frames each, one after the other)", names.join(" then "));
     chart(
         &opts.report_dir.join(format!("emulator_{}_frames", opts.target)),
-        Labels { title: &title, x: "frame", y: "million instructions (whole pipeline)" },
+        Labels { title: &title, x: &x, y: "million instructions (whole pipeline)" },
         &series,
         Style::Lines,
     )
@@ -517,7 +547,8 @@ pub fn markdown(opts: &StudyOptions, frames: usize, rows: &[Row]) -> String {
          semantics); eclipse plan = frames where ADF took VIS as its constant level \
          (`Skips::ECLIPSE_VIS`) or the window followed the TIR target alone \
          (`Skips::ECLIPSE_TIR_TARGET`). ROI PSNR / max abs: the skipped output against the same \
-         method's unskipped fusion inside the ROI, on the host, every frame (∞: bit-identical). {}\n\n",
+         method's unskipped fusion inside the ROI, on the host, every frame (∞: bit-identical). \
+         Set `all`: every frame of every set pooled (the issues' targets are over them). {}\n\n",
         opts.target.core(),
         opts.target,
         opts.dataset.display(),
@@ -631,6 +662,14 @@ mod tests {
         assert!(ok.contains("| 35.0 M | 40.0 M | 1.14 |") && ok.contains("| yes | yes |"), "{ok}");
         assert!(ok.contains("| 2/2 | 0 | 0 | — |"), "ROI, crop and eclipse-plan counts: {ok}");
         assert!(ok.contains("| 31.2 dB | 1 | 2/2 |"), "the ROI's worst PSNR and max abs: {ok}");
+        // Two sets: the pooled row over both.
+        let two = summary(&[
+            row(0, 30_000_000),
+            row(1, 40_000_000),
+            Row { set: "vis_eclipse", ..row(2, 50_000_000) },
+        ]);
+        assert!(two.contains("| all | clean | tsifsd | roi | 3/3 | 40.0 M | 50.0 M | 1.25 |"), "{two}");
+        assert!(!ok.contains("| all |"), "one set has no pooled row: {ok}");
         let bad = summary(&[row(0, 10_000_000), row(1, 10_000_000), row(2, 130_000_000)]);
         assert!(bad.contains("**no** (1.2×)") && bad.contains("| **no** | 31.2 dB | 2 | 3/3 |"), "{bad}");
     }

@@ -9,7 +9,8 @@
 //! * [`CoreScratch`]: the core's work planes on the heap; [`strips`]: the 512 KiB strip scratch.
 //! * [`agc`]: the thermal gain control on 16-bit frames; [`color`]: colour kept through a grey
 //!   fusion (YCbCr, BT.601).
-//! * [`skip`]: scene skipping and the error it adds; [`study`]: rendered datasets, timed
+//! * [`skip`]: scene skipping, the error it adds and the crop semantics' reference
+//!   ([`skip::fuse_crop`]); [`study`]: rendered datasets, timed
 //!   fusions, the method list of the study; [`stress`]: every method over adversarial frames.
 //!
 //! The value enums derive `clap::ValueEnum` behind the `clap` feature (the CLI turns it on).

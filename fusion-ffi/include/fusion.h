@@ -155,6 +155,11 @@ typedef enum FusionSkip {
   FUSION_SKIP_ROI = 1,
   // `FUSION_SKIP_ROI` plus the eclipse plan.
   FUSION_SKIP_ALL = 2,
+  // Fuse only the caller's box [`FusionConfig::window`] (e.g. a navigation filter's
+  // predicted target box), whatever the analysis found: TSIFSD and the adaptive method are
+  // bit-identical to `FUSION_SKIP_NONE` inside it, ADF and IFEVIP fuse the crop as a frame
+  // of its own (crop semantics, see the core's `pipeline` docs); the background elsewhere.
+  FUSION_SKIP_WINDOW = 3,
 } FusionSkip;
 
 // AGC parameters (`fusion_nostd::AgcParams`). Start from [`fusion_agc_linear`] or
@@ -236,6 +241,9 @@ typedef struct FusionConfig {
   uint32_t rescale;
   // A `FusionSkip` value.
   uint32_t skip;
+  // The caller's box for `FUSION_SKIP_WINDOW`, grid pixels `[x0, x1) × [y0, y1)` as
+  // `{x0, y0, x1, y1}` (clipped to the grid; ignored by the other skip values).
+  size_t window[4];
 } FusionConfig;
 
 // A read-only 8-bit image: `height` rows of `width` pixels, rows `stride` bytes apart.
@@ -261,7 +269,8 @@ typedef struct FusionReport {
   // `FUSION_GUARD_*` bits the method fired.
   uint32_t guards;
   // What the scene skipping took (`fusion_nostd::pipeline::Skips` bits: 1 ROI, 2 ROI
-  // rescale, 4 eclipse VIS, 8 eclipse TIR target, 16 no rescale); 0 when nothing.
+  // rescale, 4 eclipse VIS, 8 eclipse TIR target, 16 no rescale, 32 crop semantics); 0 when
+  // nothing.
   uint32_t skip_taken;
   // Why skipping declined: 0 it did not (or was not asked), 1 background not dark, 2 too
   // noisy, 3 window too large, 4 frame-global statistic.

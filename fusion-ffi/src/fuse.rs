@@ -3,7 +3,7 @@
 use crate::image::{FusionImage, FusionImageMut, Span, deref, disjoint};
 use crate::status::{FusionError, FusionStatus, run};
 use fusion_nostd::pipeline::{FuseConfig, FuseReport, Method, RescalePolicy, SkipPolicy, fusion_grid};
-use fusion_nostd::scene::{Decline, Illumination};
+use fusion_nostd::scene::{Decline, Illumination, Rect};
 use fusion_nostd::strips::{StripReport, StripScratchMut};
 use fusion_nostd::{ScratchMut, Variant};
 
@@ -58,6 +58,11 @@ pub enum FusionSkip {
     Roi = 1,
     /// `FUSION_SKIP_ROI` plus the eclipse plan.
     All = 2,
+    /// Fuse only the caller's box [`FusionConfig::window`] (e.g. a navigation filter's
+    /// predicted target box), whatever the analysis found: TSIFSD and the adaptive method are
+    /// bit-identical to `FUSION_SKIP_NONE` inside it, ADF and IFEVIP fuse the crop as a frame
+    /// of its own (crop semantics, see the core's `pipeline` docs); the background elsewhere.
+    Window = 3,
 }
 
 /// A per-frame configuration: plain numbers (the enums above), each method with its default
@@ -73,6 +78,9 @@ pub struct FusionConfig {
     pub rescale: u32,
     /// A `FusionSkip` value.
     pub skip: u32,
+    /// The caller's box for `FUSION_SKIP_WINDOW`, grid pixels `[x0, x1) × [y0, y1)` as
+    /// `{x0, y0, x1, y1}` (clipped to the grid; ignored by the other skip values).
+    pub window: [usize; 4],
 }
 
 /// What one fusion did.
@@ -88,7 +96,8 @@ pub struct FusionReport {
     /// `FUSION_GUARD_*` bits the method fired.
     pub guards: u32,
     /// What the scene skipping took (`fusion_nostd::pipeline::Skips` bits: 1 ROI, 2 ROI
-    /// rescale, 4 eclipse VIS, 8 eclipse TIR target, 16 no rescale); 0 when nothing.
+    /// rescale, 4 eclipse VIS, 8 eclipse TIR target, 16 no rescale, 32 crop semantics); 0 when
+    /// nothing.
     pub skip_taken: u32,
     /// Why skipping declined: 0 it did not (or was not asked), 1 background not dark, 2 too
     /// noisy, 3 window too large, 4 frame-global statistic.
@@ -116,6 +125,7 @@ pub extern "C" fn fusion_config_default() -> FusionConfig {
         variant: FusionVariant::Flight as u32,
         rescale: FusionRescale::TirUp as u32,
         skip: FusionSkip::None as u32,
+        window: [0; 4],
     }
 }
 
@@ -142,6 +152,10 @@ impl FusionConfig {
             s if s == FusionSkip::None as u32 => SkipPolicy::None,
             s if s == FusionSkip::Roi as u32 => SkipPolicy::Roi,
             s if s == FusionSkip::All as u32 => SkipPolicy::All,
+            s if s == FusionSkip::Window as u32 => {
+                let [x0, y0, x1, y1] = self.window;
+                SkipPolicy::Window(Rect { x0, y0, x1, y1 })
+            }
             _ => return Err(FusionError::invalid("skip")),
         };
         Ok(FuseConfig { rescale, method, skip, ..FuseConfig::default() })

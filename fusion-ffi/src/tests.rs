@@ -46,8 +46,11 @@ fn scratch(bytes: usize) -> Vec<u32> {
     vec![0xDEAD_BEEF; bytes.div_ceil(4)]
 }
 
+/// The caller's box of `FUSION_SKIP_WINDOW` in these tests (it runs past a 32 × 24 grid).
+const WINDOW: [usize; 4] = [5, 7, 40, 30];
+
 fn config(method: u32, variant: u32, rescale: u32, skip: u32) -> FusionConfig {
-    FusionConfig { method, variant, rescale, skip }
+    FusionConfig { method, variant, rescale, skip, window: WINDOW }
 }
 
 /// The core configuration the same numbers stand for (written out independently of
@@ -61,7 +64,9 @@ fn core_pipeline(method: u32, variant: u32, rescale: u32, skip: u32) -> FuseConf
         _ => Method::Adaptive(AdaptiveParams::default()),
     };
     let rescale = [RescalePolicy::TirUp, RescalePolicy::VisDown, RescalePolicy::None][rescale as usize];
-    let skip = [SkipPolicy::None, SkipPolicy::Roi, SkipPolicy::All][skip as usize];
+    let [x0, y0, x1, y1] = WINDOW;
+    let window = SkipPolicy::Window(fusion_nostd::scene::Rect { x0, y0, x1, y1 });
+    let skip = [SkipPolicy::None, SkipPolicy::Roi, SkipPolicy::All, window][skip as usize];
     FuseConfig { rescale, method, skip, ..Default::default() }
 }
 
@@ -99,7 +104,7 @@ fn fuse_gives_the_core_bytes_for_every_configuration() {
     for method in 0..4 {
         for variant in 0..2 {
             for rescale in 0..2 {
-                for skip in 0..3 {
+                for skip in 0..4 {
                     let cfg = config(method, variant, rescale, skip);
                     let p = core_pipeline(method, variant, rescale, skip);
                     let (expected, grid) = core_fuse(&vis, vs, &tir, ts, &p);
@@ -155,6 +160,16 @@ fn fuse_gives_the_core_bytes_for_every_configuration() {
                     if skip == 0 {
                         assert_eq!(report.skip_taken, 0);
                         assert_eq!(report.window, [0, 0, w, h]);
+                    }
+                    if skip == 3 {
+                        // The caller's box (clipped to the grid) is always fused, never declined.
+                        assert_eq!(report.skip_declined, 0, "{cfg:?}");
+                        assert!(
+                            report.skip_taken & 1 != 0 || report.window == [0, 0, w, h],
+                            "{cfg:?}: the window was not taken"
+                        );
+                        let crop = u32::from(method == 0 || method == 2) << 5;
+                        assert_eq!(report.skip_taken & 32, crop, "{cfg:?}: crop semantics");
                     }
                 }
             }

@@ -1,6 +1,7 @@
 //! `fusion navbench`: does a fused stream help relative navigation? Every image stream of a
 //! rendezvous sequence — VIS, TIR upscaled, each core method and variant, with and without
-//! scene skipping — and the two baselines (`zero-motion`, `oracle`: [`crate::baseline`])
+//! scene skipping, and in a closed loop whose skip window is the box the stream's own filter
+//! predicts ([`predicted_box`], `<method>-loop`) — and the two baselines (`zero-motion`, `oracle`: [`crate::baseline`])
 //! through the same navigation chain, measured against the rendered ground truth, per
 //! illumination phase.
 //!

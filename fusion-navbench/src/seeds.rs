@@ -184,9 +184,107 @@ pub fn verdict(a: Stat, b: Stat, higher_is_better: bool) -> Verdict {
     if (d > 0.0) == higher_is_better { Verdict::Better } else { Verdict::Worse }
 }
 
+/// One figure of a skipped stream that moved more than the guard allows.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Moved {
+    /// `phase.figure`, e.g. `light.availability`.
+    pub figure: String,
+    /// Skipped mean − unskipped mean.
+    pub delta: f64,
+    /// What the guard allows: the larger spread over seeds, or 1 % of the unskipped mean.
+    pub allowed: f64,
+}
+
+/// The skip guard of one skipped stream (issue 38): its figures against its unskipped
+/// stream's, phase by phase.
+#[derive(Clone, Debug, PartialEq)]
+pub struct GuardRow {
+    /// The skipped stream (`…-skip`, or `…-loop` for the closed loop).
+    pub skipped: String,
+    /// Its unskipped stream.
+    pub unskipped: String,
+    /// Figures compared (phase × figure, both streams have them).
+    pub figures: usize,
+    /// Those that moved by more than the guard allows, the largest move (by `|delta| /
+    /// allowed`) first.
+    pub moved: Vec<Moved>,
+}
+
+/// The skip guard over the whole summary: every `<stream>-skip` and `<stream>-loop` against
+/// `<stream>`, over all sequences. A figure may move by at most the larger of the two streams'
+/// standard deviations over the seeds, or by 1 % of the unskipped mean where that is larger.
+pub fn skip_guard(s: &SeedSummary) -> Vec<GuardRow> {
+    let mut out = Vec::new();
+    for (name, phases) in &s.sources {
+        let Some(base) = name.strip_suffix("-skip").or_else(|| name.strip_suffix("-loop")) else { continue };
+        let Some(base_phases) = s.sources.get(base) else { continue };
+        let mut row =
+            GuardRow { skipped: name.clone(), unskipped: base.to_string(), figures: 0, moved: Vec::new() };
+        for (phase, figs) in phases {
+            let Some(base_figs) = base_phases.get(phase) else { continue };
+            for (key, stat) in figs {
+                let (Some(a), Some(Some(b))) = (stat, base_figs.get(key)) else { continue };
+                if !a.mean.is_finite() || !b.mean.is_finite() {
+                    continue;
+                }
+                row.figures += 1;
+                let delta = a.mean - b.mean;
+                let allowed = a.sd.max(b.sd).max(0.01 * b.mean.abs());
+                if delta.abs() > allowed {
+                    row.moved.push(Moved { figure: format!("{phase}.{key}"), delta, allowed });
+                }
+            }
+        }
+        row.moved.sort_by(|x, y| {
+            (y.delta.abs() / y.allowed.max(1e-300)).total_cmp(&(x.delta.abs() / x.allowed.max(1e-300)))
+        });
+        out.push(row);
+    }
+    out
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A figure that moves by more than both the spread and 1 % is listed; one inside the
+    /// spread, or inside 1 % of the mean, is not; streams without an unskipped twin are skipped.
+    #[test]
+    fn the_skip_guard_lists_only_moves_beyond_the_spread() {
+        let stat = |values: &[f64]| Stat::of(values);
+        let figs = |a: Option<Stat>, b: Option<Stat>, c: Option<Stat>| -> Figures {
+            [("availability".to_string(), a), ("cnr".to_string(), b), ("nees".to_string(), c)]
+                .into_iter()
+                .collect()
+        };
+        let phases =
+            |f: Figures| -> BTreeMap<String, Figures> { [("all".to_string(), f)].into_iter().collect() };
+        let mut sources = BTreeMap::new();
+        // availability: 0.50 ± 0.01 vs 0.60 ± 0.01 (moved); cnr: within the spread; nees: 100.0
+        // vs 100.5, sd 0 (inside 1 %).
+        sources.insert(
+            "x".to_string(),
+            phases(figs(stat(&[0.49, 0.50, 0.51]), stat(&[4.0, 5.0, 6.0]), stat(&[100.0, 100.0]))),
+        );
+        sources.insert(
+            "x-skip".to_string(),
+            phases(figs(stat(&[0.59, 0.60, 0.61]), stat(&[4.5, 5.5, 6.5]), stat(&[100.5, 100.5]))),
+        );
+        sources.insert("y-loop".to_string(), phases(figs(stat(&[1.0, 1.0]), None, None)));
+        let s = SeedSummary {
+            seeds: vec![1, 2, 3],
+            sources,
+            by_sequence: BTreeMap::new(),
+            skip: BTreeMap::new(),
+            skip_by_sequence: BTreeMap::new(),
+        };
+        let g = skip_guard(&s);
+        assert_eq!(g.len(), 1, "{g:?}");
+        assert_eq!((g[0].skipped.as_str(), g[0].unskipped.as_str(), g[0].figures), ("x-skip", "x", 3));
+        assert_eq!(g[0].moved.len(), 1, "{g:?}");
+        assert_eq!(g[0].moved[0].figure, "all.availability");
+        assert!((g[0].moved[0].delta - 0.1).abs() < 1e-12 && (g[0].moved[0].allowed - 0.01).abs() < 1e-12);
+    }
 
     #[test]
     fn stat_is_mean_and_sample_sd_and_serialises_by_seed_count() {

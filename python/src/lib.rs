@@ -12,7 +12,8 @@ use fusion_engine::methods::FilterArg;
 use fusion_engine::methods::{AgcArg, MethodArg, RescaleArg, SkipArg, VariantArg, method_for};
 use fusion_io::{Channels, Gray};
 use fusion_metrics::table::Suite;
-use fusion_nostd::pipeline::{FuseConfig, FuseReport};
+use fusion_nostd::pipeline::{FuseConfig, FuseReport, SkipPolicy};
+use fusion_nostd::scene::Rect;
 use fusion_nostd::{AgcParams, FrameMut, FrameRef};
 use numpy::ndarray::ArrayView2;
 use numpy::{
@@ -210,15 +211,17 @@ fn report_dict<'py>(py: Python<'py>, r: &FuseReport) -> PyResult<Bound<'py, PyDi
 ///   by the core AGC first (agc="linear" 1-99.9 %, or "plateau" equalisation with `plateau`
 ///   pixels per bin). method: "adf", "tsifsd", "ifevip", "adaptive"; variant: "flight" or
 ///   "classic"; rescale: "tir-up" (bicubic onto the VIS grid), "vis-down" (area onto the TIR
-///   grid), "none"; skip: "none", "roi", "all" (scene skipping). strips=N fuses in the 512 KiB
-///   strip working set, at most N rows a strip (the same bytes). report=True returns
-///   (image, dict) with the grid, guards and what skipping did.
+///   grid), "none"; skip: "none", "roi", "all" (scene skipping). window=(x0, y0, x1, y1) skips
+///   with the caller's box of the fusion grid instead (columns x0..x1, rows y0..y1, end
+///   excluded; e.g. a navigation filter's predicted target box; `fusion fuse --window`).
+///   strips=N fuses in the 512 KiB strip working set, at most N rows a strip (the same bytes).
+///   report=True returns (image, dict) with the grid, guards and what skipping did.
 ///
 /// Rows that are contiguous in memory are read in place (any row stride); the GIL is released
 /// while the core runs. Raises TypeError for an array of another dtype or shape, ValueError
 /// with the core's message for sizes or names it refuses.
 #[pyfunction]
-#[pyo3(signature = (vis, tir, method="tsifsd", variant="flight", rescale="tir-up", skip="none", *, agc="linear", plateau=None, strips=None, report=false))]
+#[pyo3(signature = (vis, tir, method="tsifsd", variant="flight", rescale="tir-up", skip="none", *, agc="linear", plateau=None, strips=None, window=None, report=false))]
 #[allow(clippy::too_many_arguments)]
 fn fuse<'py>(
     py: Python<'py>,
@@ -231,14 +234,28 @@ fn fuse<'py>(
     agc: &str,
     plateau: Option<u32>,
     strips: Option<usize>,
+    window: Option<(usize, usize, usize, usize)>,
     report: bool,
 ) -> PyResult<Py<PyAny>> {
-    let pipeline = pipeline(method, variant, rescale, skip)?;
+    let mut pipeline = pipeline(method, variant, rescale, skip)?;
+    if let Some((x0, y0, x1, y1)) = window {
+        if skip != "none" {
+            return Err(PyValueError::new_err("give window= or skip=, not both"));
+        }
+        if x1 <= x0 || y1 <= y0 {
+            return Err(PyValueError::new_err(
+                "window: the box is empty (x1 must exceed x0 and y1 exceed y0)",
+            ));
+        }
+        pipeline.skip = SkipPolicy::Window(Rect { x0, y0, x1, y1 });
+    }
     if strips == Some(0) {
         return Err(PyValueError::new_err("strips is the most rows per strip: at least 1 (or None)"));
     }
-    if strips.is_some() && skip != "none" {
-        return Err(PyValueError::new_err("strips run without scene skipping: give skip=\"none\""));
+    if strips.is_some() && pipeline.skip != SkipPolicy::None {
+        return Err(PyValueError::new_err(
+            "strips run without scene skipping: give skip=\"none\" and no window",
+        ));
     }
     let (vis_in, tir_in) = (Image::of("vis", vis)?, Image::of("tir", tir)?);
     // The visible frame: grey as given, colour as its luminance with the chroma kept.

@@ -85,6 +85,19 @@ def test_strips_and_skipping_give_the_cli_bytes(tmp_path, pair, method):
         assert report["grid"] == (256, 256) and report["rescaled"] is True
 
 
+@pytest.mark.parametrize("method", METHODS)
+def test_a_caller_window_gives_the_cli_bytes(tmp_path, pair, method):
+    vis, tir = pair
+    vp, tp = PGM / "vis_256.pgm", PGM / "tir_128.pgm"
+    got, report = vistir.fuse(vis, tir, method=method, window=(40, 60, 200, 180), report=True)
+    np.testing.assert_array_equal(got, cli_fuse(tmp_path, vp, tp, "--method", method, "--window", "40,60,200,180"))
+    assert report["skip_taken"] & 1 and report["skip_declined"] is None
+    with pytest.raises(ValueError, match="not both"):
+        vistir.fuse(vis, tir, method=method, skip="roi", window=(0, 0, 8, 8))
+    with pytest.raises(ValueError, match="empty"):
+        vistir.fuse(vis, tir, method=method, window=(8, 0, 8, 8))
+
+
 def test_colour_visible_gives_the_cli_rgb(tmp_path):
     vis, tir = JPEG / "VI" / "fight.jpg", JPEG / "IR" / "fight.jpg"
     v = vistir.load(vis)

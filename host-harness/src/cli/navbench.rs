@@ -515,6 +515,35 @@ their spreads over the seeds.\n",
         }
         let _ = writeln!(md);
     }
+    let guard = fusion_navbench::seeds::skip_guard(s);
+    if !guard.is_empty() {
+        let _ = writeln!(
+            md,
+            "## What skipping changes in navigation\n\nEvery figure of every phase (all sequences) of a \
+             skipped or closed-loop stream against its whole-frame stream: a figure *moved* when the means \
+             differ by more than the larger spread over the seeds and by more than 1 % of the whole-frame \
+             mean (the guard of issue 38).\n\n\
+             | stream | against | figures | moved | largest moves (phase.figure: change, allowed) |\n|---|---|---|---|---|"
+        );
+        for g in &guard {
+            let worst: Vec<String> = g
+                .moved
+                .iter()
+                .take(3)
+                .map(|m| format!("{}: {:+.4} ({:.4})", m.figure, m.delta, m.allowed))
+                .collect();
+            let _ = writeln!(
+                md,
+                "| {} | {} | {} | {} | {} |",
+                g.skipped,
+                g.unskipped,
+                g.figures,
+                g.moved.len(),
+                if worst.is_empty() { "—".to_string() } else { worst.join("; ") }
+            );
+        }
+        let _ = writeln!(md);
+    }
     let _ = writeln!(md, "## Charts\n");
     for c in charts {
         if let Some(n) = c.file_name() {

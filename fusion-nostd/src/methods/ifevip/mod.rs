@@ -147,8 +147,10 @@ impl IfevipParams {
         } else {
             p
         };
-        let norm = p.clamp(8, d.max(8)) as u16;
-        let min = self.quad_min_dim.clamp((norm / 16).max(4), norm);
+        // `max` then `min` (not `clamp`, whose bound check is a panic path): 8 ≤ D′ ≤ D, and
+        // D′/16 ≤ leaf ≤ D′.
+        let norm = p.max(8).min(d.max(8)) as u16;
+        let min = self.quad_min_dim.max((norm / 16).max(4)).min(norm);
         IfevipParams { quad_norm_dim: norm, quad_min_dim: min, ..*self }
     }
 

@@ -16,7 +16,7 @@
 use super::fw::{self, Grid, Job, RunOut, RunSpec, Target};
 use anyhow::{Context, Result, bail, ensure};
 use fusion_engine::methods::{MethodArg, RescaleArg, SkipArg, VariantArg};
-use fusion_engine::skip::fuse_once;
+use fusion_engine::skip::{fuse_once, skip_error_in};
 use fusion_engine::study::{Dataset, version};
 use fusion_io::Gray;
 use fusion_io::note;
@@ -71,21 +71,6 @@ pub fn study_runs() -> Vec<RunSpec> {
         }
     }
     runs
-}
-
-/// PSNR (dB) and largest absolute difference of `a` against `b` inside `r`.
-fn window_error(a: &Gray<u8>, b: &Gray<u8>, r: Rect) -> (f64, u8) {
-    let (mut se, mut max_abs, mut n) = (0f64, 0u8, 0usize);
-    for y in r.y0..r.y1 {
-        for x in r.x0..r.x1 {
-            let d = a.at(x, y).abs_diff(b.at(x, y));
-            se += f64::from(d) * f64::from(d);
-            max_abs = max_abs.max(d);
-            n += 1;
-        }
-    }
-    let mse = se / n.max(1) as f64;
-    (if mse == 0.0 { f64::INFINITY } else { 10.0 * (255.0 * 255.0 / mse).log10() }, max_abs)
 }
 
 fn skip_key(s: SkipArg) -> &'static str {
@@ -427,8 +412,10 @@ pub fn run(opts: &StudyOptions) -> Result<Vec<Row>> {
                 let errors: Vec<(f64, u8)> = host
                     .iter()
                     .map(|(spec, image, fused, _)| {
-                        unskipped(spec.method)
-                            .map_or((f64::NAN, 0), |full| window_error(image, full, fused.skip.roi))
+                        unskipped(spec.method).map_or((f64::NAN, 0), |full| {
+                            let e = skip_error_in(image, full, fused.skip.roi);
+                            (e.psnr, e.max_abs)
+                        })
                     })
                     .collect();
                 for ((spec, image, fused, emulate), (roi_psnr, roi_max_abs)) in host.into_iter().zip(errors) {

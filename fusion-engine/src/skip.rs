@@ -31,14 +31,25 @@ pub struct SkipError {
 
 /// [`SkipError`] of `skipped` against `full` (same size).
 pub fn skip_error(skipped: &Gray<u8>, full: &Gray<u8>) -> SkipError {
+    skip_error_in(skipped, full, Rect::full((full.width, full.height)))
+}
+
+/// [`SkipError`] of `skipped` against `full` (same size) over the pixels of `rect` only (e.g. a
+/// skip report's ROI); its PSNR is over those pixels.
+pub fn skip_error_in(skipped: &Gray<u8>, full: &Gray<u8>, rect: Rect) -> SkipError {
     let (mut se, mut max_abs, mut differing) = (0f64, 0u8, 0usize);
-    for (&a, &b) in skipped.data.iter().zip(&full.data) {
-        let d = a.abs_diff(b);
-        se += f64::from(d) * f64::from(d);
-        max_abs = max_abs.max(d);
-        differing += usize::from(d != 0);
+    for y in rect.y0..rect.y1 {
+        let row = y * full.width;
+        for (&a, &b) in
+            skipped.data[row + rect.x0..row + rect.x1].iter().zip(&full.data[row + rect.x0..row + rect.x1])
+        {
+            let d = a.abs_diff(b);
+            se += f64::from(d) * f64::from(d);
+            max_abs = max_abs.max(d);
+            differing += usize::from(d != 0);
+        }
     }
-    let mse = se / full.data.len().max(1) as f64;
+    let mse = se / rect.area().max(1) as f64;
     let psnr = if mse == 0.0 { f64::INFINITY } else { 10.0 * (255.0 * 255.0 / mse).log10() };
     SkipError { max_abs, psnr, differing }
 }

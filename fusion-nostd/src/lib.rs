@@ -189,6 +189,7 @@ pub mod rescalers;
 pub mod scene;
 pub mod scratch;
 pub mod strips;
+pub mod thermal;
 
 // The front door: what firmware and host code call, by name, at the root.
 pub use agc::{AGC_MAX_SMOOTHING, Agc, AgcMode, AgcParams, AgcReport, agc_frame};

@@ -6,7 +6,8 @@
 //! against — and the study's four host-only methods (GFF, MGFF, TEPGFL, DRIF).
 //!
 //! * [`adf`], [`tsifsd`], [`ifevip`], [`adaptive`]: the core's methods, classic and flight
-//!   variants; [`rescale`]: OpenCV's bicubic and area resize; [`agc`]: the thermal gain control.
+//!   variants; [`rescale`]: OpenCV's bicubic and area resize; [`agc`]: the thermal gain control;
+//!   [`thermal`]: the thermal front end (two-point correction, shutter, bad pixels, column filter).
 //! * [`study_methods`]: the study's other methods, host only.
 //! * [`fuse`]: a whole pipeline (rescale onto the fusion grid, then the method), as the core's
 //!   `pipeline::fuse` runs it.
@@ -35,6 +36,7 @@ pub mod agc;
 pub mod ifevip;
 pub mod rescale;
 pub mod study_methods;
+pub mod thermal;
 pub mod tsifsd;
 
 /// Fuses `vis` and `tir` with the f64 references: both brought onto the fusion grid by the

@@ -17,6 +17,7 @@
 //!   removed on SIGINT/SIGTERM.
 //! * **Console** ([`console`]): standard output and error without panics, `--quiet`, and the
 //!   macros [`out!`], [`outln!`] and [`note!`].
+//! * **The thermal camera's calibration files** ([`thermal`]): NUC tables and bad-pixel maps.
 //! * **Folders of pairs** ([`folders`]), **memory estimates and the limit** ([`memory`]),
 //!   **`.npy` arrays** ([`npy`]) and **the repository's test data** ([`testdata`]).
 //!
@@ -63,6 +64,7 @@ pub mod npy;
 pub mod output;
 mod picture;
 pub mod testdata;
+pub mod thermal;
 
 pub use output::{Batch, write_atomic, write_bytes};
 pub use picture::{

@@ -2,6 +2,7 @@
 
 pub mod camera;
 pub mod dataset;
+pub mod focal_plane;
 pub mod image;
 pub mod material;
 pub mod noise;

@@ -44,6 +44,9 @@ pub struct RenderOptions {
     pub t_max: f64,
     /// Also write 16-bit TIR PNGs (`clean16/`, `noisy16/`; with --sequence: `tir16/`, noisy).
     pub tir16: bool,
+    /// With a sequence: also write the thermal camera's raw counts through the default
+    /// focal-plane model (`crate::focal_plane`), its shutter frames and factory calibration.
+    pub raw_tir: bool,
     /// Also write TIR sets after this many minutes in eclipse (lumped transient).
     pub eclipse_minutes: Option<f64>,
     /// Leave out the specular lobe in VIS.
@@ -82,6 +85,7 @@ impl Default for RenderOptions {
             t_min: 150.0,
             t_max: 400.0,
             tir16: false,
+            raw_tir: false,
             eclipse_minutes: None,
             no_specular: false,
             flat: false,
@@ -172,6 +176,7 @@ pub fn sequence_config(name: SequenceName, args: &RenderOptions, cfg: &DatasetCo
         tir: TirParams { samples: args.samples.unwrap_or(SEQUENCE_SAMPLES), ..cfg.tir },
         noise: cfg.noise,
         write_tir16: args.tir16,
+        focal_plane: args.raw_tir.then(crate::focal_plane::FocalPlaneParams::default),
         ..SequenceConfig::new(name)
     }
 }

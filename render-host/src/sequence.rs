@@ -34,6 +34,7 @@
 
 use crate::camera::{Camera, Pose};
 use crate::dataset::{contact_sheet, noise_stream, rows_of};
+use crate::focal_plane::{FocalPlane, FocalPlaneParams};
 use crate::image::Image;
 use crate::image::{write_png8, write_png16};
 use crate::noise::{Band, NoiseParams, apply_sensor_noise, rng_for};
@@ -147,6 +148,12 @@ pub struct SequenceConfig {
     /// without the field read `false`.
     #[serde(default)]
     pub write_tir16: bool,
+    /// Write the thermal camera's raw counts too (`tir_raw/`, 16-bit PNG of `bits`-bit
+    /// counts), through this focal-plane model ([`crate::focal_plane`]), with its shutter
+    /// frames (`tir_shutter/`) and the factory calibration (`calibration/`). Manifests without
+    /// the field read `None`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub focal_plane: Option<FocalPlaneParams>,
 }
 
 impl SequenceConfig {
@@ -166,6 +173,7 @@ impl SequenceConfig {
             noise: NoiseParams::default(),
             write_clean: true,
             write_tir16: false,
+            focal_plane: None,
         }
     }
 
@@ -292,6 +300,13 @@ pub struct SequenceFiles {
     /// TIR with sensor noise as 16-bit counts (when written; `write_tir16`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub tir16: Option<String>,
+    /// The thermal camera's raw counts (when written; `focal_plane`). On a frame whose video the
+    /// shutter froze, the previous frame's counts.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tir_raw: Option<String>,
+    /// The shutter's flat field captured at this frame (raw counts), when the shutter closed.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tir_shutter: Option<String>,
     /// VIS target mask: 255 where the pixel sees the target, 0 elsewhere.
     pub vis_mask: String,
     /// TIR target mask.
@@ -324,6 +339,12 @@ pub struct SequenceFrame {
     pub target_pixels: [usize; 2],
     /// Mean node temperature of the target, K (weighted by face area).
     pub mean_temperature_k: f64,
+    /// The thermal focal plane's warming since its calibration, K (with `focal_plane`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub fpa_delta_k: Option<f64>,
+    /// The shutter froze the thermal video on this frame: `tir_raw` repeats the frame before.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub tir_frozen: bool,
     /// Files.
     pub files: SequenceFiles,
 }
@@ -370,6 +391,12 @@ pub struct SequenceManifest {
     pub tir_camera: Intrinsics,
     /// Frames in each phase: light, penumbra, eclipse.
     pub phase_frames: [usize; 3],
+    /// The thermal camera's factory NUC tables (`fusion_io::thermal`), with `focal_plane`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub nuc: Option<String>,
+    /// The thermal camera's factory bad-pixel map (8-bit PNG, 255 = bad), with `focal_plane`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub bad_pixels: Option<String>,
     /// The frames.
     pub frames: Vec<SequenceFrame>,
 }
@@ -419,6 +446,14 @@ pub fn render_sequence(cfg: &SequenceConfig, out_dir: &Path, progress: bool) -> 
     }
     if cfg.write_tir16 {
         dirs.push("tir16");
+    }
+    let focal_plane = cfg.focal_plane.map(|p| {
+        FocalPlane::new(p, cfg.tir_size as usize, cfg.tir_size as usize, cfg.tir.t_max - cfg.tir.t_min)
+    });
+    let shutters =
+        focal_plane.as_ref().map(|f| f.shutter_frames(cfg.frames, cfg.frame_rate_hz)).unwrap_or_default();
+    if focal_plane.is_some() {
+        dirs.extend(["tir_raw", "tir_shutter", "calibration"]);
     }
     for d in &dirs {
         let p = out_dir.join(d);
@@ -480,6 +515,29 @@ pub fn render_sequence(cfg: &SequenceConfig, out_dir: &Path, progress: bool) -> 
                 write_png16(&out_dir.join(&t), &tir_noisy.to_gray16())?;
                 files.tir16 = Some(t);
             }
+            let mut fpa_delta_k = None;
+            if let Some(fp) = &focal_plane {
+                let t = cfg.time(i);
+                let raw = fp.raw(
+                    &tir_noisy,
+                    t,
+                    &mut rng_for(cfg.seed, noise_stream(&format!("{name}_tir_raw"), i)),
+                );
+                let r = format!("tir_raw/{file}");
+                write_png16(&out_dir.join(&r), &gray16(fp.width, fp.height, raw)?)?;
+                files.tir_raw = Some(r);
+                if shutters.iter().any(|(s, _)| *s == i) {
+                    let flat = fp.shutter(
+                        cfg.tir.t_min,
+                        t,
+                        &mut rng_for(cfg.seed, noise_stream(&format!("{name}_tir_shutter"), i)),
+                    );
+                    let sh = format!("tir_shutter/{file}");
+                    write_png16(&out_dir.join(&sh), &gray16(fp.width, fp.height, flat)?)?;
+                    files.tir_shutter = Some(sh);
+                }
+                fpa_delta_k = Some(fp.fpa_delta_k(t));
+            }
             if cfg.write_clean {
                 let (v, t) = (format!("vis_clean/{file}"), format!("tir_clean/{file}"));
                 write_png8(&out_dir.join(&v), &vis.to_gray8())?;
@@ -519,6 +577,8 @@ pub fn render_sequence(cfg: &SequenceConfig, out_dir: &Path, progress: bool) -> 
                     sun_dir_target: sun_body.to_array(),
                     target_pixels,
                     mean_temperature_k: mean_t,
+                    fpa_delta_k,
+                    tir_frozen: shutters.iter().any(|(_, frozen)| frozen.contains(&i)),
                     files,
                 },
                 thumbs,
@@ -534,6 +594,29 @@ pub fn render_sequence(cfg: &SequenceConfig, out_dir: &Path, progress: bool) -> 
             columns.push(thumbs);
         }
         frames.push(f);
+    }
+    // The shutter froze the video: those frames repeat the counts of the frame before, in
+    // order (a run of frozen frames repeats the last live one).
+    for f in frames.iter().filter(|f| f.tir_frozen) {
+        if let (Some(prev), Some(this)) = (f.index.checked_sub(1), &f.files.tir_raw) {
+            let from = out_dir.join(format!("tir_raw/frame_{prev:03}.png"));
+            let bytes = std::fs::read(&from).with_context(|| format!("cannot read {}", from.display()))?;
+            fusion_io::write_bytes(&out_dir.join(this), &bytes)?;
+        }
+    }
+    let (mut nuc, mut bad_pixels) = (None, None);
+    if let Some(fp) = &focal_plane {
+        let tables = fusion_io::thermal::NucTables {
+            width: fp.width,
+            height: fp.height,
+            gain: fp.nuc_gain.clone(),
+            offset: fp.nuc_offset.clone(),
+        };
+        tables.write(&out_dir.join("calibration/tir.nuc"))?;
+        fusion_io::thermal::BadPixels::from_mask(fp.width, fp.height, &fp.bad_mask())
+            .write(&out_dir.join("calibration/tir_bad_pixels.png"))?;
+        (nuc, bad_pixels) =
+            (Some("calibration/tir.nuc".to_string()), Some("calibration/tir_bad_pixels.png".to_string()));
     }
     let mut phase_frames = [0usize; 3];
     for f in &frames {
@@ -551,6 +634,8 @@ pub fn render_sequence(cfg: &SequenceConfig, out_dir: &Path, progress: bool) -> 
         vis_camera: Intrinsics::of(cfg.vis_size),
         tir_camera: Intrinsics::of(cfg.tir_size),
         phase_frames,
+        nuc,
+        bad_pixels,
         frames,
     };
     write_json(&out_dir.join("manifest.json"), &manifest)?;
@@ -582,4 +667,9 @@ mod tests {
         // At a quarter of the diameter: 1 − (acos(0.5) − 0.5·√0.75)/π = 0.8045.
         assert!((disc_fraction_uncovered(0.25) - 0.804_498).abs() < 1e-5);
     }
+}
+
+/// A 16-bit grey image of `w × h` counts.
+fn gray16(w: usize, h: usize, data: Vec<u16>) -> Result<image::ImageBuffer<image::Luma<u16>, Vec<u16>>> {
+    image::ImageBuffer::from_raw(w as u32, h as u32, data).context("raw frame size")
 }

@@ -52,6 +52,12 @@ pub struct RenderArgs {
     /// Also write 16-bit TIR PNGs (`clean16/`, `noisy16/`; with --sequence: `tir16/`, noisy).
     #[arg(long)]
     pub tir16: bool,
+    /// With --sequence: also write the thermal camera's raw 14-bit counts (`tir_raw/`) through
+    /// a microbolometer model — fixed-pattern noise, column stripes, dead and hot pixels, drift,
+    /// shutter closures (`tir_shutter/`) — and its factory calibration (`calibration/tir.nuc`,
+    /// `calibration/tir_bad_pixels.png`, named in the manifest as `nuc` and `bad_pixels`).
+    #[arg(long, requires = "sequence")]
+    pub raw_tir: bool,
     /// Also write TIR sets after this many minutes in eclipse (lumped transient).
     #[arg(long, value_name = "MINUTES")]
     pub eclipse_minutes: Option<f64>,
@@ -99,6 +105,7 @@ impl From<RenderArgs> for RenderOptions {
             t_min: a.t_min,
             t_max: a.t_max,
             tir16: a.tir16,
+            raw_tir: a.raw_tir,
             eclipse_minutes: a.eclipse_minutes,
             no_specular: a.no_specular,
             flat: a.flat,

@@ -7,7 +7,8 @@
 //!   [`methods::VariantArg`], …), and the two engines every tool fuses through: the core
 //!   pipeline ([`methods::fuse_core`]) and the `f64` references ([`methods::fuse_reference`]).
 //! * [`CoreScratch`]: the core's work planes on the heap; [`strips`]: the 512 KiB strip scratch.
-//! * [`agc`]: the thermal gain control on 16-bit frames; [`color`]: colour kept through a grey
+//! * [`thermal`]: the thermal camera's front end (NUC, shutter, bad pixels, column filter) carried
+//!   from frame to frame; [`agc`]: the thermal gain control on 16-bit frames; [`color`]: colour kept through a grey
 //!   fusion (YCbCr, BT.601).
 //! * [`skip`]: scene skipping, the error it adds and the crop semantics' reference
 //!   ([`skip::fuse_crop`]); [`study`]: rendered datasets, timed
@@ -36,6 +37,7 @@ pub mod skip;
 pub mod stress;
 pub mod strips;
 pub mod study;
+pub mod thermal;
 
 /// A host-side scratch for the core: the `i32` work planes and the `u8` band plane, on the heap.
 pub struct CoreScratch {

@@ -91,6 +91,39 @@ pub enum Stream {
     /// target box the stream's own navigation filter predicts for the frame
     /// ([`predicted_box`]).
     Loop(FuseConfig),
+    /// The thermal camera alone from its raw counts (sequences rendered with a focal plane,
+    /// `fusion render --raw-tir`), through the front end up to `stage`, then the AGC.
+    Sensor(SensorStage),
+    /// A core fusion whose thermal frame comes from the raw counts through the whole front end.
+    SensorFused(FuseConfig),
+}
+
+/// How far a raw-sensor stream's thermal frame goes through the front end
+/// (`fusion_nostd::thermal`) before the AGC (linear, 1–99.9 %).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SensorStage {
+    /// No correction: the raw counts straight into the AGC.
+    Raw,
+    /// The factory's two-point tables only (no shutter, no bad pixels, no column filter).
+    Nuc,
+    /// The whole chain: the tables re-levelled at every shutter frame, bad pixels replaced,
+    /// the column filter ([`SENSOR_COLUMN_SMOOTHING`]).
+    Chain,
+}
+
+impl SensorStage {
+    const ALL: [SensorStage; 3] = [SensorStage::Raw, SensorStage::Nuc, SensorStage::Chain];
+}
+
+/// Temporal smoothing shift of the raw-sensor chain's column filter (the estimate follows
+/// over about 2⁴ frames).
+pub const SENSOR_COLUMN_SMOOTHING: u8 = 3;
+
+impl Stream {
+    /// Whether the stream needs the raw thermal counts.
+    pub fn needs_raw(&self) -> bool {
+        matches!(self, Stream::Sensor(_) | Stream::SensorFused(_))
+    }
 }
 
 /// Grid pixels added around the predicted box of a closed-loop stream, beyond its 3σ growth:
@@ -145,6 +178,19 @@ pub fn streams() -> Vec<(String, Stream)> {
             Stream::Loop(FuseConfig { rescale: RescalePolicy::TirUp, method, ..FuseConfig::default() }),
         ));
     }
+    // The raw thermal sensor (sequences with `tir_raw/`): each front-end stage alone, and the
+    // adaptive fusion on the corrected chain.
+    for (name, stage) in ["tir-raw", "tir-nuc", "tir-chain"].into_iter().zip(SensorStage::ALL) {
+        out.push((name.to_string(), Stream::Sensor(stage)));
+    }
+    out.push((
+        "adaptive-chain".to_string(),
+        Stream::SensorFused(FuseConfig {
+            rescale: RescalePolicy::TirUp,
+            method: Method::Adaptive(AdaptiveParams::default()),
+            ..FuseConfig::default()
+        }),
+    ));
     for skip in [SkipPolicy::None, SkipPolicy::All] {
         for method in Method::all().into_iter().filter(|m| m.variant().is_some()) {
             let name = if skip == SkipPolicy::None {
@@ -412,6 +458,9 @@ pub fn ring(mask: &[bool], w: usize, h: usize, inner: usize, outer: usize) -> Ve
 struct FrameData {
     vis: Gray<u8>,
     tir: Gray<u8>,
+    /// The raw thermal counts through each [`SensorStage`] and the AGC (sequences with a
+    /// focal plane, when a raw-sensor stream runs).
+    sensor: Option<[Gray<u8>; 3]>,
     /// The VIS target mask (CNR's target).
     vis_mask: Vec<bool>,
     /// The VIS mask grown by 3 px: where features count as on the target.
@@ -492,12 +541,61 @@ fn load_frame(dir: &Path, m: &SequenceManifest, i: usize, clean: bool) -> Result
         either_mask,
         vis,
         tir,
+        sensor: None,
         vis_mask,
         camera: Camera::study(m.vis_camera.size, f.pose()),
         phase: f.phase,
         time_s: f.time_s,
         range_m: f64::from(f.range_m),
     })
+}
+
+/// A raw-sensor stream's thermal frame.
+fn sensor_frame(fd: &FrameData, stage: SensorStage) -> Result<&Gray<u8>> {
+    let frames = fd.sensor.as_ref().context("the raw thermal frames were not prepared")?;
+    Ok(&frames[stage as usize])
+}
+
+/// The raw thermal counts of the first `n` frames through each [`SensorStage`] and the AGC, in
+/// order (the chain carries its state from frame to frame: the offsets re-levelled at each
+/// shutter frame, the column filter's smoothed estimate). The column filter's threshold comes
+/// from the first frame ([`fusion_engine::thermal::column_threshold`] after the tables and the
+/// bad pixels).
+pub fn sensor_frames(dir: &Path, m: &SequenceManifest, n: usize) -> Result<Vec<[Gray<u8>; 3]>> {
+    use fusion_engine::thermal::{COLUMN_RADIUS, ThermalChain, column_threshold};
+    use fusion_nostd::thermal::ColumnParams;
+    let read = |rel: &str| -> Result<Gray<u16>> {
+        let p = dir.join(rel);
+        match fusion_io::load_image(&p, ColorPolicy::Refuse)? {
+            fusion_io::GrayInput::U16(g) => Ok(g),
+            fusion_io::GrayInput::U8(_) => anyhow::bail!("{}: raw counts must be 16-bit", p.display()),
+        }
+    };
+    let (nuc, bad) = fusion_engine::thermal::load(
+        m.nuc.as_ref().map(|p| dir.join(p)).as_deref(),
+        m.bad_pixels.as_ref().map(|p| dir.join(p)).as_deref(),
+    )?;
+    let first = read(m.frames[0].files.tir_raw.as_deref().context("no raw frame")?)?;
+    let threshold = column_threshold(&ThermalChain::new(nuc.clone(), bad.clone(), None)?.correct(&first)?);
+    let column = ColumnParams { threshold, radius: COLUMN_RADIUS, smoothing: SENSOR_COLUMN_SMOOTHING };
+    let mut nuc_only = ThermalChain::new(nuc.clone(), None, None)?;
+    let mut chain = ThermalChain::new(nuc, bad, Some(column))?;
+    let agc = |counts: &Gray<u16>| {
+        fusion_engine::agc::map_counts(
+            &mut fusion_engine::agc::fresh(),
+            counts,
+            &fusion_nostd::AgcParams::linear(),
+        )
+    };
+    let mut out = Vec::with_capacity(n);
+    for f in m.frames.iter().take(n) {
+        let raw = read(f.files.tir_raw.as_deref().context("no raw frame")?)?;
+        if let Some(sh) = &f.files.tir_shutter {
+            chain.shutter(&read(sh)?)?;
+        }
+        out.push([agc(&raw)?, agc(&nuc_only.correct(&raw)?)?, agc(&chain.correct(&raw)?)?]);
+    }
+    Ok(out)
 }
 
 /// The stream's image of one frame (VIS grid) and, for skip streams, (coverage, window share);
@@ -512,13 +610,23 @@ fn stream_image(stream: &Stream, fd: &FrameData, window: Rect) -> Result<(Gray<u
             fusion_nostd::rescale(fd.tir.view()?, up.view_mut()?, Filter::Cubic)?;
             return Ok((up, 1.0, 1.0));
         }
-        Stream::Fused(p) => p,
+        Stream::Sensor(stage) => {
+            let tir = sensor_frame(fd, stage)?;
+            let mut up = Gray::<u8>::new(w, h);
+            fusion_nostd::rescale(tir.view()?, up.view_mut()?, Filter::Cubic)?;
+            return Ok((up, 1.0, 1.0));
+        }
+        Stream::Fused(p) | Stream::SensorFused(p) => p,
         Stream::Loop(p) => FuseConfig { skip: SkipPolicy::Window(window), ..p },
     };
+    let tir = match stream {
+        Stream::SensorFused(_) => sensor_frame(fd, SensorStage::Chain)?,
+        _ => &fd.tir,
+    };
     let mut out = Gray::<u8>::new(w, h);
-    let mut scratch = CoreScratch::new(p.scratch_pixels((w, h), (fd.tir.width, fd.tir.height))?);
+    let mut scratch = CoreScratch::new(p.scratch_pixels((w, h), (tir.width, tir.height))?);
     let report =
-        fusion_nostd::fuse(fd.vis.view()?, fd.tir.view()?, out.view_mut()?, &mut scratch.view_mut(), p)?;
+        fusion_nostd::fuse(fd.vis.view()?, tir.view()?, out.view_mut()?, &mut scratch.view_mut(), p)?;
     // The window whose pixels are the method's output: the ROI for a crop (the background value
     // is written outside it), the computed window otherwise.
     let win = if report.skip.taken.contains(Skips::CROP) { report.skip.roi } else { report.skip.computed };
@@ -864,10 +972,25 @@ pub fn run_sequence(
     check_cameras(dir, &m, n)?;
     let scene = Scene::tango()?.with_surface_detail(m.config.surface_seed);
     let name = m.config.name.as_str().to_string();
-    let all = selected(only)?;
+    let mut all = selected(only)?;
+    let has_raw = m.nuc.is_some() && m.frames.iter().take(n).all(|f| f.files.tir_raw.is_some());
+    if !has_raw {
+        if let (Some(_), Some((name, _))) = (only, all.iter().find(|(_, s)| s.needs_raw())) {
+            anyhow::bail!(
+                "{}: source '{name}' needs the thermal camera's raw counts; render the sequence with --raw-tir",
+                dir.display()
+            );
+        }
+        all.retain(|(_, s)| !s.needs_raw());
+    }
     // Depth per frame, shared by the sources.
-    let data: Vec<FrameData> =
+    let mut data: Vec<FrameData> =
         (0..n).into_par_iter().map(|i| load_frame(dir, &m, i, clean)).collect::<Result<_>>()?;
+    if has_raw && all.iter().any(|(_, s)| s.needs_raw()) {
+        for (fd, frames) in data.iter_mut().zip(sensor_frames(dir, &m, n)?) {
+            fd.sensor = Some(frames);
+        }
+    }
     let depths: Vec<Vec<Option<f32>>> =
         data.par_iter().map(|fd| render_host::truth::depth(&scene, &fd.camera)).collect();
     let run = SequenceRun {

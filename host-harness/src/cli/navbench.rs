@@ -41,6 +41,11 @@ pub struct NavbenchArgs {
     /// frames).
     #[arg(long)]
     pub clean: bool,
+    /// Render missing sequences with the thermal camera's raw counts too (`fusion render
+    /// --raw-tir`), which adds the raw-sensor sources `tir-raw`, `tir-nuc`, `tir-chain` and
+    /// `adaptive-chain` (run on every sequence that has them).
+    #[arg(long)]
+    pub raw_tir: bool,
 }
 
 /// The phases in table order, then the whole sequence.
@@ -113,6 +118,7 @@ pub fn run(args: &NavbenchArgs) -> Result<()> {
                     vis_size: args.vis_size,
                     tir_size: args.vis_size / 2,
                     seed,
+                    focal_plane: args.raw_tir.then(render_host::focal_plane::FocalPlaneParams::default),
                     ..SequenceConfig::new(name)
                 };
                 note!(

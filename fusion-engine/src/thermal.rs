@@ -40,6 +40,25 @@ impl ThermalChain {
         Ok(ThermalChain { nuc, bad, column, filter: Box::new(ColumnFilter::new()) })
     }
 
+    /// The NUC tables (as re-levelled by the shutter frames so far).
+    pub fn nuc(&self) -> Option<&NucTables> {
+        self.nuc.as_ref()
+    }
+
+    /// The bad-pixel map.
+    pub fn bad(&self) -> Option<&BadPixels> {
+        self.bad.as_ref()
+    }
+
+    /// Sets the column filter's threshold (counts; no column filter: nothing to do).
+    pub fn set_column_threshold(&mut self, threshold: u16) -> Result<()> {
+        if let Some(p) = self.column.as_mut() {
+            p.threshold = threshold;
+            p.validate().map_err(|e| anyhow::anyhow!("column filter: {e}"))?;
+        }
+        Ok(())
+    }
+
     /// Whether any stage is present.
     pub fn is_active(&self) -> bool {
         self.nuc.is_some() || self.bad.is_some() || self.column.is_some()
@@ -58,6 +77,15 @@ impl ThermalChain {
     /// One frame of raw counts through the chain (the column filter's estimate smoothed with
     /// the frames before when its parameters ask for it).
     pub fn correct(&mut self, raw: &Gray<u16>) -> Result<Gray<u16>> {
+        let size = (raw.width, raw.height);
+        for (what, got) in [
+            ("NUC tables are", self.nuc.as_ref().map(|t| (t.width, t.height))),
+            ("bad-pixel map is", self.bad.as_ref().map(|b| (b.width, b.height))),
+        ] {
+            if let Some(got) = got.filter(|&g| g != size) {
+                anyhow::bail!("the {what} {}x{}, the thermal frame {}x{}", got.0, got.1, size.0, size.1);
+            }
+        }
         let stages = Correction {
             nuc: self.nuc.as_ref().map(|t| t.view()).transpose()?,
             bad: self.bad.as_ref().map(|b| b.view()).transpose()?,
@@ -84,13 +112,19 @@ pub fn column_threshold(frame: &Gray<u16>) -> u16 {
     }
     let mid = d.len() / 2;
     let (_, m, _) = d.select_nth_unstable(mid);
-    (3.0 * 1.4826 * f64::from(*m)).round().clamp(1.0, f64::from(fusion_nostd::thermal::column::COLUMN_MAX_THRESHOLD))
-        as u16
+    (3.0 * 1.4826 * f64::from(*m))
+        .round()
+        .clamp(1.0, f64::from(fusion_nostd::thermal::column::COLUMN_MAX_THRESHOLD)) as u16
 }
 
 /// Reads the NUC tables and the bad-pixel map named on a command line (either may be absent).
-pub fn load(nuc: Option<&std::path::Path>, bad: Option<&std::path::Path>) -> Result<(Option<NucTables>, Option<BadPixels>)> {
+pub fn load(
+    nuc: Option<&std::path::Path>,
+    bad: Option<&std::path::Path>,
+) -> Result<(Option<NucTables>, Option<BadPixels>)> {
     let t = nuc.map(|p| NucTables::read(p).with_context(|| format!("--nuc {}", p.display()))).transpose()?;
-    let b = bad.map(|p| BadPixels::read(p).with_context(|| format!("--bad-pixels {}", p.display()))).transpose()?;
+    let b = bad
+        .map(|p| BadPixels::read(p).with_context(|| format!("--bad-pixels {}", p.display())))
+        .transpose()?;
     Ok((t, b))
 }

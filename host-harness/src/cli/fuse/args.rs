@@ -99,6 +99,24 @@ pub struct FuseArgs {
     /// held in memory (one byte per pixel) before the pairs are fused.
     #[arg(long, value_name = "K")]
     pub agc_smoothing: Option<u8>,
+    /// The thermal camera's NUC tables (`fusion_io::thermal`: `VISTNUC1` header, Q2.14 gains,
+    /// offsets in counts): raw 14/16-bit counts are corrected in the core
+    /// (`fusion_nostd::thermal`) before the AGC.
+    #[arg(long, value_name = "TABLES")]
+    pub nuc: Option<PathBuf>,
+    /// The thermal camera's bad-pixel map (8-bit image of the array's size, non-zero = bad):
+    /// each bad pixel takes the median of its valid 8-neighbours, before the AGC.
+    #[arg(long, value_name = "MAP")]
+    pub bad_pixels: Option<PathBuf>,
+    /// A shutter frame (raw counts of a flat field): re-levels the --nuc offsets before the
+    /// thermal frames are corrected.
+    #[arg(long, value_name = "FRAME", requires = "nuc")]
+    pub shutter: Option<PathBuf>,
+    /// Remove column stripes from the raw thermal counts (after --nuc and --bad-pixels, before
+    /// the AGC): the threshold of the differences that count, in counts, or `auto` (three
+    /// robust standard deviations of neighbouring pixels' differences in the frame).
+    #[arg(long, value_name = "COUNTS|auto")]
+    pub column_filter: Option<ColumnArg>,
     /// A colour visible image: keep its colour (fuse the luminance, restore the chroma; RGB
     /// out) or fuse its grey [default: keep].
     #[arg(long, value_enum)]
@@ -118,6 +136,33 @@ pub struct FuseArgs {
     /// Fused output (.png, .tif/.tiff, or .pgm for grey; RGB when the visible image is colour and --color
     /// keep), or a folder for the pairs of two folders.
     pub output: PathBuf,
+}
+
+/// `--column-filter` value: a threshold in counts, or `auto`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ColumnArg {
+    /// From each frame: [`fusion_engine::thermal::column_threshold`].
+    Auto,
+    /// This many counts (1..=32 767).
+    Counts(u16),
+}
+
+impl std::str::FromStr for ColumnArg {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        if s == "auto" {
+            return Ok(ColumnArg::Auto);
+        }
+        match s.parse::<u16>() {
+            Ok(t) if (1..=fusion_nostd::thermal::column::COLUMN_MAX_THRESHOLD).contains(&t) => {
+                Ok(ColumnArg::Counts(t))
+            }
+            _ => Err(format!(
+                "'{s}' is neither 'auto' nor a threshold of 1 to {} counts",
+                fusion_nostd::thermal::column::COLUMN_MAX_THRESHOLD
+            )),
+        }
+    }
 }
 
 /// `--strips` value: a strip height cap in grid rows, or `max`.

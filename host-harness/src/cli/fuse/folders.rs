@@ -6,7 +6,7 @@
 //! output is written atomically; the folder is created when missing.
 
 use super::args::FuseArgs;
-use super::pair::{agc_map, fuse_pair_quietly};
+use super::pair::{agc_map, fuse_pair_quietly, thermal_chain};
 use anyhow::{Context, Result, bail};
 use fusion_io::folders::{pair_by_stem, run_all, split_results};
 use fusion_io::{Gray, OutFormat, Picture};
@@ -15,25 +15,27 @@ use fusion_io::{Gray, OutFormat, Picture};
 /// why that failed.
 type PairFiles<'a> = (&'a [std::path::PathBuf], Option<Result<Gray<u8>, String>>);
 
-/// The thermal frames through the AGC in natural name order (frame_99 before frame_100), one
-/// state carried from frame to frame (`--agc-smoothing`): the one sequential step of a folder
-/// run. A frame that is not 16-bit gets `None` (its pair reads it as it is); one that cannot be
-/// read or mapped gets the reason, and its pair fails with it.
-fn smoothed_thermal(
+/// The thermal frames through the front end (`--nuc`, `--bad-pixels`, `--column-filter`) and
+/// the AGC in natural name order (frame_99 before frame_100), one state of each carried from
+/// frame to frame (`--agc-smoothing`): the one sequential step of a folder run. A frame that is
+/// not 16-bit gets `None` (its pair reads it as it is, and refuses it when a front-end stage was
+/// asked for); one that cannot be read or mapped gets the reason, and its pair fails with it.
+fn sequential_thermal(
     args: &FuseArgs,
     pairs: &[(String, Vec<std::path::PathBuf>)],
-) -> Vec<Option<Result<Gray<u8>, String>>> {
+) -> Result<Vec<Option<Result<Gray<u8>, String>>>> {
     let mut agc = fusion_engine::agc::fresh();
-    pairs
+    let mut chain = thermal_chain(args)?;
+    Ok(pairs
         .iter()
         .map(|(_, files)| match fusion_io::load_picture(&files[1]) {
-            Ok(Picture::Gray16(counts)) => {
-                Some(agc_map(args, &mut agc, &counts, &files[1]).map_err(|e| format!("{e:#}")))
-            }
+            Ok(Picture::Gray16(counts)) => Some(
+                agc_map(args, &mut agc, chain.as_mut(), &counts, &files[1]).map_err(|e| format!("{e:#}")),
+            ),
             Ok(_) => None,
             Err(e) => Some(Err(format!("thermal image: {e:#}"))),
         })
-        .collect()
+        .collect())
 }
 
 /// Runs the folder form of `fusion fuse`.
@@ -50,9 +52,11 @@ pub fn run(args: &FuseArgs) -> Result<()> {
         .with_context(|| format!("cannot create {}", args.output.display()))?;
     let ext = args.format.unwrap_or(OutFormat::Png).extension();
     let jobs = args.jobs.unwrap_or(0);
-    let mapped = match args.agc_smoothing {
-        Some(k) if k > 0 => smoothed_thermal(args, &pairs),
-        _ => vec![None; pairs.len()],
+    let front_end = args.nuc.is_some() || args.bad_pixels.is_some() || args.column_filter.is_some();
+    let mapped = if args.agc_smoothing.is_some_and(|k| k > 0) || front_end {
+        sequential_thermal(args, &pairs)?
+    } else {
+        vec![None; pairs.len()]
     };
     let items: Vec<(String, PairFiles)> =
         pairs.iter().zip(mapped).map(|((stem, files), m)| (stem.clone(), (files.as_slice(), m))).collect();

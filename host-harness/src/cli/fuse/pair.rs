@@ -1,15 +1,17 @@
 //! One pair: load (thermal counts through the AGC), fuse on the chosen engine, write the
 //! outputs as one batch, and the report line (also each pair of a folder run).
 
-use super::args::{ColorArg, FuseArgs, StripRows};
+use super::args::{ColorArg, ColumnArg, FuseArgs, StripRows};
 use anyhow::{Context, Result, bail};
 use fusion_engine::methods::{
     AgcArg, EngineArg, Fused, RescaleArg, VariantArg, fuse_core, fuse_reference, method_for,
 };
+use fusion_engine::thermal::ThermalChain;
 use fusion_io::npy::encode_npy_f32;
 use fusion_io::{Batch, Channels, Gray, OutFormat, Picture, encode_channels};
 use fusion_nostd::methods::Guards;
 use fusion_nostd::pipeline::{FuseConfig, RescalePolicy, SkipPolicy, Skips, fusion_grid};
+use fusion_nostd::thermal::ColumnParams;
 use fusion_reference as reference;
 use fusion_reference::study_methods::{HostMethod, cast_u8, drif, fuse_host_u8};
 use fusion_reference::to_f64;
@@ -114,13 +116,68 @@ pub fn agc_params(args: &FuseArgs, pixels: usize) -> fusion_nostd::AgcParams {
     )
 }
 
-/// One thermal frame's counts through the core AGC, with `agc`'s state (smoothing).
+/// The thermal front end the options ask for (`--nuc`, `--bad-pixels`, `--shutter`,
+/// `--column-filter`), the shutter applied; `None` when no stage is asked for.
+pub fn thermal_chain(args: &FuseArgs) -> Result<Option<ThermalChain>> {
+    if args.nuc.is_none() && args.bad_pixels.is_none() && args.column_filter.is_none() {
+        return Ok(None);
+    }
+    let (nuc, bad) = fusion_engine::thermal::load(args.nuc.as_deref(), args.bad_pixels.as_deref())?;
+    // An automatic threshold is set per frame (`correct_counts`); 1 stands in until then.
+    let column = args.column_filter.map(|c| ColumnParams {
+        threshold: match c {
+            ColumnArg::Counts(t) => t,
+            ColumnArg::Auto => 1,
+        },
+        radius: fusion_engine::thermal::COLUMN_RADIUS,
+        smoothing: 0,
+    });
+    let mut chain = ThermalChain::new(nuc, bad, column)?;
+    if let Some(path) = &args.shutter {
+        let frame = match fusion_io::load_picture(path).context("shutter frame")? {
+            Picture::Gray16(g) => g,
+            _ => bail!("shutter frame: {} is not 14/16-bit raw counts", path.display()),
+        };
+        chain.shutter(&frame).with_context(|| format!("shutter frame {}", path.display()))?;
+    }
+    Ok(Some(chain))
+}
+
+/// Raw counts through the thermal front end (when asked for): a `--column-filter auto`
+/// threshold from the frame after the tables and the map.
+pub fn correct_counts(
+    args: &FuseArgs,
+    chain: &mut ThermalChain,
+    counts: &Gray<u16>,
+    path: &Path,
+) -> Result<Gray<u16>> {
+    let what = || format!("thermal image {}", path.display());
+    if args.column_filter == Some(ColumnArg::Auto) {
+        let mut first =
+            ThermalChain::new(chain.nuc().cloned(), chain.bad().cloned(), None).with_context(what)?;
+        let t = fusion_engine::thermal::column_threshold(&first.correct(counts).with_context(what)?);
+        chain.set_column_threshold(t).with_context(what)?;
+    }
+    chain.correct(counts).with_context(what)
+}
+
+/// One thermal frame's counts through the front end (`chain`) and the core AGC, with `agc`'s
+/// state (smoothing).
 pub fn agc_map(
     args: &FuseArgs,
     agc: &mut fusion_nostd::Agc,
+    chain: Option<&mut ThermalChain>,
     counts: &Gray<u16>,
     path: &Path,
 ) -> Result<Gray<u8>> {
+    let corrected;
+    let counts = match chain {
+        Some(c) => {
+            corrected = correct_counts(args, c, counts, path)?;
+            &corrected
+        }
+        None => counts,
+    };
     fusion_engine::agc::map_counts(agc, counts, &agc_params(args, counts.width * counts.height))
         .with_context(|| format!("thermal image {}: AGC", path.display()))
 }
@@ -144,6 +201,7 @@ pub(super) fn prepare(
     tir_mapped: Option<Gray<u8>>,
 ) -> Result<Prepared> {
     let vis_picture = fusion_io::load_picture(vis_path).context("visible image")?;
+    let already_mapped = tir_mapped.is_some();
     let tir_picture = match tir_mapped {
         Some(g) => Picture::Gray8(g),
         None => fusion_io::load_picture(tir_path).context("thermal image")?,
@@ -162,6 +220,15 @@ pub(super) fn prepare(
             ColorArg::Gray => (c.to_gray(), None),
         },
     };
+    if !already_mapped
+        && !matches!(tir_picture, Picture::Gray16(_))
+        && (args.nuc.is_some() || args.bad_pixels.is_some() || args.column_filter.is_some())
+    {
+        bail!(
+            "thermal image: {} is 8-bit; --nuc, --bad-pixels and --column-filter correct raw 14/16-bit counts",
+            tir_path.display()
+        );
+    }
     let tir = match tir_picture {
         Picture::Gray8(g) => {
             if (args.agc.is_some() || args.plateau.is_some()) && args.agc_smoothing.is_none() {
@@ -173,7 +240,10 @@ pub(super) fn prepare(
             g
         }
         Picture::Rgb8(c) => c.to_gray(),
-        Picture::Gray16(counts) => agc_map(args, &mut fusion_engine::agc::fresh(), &counts, tir_path)?,
+        Picture::Gray16(counts) => {
+            let mut chain = thermal_chain(args)?;
+            agc_map(args, &mut fusion_engine::agc::fresh(), chain.as_mut(), &counts, tir_path)?
+        }
     };
     Ok(Prepared { vis, chroma, tir })
 }

@@ -60,7 +60,7 @@ impl Check {
 }
 
 /// Checks every measured stage (and AGC run) against `budgets`.
-pub fn check(measured: &[Measured], agc: &[AgcMeasured], budgets: &Table) -> Check {
+pub fn check(measured: &[Measured], agc: &[TirMeasured], budgets: &Table) -> Check {
     let mut c = Check::default();
     let entries = measured
         .iter()
@@ -80,7 +80,7 @@ pub fn check(measured: &[Measured], agc: &[AgcMeasured], budgets: &Table) -> Che
 
 /// A budget table (TOML text) for these measurements: measured + 2 %, rounded up to 0.1
 /// instr/px; `goals` lines are copied from `old`.
-pub fn budget_table_text(measured: &[Measured], agc: &[AgcMeasured], old: &Table) -> String {
+pub fn budget_table_text(measured: &[Measured], agc: &[TirMeasured], old: &Table) -> String {
     let mut s = String::from(
         "# Instruction budgets of the fusion core on the emulated flight targets, in instructions per\n\
          # output pixel of the fusion grid (exact counts / W·H), checked by `fusion budget`.\n\
@@ -96,16 +96,22 @@ pub fn budget_table_text(measured: &[Measured], agc: &[AgcMeasured], old: &Table
     }
     let mut header = String::new();
     for a in agc {
-        let table = format!("{}.{}.agc", a.target, a.size.0);
+        let table = format!("{}.{}.{}", a.target, a.size.0, a.stage.table());
         if table != header {
+            let what = match a.stage {
+                crate::TirStage::Agc(_) => "The thermal AGC (fusion_nostd::agc)",
+                crate::TirStage::Thermal(_) => {
+                    "The thermal front end's stages (fusion_nostd::thermal, then the linear AGC)"
+                }
+            };
             let _ = writeln!(
                 s,
-                "\n# The thermal AGC (fusion_nostd::agc) on a {}x{} 14-bit TIR frame, per TIR pixel.\n[{table}]",
+                "\n# {what} on a {}x{} 14-bit TIR frame, per TIR pixel.\n[{table}]",
                 a.size.0, a.size.1
             );
             header = table;
         }
-        let _ = writeln!(s, "{} = {}", a.kind.name(), table::budget_for(a.per_px(), 0.02, 0.1));
+        let _ = writeln!(s, "{} = {}", a.stage.name(), table::budget_for(a.per_px(), 0.02, 0.1));
     }
     let goals: Vec<_> = old.iter().filter(|(k, _)| k.starts_with("goal.")).collect();
     if !goals.is_empty() {

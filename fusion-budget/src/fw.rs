@@ -227,6 +227,8 @@ pub struct RunSpec {
     pub strips: bool,
     /// An AGC run instead of a fusion.
     pub agc: Option<AgcKind>,
+    /// A thermal front-end run instead of a fusion (`fw/src/job.rs`, method 5).
+    pub thermal: bool,
 }
 
 impl RunSpec {
@@ -241,7 +243,13 @@ impl RunSpec {
             fault: false,
             strips: false,
             agc: None,
+            thermal: false,
         }
+    }
+
+    /// A thermal front-end run on the job's raw counts and tables ([`Job::thermal`]).
+    pub fn thermal() -> Self {
+        RunSpec { thermal: true, ..RunSpec::plain(MethodArg::Tsifsd, VariantArg::Flight, RescaleArg::None) }
     }
 
     /// An AGC run on the job's 16-bit TIR frame.
@@ -267,6 +275,9 @@ impl RunSpec {
     pub fn encode(&self) -> [u8; 4] {
         if let Some(kind) = self.agc {
             return [4, u8::from(kind == AgcKind::Linear), 2, u8::from(self.fault) << 1];
+        }
+        if self.thermal {
+            return [5, 1, 2, u8::from(self.fault) << 1];
         }
         let method = match self.method {
             MethodArg::Adf => 0,
@@ -307,6 +318,13 @@ impl RunSpec {
             };
             return Ok(RunSpec { fault: flags & 2 != 0, ..RunSpec::agc(kind) });
         }
+        if method == 5 {
+            ensure!(
+                variant == 1 && policy == 2 && flags & !2 == 0,
+                "a thermal front-end run takes variant 1, policy 2 and no flag but the fault bit"
+            );
+            return Ok(RunSpec { fault: flags & 2 != 0, ..RunSpec::thermal() });
+        }
         let method = match method {
             0 => MethodArg::Adf,
             1 => MethodArg::Tsifsd,
@@ -335,7 +353,7 @@ impl RunSpec {
         let (stages, fault, strips) = (flags & 1 != 0, flags & 2 != 0, flags & 0x10 != 0);
         ensure!(!(stages && skip != SkipArg::None), "a staged run cannot skip");
         ensure!(!(strips && (stages || skip != SkipArg::None)), "a strip run cannot be staged or skip");
-        Ok(RunSpec { method, variant, policy, skip, stages, fault, strips, agc: None })
+        Ok(RunSpec { method, variant, policy, skip, stages, fault, strips, agc: None, thermal: false })
     }
 }
 
@@ -361,8 +379,24 @@ pub struct Job {
     pub tir: Gray<u8>,
     /// Runs, in order (at most 32).
     pub runs: Vec<RunSpec>,
-    /// 16-bit TIR counts of the AGC runs (the TIR size), written as `tir16.gray`.
+    /// 16-bit TIR counts of the AGC and thermal runs (the TIR size), written as `tir16.gray`.
     pub tir16: Option<Gray<u16>>,
+    /// The thermal front-end run's tables, map and column parameters, written as `nuc.bin`,
+    /// `bad.bin` and `column.bin`.
+    pub thermal: Option<ThermalInputs>,
+}
+
+/// What a thermal front-end run reads.
+#[derive(Debug, Clone)]
+pub struct ThermalInputs {
+    /// Raw counts of the TIR size, written as `raw.gray`.
+    pub raw: Gray<u16>,
+    /// NUC tables of the TIR size.
+    pub nuc: fusion_io::thermal::NucTables,
+    /// Bad-pixel map of the TIR size.
+    pub bad: fusion_io::thermal::BadPixels,
+    /// Column filter parameters.
+    pub column: fusion_nostd::thermal::ColumnParams,
 }
 
 impl Job {
@@ -374,6 +408,15 @@ impl Job {
             self.runs.iter().all(|r| r.agc.is_none())
                 || self.tir16.as_ref().is_some_and(|t| (t.width, t.height) == tir_size),
             "AGC runs need 16-bit TIR counts of the TIR size"
+        );
+        ensure!(
+            self.runs.iter().all(|r| !r.thermal)
+                || self.thermal.as_ref().is_some_and(|t| {
+                    (t.raw.width, t.raw.height) == tir_size
+                        && (t.nuc.width, t.nuc.height) == tir_size
+                        && (t.bad.width, t.bad.height) == tir_size
+                }),
+            "thermal runs need raw counts, NUC tables and a bad-pixel map of the TIR size"
         );
         let mut b = b"FWJ1".to_vec();
         for v in [self.vis.width, self.vis.height, self.tir.width, self.tir.height, self.runs.len()] {
@@ -585,6 +628,19 @@ fn emulate(
         let bytes: Vec<u8> = t.data.iter().flat_map(|v| v.to_le_bytes()).collect();
         files.add_bytes(&dir.join("tir16.gray"), &bytes)?;
     }
+    if let Some(t) = &job.thermal {
+        let bytes: Vec<u8> = t.raw.data.iter().flat_map(|v| v.to_le_bytes()).collect();
+        files.add_bytes(&dir.join("raw.gray"), &bytes)?;
+        // The table file without its 16-byte header: gains, then offsets.
+        files.add_bytes(&dir.join("nuc.bin"), t.nuc.to_bytes().get(16..).unwrap_or(&[]))?;
+        files.add_bytes(&dir.join("bad.bin"), &t.bad.bits)?;
+        let c = &t.column;
+        let cfg: Vec<u8> = [u32::from(c.threshold), u32::from(c.radius), u32::from(c.smoothing)]
+            .iter()
+            .flat_map(|v| v.to_le_bytes())
+            .collect();
+        files.add_bytes(&dir.join("column.bin"), &cfg)?;
+    }
     files.commit()?;
     let (qemu, machine) = target.qemu();
     let mut cmd = Command::new(qemu);
@@ -670,7 +726,8 @@ pub fn check_fault_exit(
 ) -> Result<()> {
     let spec =
         RunSpec { fault: true, ..RunSpec::plain(MethodArg::Tsifsd, VariantArg::Flight, RescaleArg::None) };
-    let job = Job { vis: Gray::new(8, 8), tir: Gray::new(8, 8), runs: vec![spec], tir16: None };
+    let job =
+        Job { vis: Gray::new(8, 8), tir: Gray::new(8, 8), runs: vec![spec], tir16: None, thermal: None };
     let done = emulate(target, image, plugin, &job, dir, timeout)?;
     ensure!(
         !done.status.success(),
@@ -755,8 +812,10 @@ mod tests {
                 fault: true,
                 strips: false,
                 agc: None,
+                thermal: false,
             }],
             tir16: None,
+            thermal: None,
         };
         let b = job.encode()?;
         assert_eq!(&b[..4], b"FWJ1");
@@ -781,6 +840,32 @@ mod tests {
         assert!(agc.encode().is_err(), "no counts");
         let agc = Job { tir16: Some(Gray::new(3, 2)), ..agc };
         assert_eq!(&agc.encode()?[24..], &[4, 1, 2, 0]);
+        // The thermal front end: method 5, variant 1, policy 2; its inputs of the TIR size.
+        let spec = RunSpec::thermal();
+        assert_eq!(spec.encode(), [5, 1, 2, 0]);
+        assert_eq!(RunSpec::decode(spec.encode())?, spec);
+        let fault = RunSpec { fault: true, ..spec };
+        assert_eq!(RunSpec::decode(fault.encode())?, fault);
+        for bad in [[5, 0, 2, 0], [5, 1, 0, 0], [5, 1, 2, 1], [6, 1, 2, 0]] {
+            assert!(RunSpec::decode(bad).is_err(), "{bad:?}");
+        }
+        let thermal = Job { runs: vec![spec], ..job.clone() };
+        assert!(thermal.encode().is_err(), "no inputs");
+        let (w, h) = (job.tir.width, job.tir.height);
+        let inputs = ThermalInputs {
+            raw: Gray::new(w, h),
+            nuc: fusion_io::thermal::NucTables {
+                width: w,
+                height: h,
+                gain: vec![0; w * h],
+                offset: vec![0; w * h],
+            },
+            bad: fusion_io::thermal::BadPixels::from_mask(w, h, &vec![false; w * h]),
+            column: fusion_nostd::thermal::ColumnParams { threshold: 9, radius: 4, smoothing: 0 },
+        };
+        let wrong = ThermalInputs { raw: Gray::new(w + 1, h), ..inputs.clone() };
+        assert!(Job { thermal: Some(wrong), ..thermal.clone() }.encode().is_err(), "raw of another size");
+        assert_eq!(&Job { thermal: Some(inputs), ..thermal }.encode()?[24..], &[5, 1, 2, 0]);
         Ok(())
     }
 }

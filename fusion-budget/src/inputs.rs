@@ -83,3 +83,52 @@ pub fn counts_of(tir: &Gray<u8>) -> Gray<u16> {
         .collect();
     Gray { width: tir.width, height: tir.height, data }
 }
+
+/// The budget pair's TIR frame as the raw counts of the renderer's focal plane
+/// (`render_host::focal_plane`, default parameters, 20 s after calibration: drift, stripes,
+/// dead and hot pixels), with its factory tables and map and the column filter's parameters
+/// (threshold from the corrected frame, [`fusion_engine::thermal::column_threshold`]): the
+/// input of the thermal front-end run.
+pub fn raw_thermal(tir: &Gray<u8>) -> Result<fw::ThermalInputs> {
+    use render_host::focal_plane::{FocalPlane, FocalPlaneParams};
+    let fp = FocalPlane::new(FocalPlaneParams::default(), tir.width, tir.height, 250.0);
+    let v = render_host::Image {
+        width: tir.width as u32,
+        height: tir.height as u32,
+        data: tir.data.iter().map(|&t| f32::from(t) / 255.0).collect(),
+    };
+    let raw = Gray {
+        width: tir.width,
+        height: tir.height,
+        data: fp.raw(&v, 20.0, &mut render_host::noise::rng_for(7, 0)),
+    };
+    let nuc = fusion_io::thermal::NucTables {
+        width: tir.width,
+        height: tir.height,
+        gain: fp.nuc_gain.clone(),
+        offset: fp.nuc_offset.clone(),
+    };
+    let bad = fusion_io::thermal::BadPixels::from_mask(tir.width, tir.height, &fp.bad_mask());
+    let corrected = fusion_engine::thermal::ThermalChain::new(Some(nuc.clone()), Some(bad.clone()), None)?
+        .correct(&raw)?;
+    let column = fusion_nostd::thermal::ColumnParams {
+        threshold: fusion_engine::thermal::column_threshold(&corrected),
+        radius: fusion_engine::thermal::COLUMN_RADIUS,
+        smoothing: 0,
+    };
+    Ok(fw::ThermalInputs { raw, nuc, bad, column })
+}
+
+/// The host's result of a thermal front-end run: the chain in one call
+/// (`fusion_nostd::thermal::correct_frame`, the frame's own column estimate), then the linear
+/// AGC — what the image computes stage by stage.
+pub fn thermal_host(t: &fw::ThermalInputs) -> Result<Gray<u8>> {
+    let mut chain =
+        fusion_engine::thermal::ThermalChain::new(Some(t.nuc.clone()), Some(t.bad.clone()), Some(t.column))?;
+    let corrected = chain.correct(&t.raw)?;
+    fusion_engine::agc::map_counts(
+        &mut fusion_engine::agc::fresh(),
+        &corrected,
+        &fusion_nostd::AgcParams::linear(),
+    )
+}

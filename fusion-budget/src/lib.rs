@@ -94,32 +94,63 @@ pub struct Outcome {
     pub fault_exit: Vec<Target>,
     /// The strip runs, each beside its whole-frame run.
     pub strips: Vec<StripRun>,
-    /// The thermal AGC's `agc` regions.
-    pub agc: Vec<AgcMeasured>,
+    /// The thermal AGC's `agc` regions and the thermal front end's stages.
+    pub agc: Vec<TirMeasured>,
 }
 
-/// One AGC run's count.
+/// What a per-TIR-pixel count measures.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum TirStage {
+    /// The thermal AGC alone, this mapping.
+    Agc(fw::AgcKind),
+    /// One stage of the thermal front end's run (`nuc`, `bad_pixels`, `column`, `agc`).
+    Thermal(&'static str),
+}
+
+impl TirStage {
+    /// The thermal front end's regions, in order.
+    pub const THERMAL: [&'static str; 4] = ["nuc", "bad_pixels", "column", "agc"];
+
+    /// The budget table (`agc` or `thermal`).
+    pub fn table(self) -> &'static str {
+        match self {
+            TirStage::Agc(_) => "agc",
+            TirStage::Thermal(_) => "thermal",
+        }
+    }
+
+    /// The entry's name in its table.
+    pub fn name(self) -> &'static str {
+        match self {
+            TirStage::Agc(k) => k.name(),
+            TirStage::Thermal(s) => s,
+        }
+    }
+}
+
+/// One thermal-band region's count: an AGC run, or a stage of a thermal front-end run.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct AgcMeasured {
+pub struct TirMeasured {
     /// Target.
     pub target: Target,
-    /// Mapping.
-    pub kind: fw::AgcKind,
-    /// Instructions of the `agc` region (marker overhead included).
+    /// What was measured.
+    pub stage: TirStage,
+    /// Instructions of the region (marker overhead included).
     pub count: u64,
     /// TIR frame size.
     pub size: (usize, usize),
 }
 
-impl AgcMeasured {
+impl TirMeasured {
     /// Instructions per TIR pixel.
     pub fn per_px(&self) -> f64 {
         self.count as f64 / (self.size.0 * self.size.1) as f64
     }
 
-    /// Budget-table key: `<target>.<TIR side>.agc.<mapping>`.
+    /// Budget-table key: `<target>.<TIR side>.agc.<mapping>` or
+    /// `<target>.<TIR side>.thermal.<stage>`.
     pub fn key(&self) -> String {
-        format!("{}.{}.agc.{}", self.target, self.size.0, self.kind.name())
+        format!("{}.{}.{}.{}", self.target, self.size.0, self.stage.table(), self.stage.name())
     }
 }
 
@@ -145,6 +176,18 @@ pub struct StripRun {
 fn compare_with_host(job: &Job, report: &FwReport, diffs: &mut Vec<String>, what: &str) -> Result<usize> {
     let mut same = 0;
     for (spec, run) in job.runs.iter().zip(&report.runs) {
+        if spec.thermal {
+            let inputs = job.thermal.as_ref().context("a thermal run without its inputs")?;
+            let host = inputs::thermal_host(inputs)?;
+            let fw = run.image.as_ref().context("no image")?;
+            if host == *fw {
+                same += 1;
+            } else {
+                let differ = host.data.iter().zip(&fw.data).filter(|(a, b)| a != b).count();
+                diffs.push(format!("{what}: thermal front end: {differ} pixels differ"));
+            }
+            continue;
+        }
         if let Some(kind) = spec.agc {
             let counts = job.tir16.as_ref().context("an AGC run without counts")?;
             let host = agc_host(counts, kind)?;
@@ -215,17 +258,18 @@ fn exactness_jobs(opts: &Options, pair: &(Gray<u8>, Gray<u8>)) -> Result<Vec<(St
             tir: pair.1.clone(),
             runs: all(&[RescaleArg::TirUp, RescaleArg::VisDown]),
             tir16: None,
+            thermal: None,
         },
     )];
     let (vis, tir) = synthetic_pair(301, 233);
     jobs.push((
         format!("synthetic {}x{}/{}x{}", vis.width, vis.height, tir.width, tir.height),
-        Job { vis, tir, runs: all(&[RescaleArg::TirUp, RescaleArg::VisDown]), tir16: None },
+        Job { vis, tir, runs: all(&[RescaleArg::TirUp, RescaleArg::VisDown]), tir16: None, thermal: None },
     ));
     for (name, vis, tir) in fusion_io::vifb_pairs(&opts.vifb)? {
         jobs.push((
             format!("VIFB {name} {}x{}", vis.width, vis.height),
-            Job { vis, tir, runs: all(&[RescaleArg::None]), tir16: None },
+            Job { vis, tir, runs: all(&[RescaleArg::None]), tir16: None, thermal: None },
         ));
     }
     Ok(jobs)
@@ -315,11 +359,15 @@ pub fn run(opts: &Options) -> Result<Outcome> {
             // The thermal AGC on the pair's TIR frame as 14-bit counts (the TIR frame is 512² on
             // both grids: measured once, in the 512² job).
             let agc = fw::AgcKind::ALL.into_iter().filter(|_| grid == Grid::G512).map(RunSpec::agc);
+            // The thermal front end on the same TIR frame as raw counts of the renderer's focal
+            // plane (`inputs::raw_thermal`), in the 512² job (its tables need that image's RAM).
+            let thermal = (grid == Grid::G512).then(RunSpec::thermal);
             let job = Job {
                 vis: pair.0.clone(),
                 tir: pair.1.clone(),
-                runs: staged.chain(strips).chain(skipping).chain(classic).chain(agc).collect(),
+                runs: staged.chain(strips).chain(skipping).chain(classic).chain(agc).chain(thermal).collect(),
                 tir16: (grid == Grid::G512).then(|| counts_of(&pair.1)),
+                thermal: (grid == Grid::G512).then(|| inputs::raw_thermal(&pair.1)).transpose()?,
             };
             let reps = opts.repeat.max(1);
             progress(&format!("{target} {}²: budget runs 1–{reps} (in parallel, one per core)", grid.side()));
@@ -363,7 +411,7 @@ pub fn run(opts: &Options) -> Result<Outcome> {
                 format!(
                     "{target}: budget pair, {}² grid, flight (whole frame, strips, skipping), TSIFSD classic (whole frame and strips){}",
                     grid.side(),
-                    if job.tir16.is_some() { ", thermal AGC (plateau, linear)" } else { "" }
+                    if job.tir16.is_some() { ", thermal AGC (plateau, linear), thermal front end" } else { "" }
                 ),
                 job.runs.len(),
                 same,
@@ -372,9 +420,19 @@ pub fn run(opts: &Options) -> Result<Outcome> {
             out.overheads.push((target, grid, report.overhead));
             let mut classic_whole = None;
             for (spec, run) in job.runs.iter().zip(&report.runs) {
+                let size = (job.tir.width, job.tir.height);
                 if let Some(kind) = spec.agc {
                     let count = run.region("agc").context("no agc region in an AGC run")?;
-                    out.agc.push(AgcMeasured { target, kind, count, size: (job.tir.width, job.tir.height) });
+                    out.agc.push(TirMeasured { target, stage: TirStage::Agc(kind), count, size });
+                    continue;
+                }
+                if spec.thermal {
+                    for stage in TirStage::THERMAL {
+                        let count = run
+                            .region(stage)
+                            .with_context(|| format!("no {stage} region in a thermal run"))?;
+                        out.agc.push(TirMeasured { target, stage: TirStage::Thermal(stage), count, size });
+                    }
                     continue;
                 }
                 if spec.variant == VariantArg::Classic {
@@ -536,9 +594,9 @@ mod tests {
     #[test]
     fn written_table_reads_back_and_passes() -> Result<()> {
         let m = [measured(123)];
-        let agc = [AgcMeasured {
+        let agc = [TirMeasured {
             target: Target::Arm,
-            kind: fw::AgcKind::Linear,
+            stage: TirStage::Agc(fw::AgcKind::Linear),
             count: 10 * 512 * 512,
             size: (512, 512),
         }];
@@ -548,7 +606,7 @@ mod tests {
         assert!(check(&m, &agc, &t).passed());
         assert_eq!(t.get("arm.512.tsifsd.pipeline"), Some(125.5));
         assert_eq!(t.get("arm.512.agc.linear"), Some(10.2));
-        let over = [AgcMeasured { count: 11 * 512 * 512, ..agc[0] }];
+        let over = [TirMeasured { count: 11 * 512 * 512, ..agc[0] }];
         assert_eq!(check(&m, &over, &t).over[0].0, "arm.512.agc.linear");
         assert_eq!(t.get("goal.arm.1024.tsifsd"), Some(120.0));
         assert_eq!(t.get("goal.arm.1024.adf"), Some(500.0));

@@ -47,8 +47,8 @@ pub fn report(out: &Outcome, budgets: &Table, chk: &Check) -> String {
     }
     if !out.agc.is_empty() {
         s.push_str(
-            "\n### Thermal AGC (`fusion_nostd::agc_frame`, the budget pair's TIR as 14-bit counts)\n\n\
-             | target | mapping | TIR | instructions | instr/px | budget | time at the target's clock (CPI range) | |\n\
+            "\n### Thermal band: the AGC alone (`fusion_nostd::agc_frame`) and the front end's stages (`fusion_nostd::thermal`, then the linear AGC), on the budget pair's TIR as 14-bit counts\n\n\
+             | target | stage | TIR | instructions | instr/px | budget | time at the target's clock (CPI range) | |\n\
              |---|---|---|---:|---:|---:|---|---|\n",
         );
         for a in &out.agc {
@@ -63,9 +63,10 @@ pub fn report(out: &Outcome, budgets: &Table, chk: &Check) -> String {
             let ms = |cpi: f64| format!("{:.2}", a.count as f64 * cpi / clock * 1e3);
             let _ = writeln!(
                 s,
-                "| {} | {} | {}x{} | {} | {:.2} | {} | {}–{} ms | {verdict} |",
+                "| {} | {} {} | {}x{} | {} | {:.2} | {} | {}–{} ms | {verdict} |",
                 a.target,
-                a.kind.name(),
+                a.stage.table(),
+                a.stage.name(),
                 a.size.0,
                 a.size.1,
                 a.count,

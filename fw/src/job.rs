@@ -6,7 +6,8 @@
 //!  4      VIS width, VIS height
 //! 12      TIR width, TIR height
 //! 20      number of runs n (1..=MAX_RUNS)
-//! 24      n × 4 bytes: method (0 ADF, 1 TSIFSD, 2 IFEVIP, 3 adaptive; 4 the thermal AGC),
+//! 24      n × 4 bytes: method (0 ADF, 1 TSIFSD, 2 IFEVIP, 3 adaptive; 4 the thermal AGC;
+//!         5 the thermal front end),
 //!         variant (0 classic, 1 flight; AGC: 0 plateau, 1 linear),
 //!         rescale policy (0 TIR up, 1 VIS down, 2 none), flags (bit 0: measure the stages;
 //!         bit 1: raise a fault instead, to test that a fault ends the emulation with status 1;
@@ -18,6 +19,12 @@
 //! with `fusion_nostd::agc_frame` (`AgcParams::plateau(pixels)` or `AgcParams::linear()`, a
 //! fresh state) in one `agc` region and writes that frame; its policy byte must be 2 and its
 //! flags 0 or the fault bit.
+//! A thermal front-end run (method 5, variant 1, policy 2, flags 0 or the fault bit) corrects
+//! `raw.gray` (raw counts, the TIR size, `u16` little-endian) with `nuc.bin` (the TIR size of `u16` Q2.14 gains, then of `i16`
+//! offsets), `bad.bin` (the one-bit map, `⌈width/8⌉` bytes a row) and `column.bin` (`u32`
+//! threshold, radius, smoothing), stage by stage in the regions `nuc`, `bad_pixels`, `column`
+//! (`fusion_nostd::thermal`, the frame's own estimate) and `agc` (`AgcParams::linear()`), and
+//! writes the 8-bit frame.
 //! Method parameters are the core's defaults for the variant, the scene analysis thresholds
 //! `SceneParams::default()` (the host builds the same [`FuseConfig`] for its comparison run).
 
@@ -89,8 +96,14 @@ impl Job {
                 2 => RescalePolicy::None,
                 _ => return Err("job.bin: bad rescale policy"),
             };
-            if method > 4 {
+            if method > 5 {
                 return Err("job.bin: bad method");
+            }
+            if method == 5 && (policy != RescalePolicy::None || flags & !2 != 0 || variant != Variant::Flight)
+            {
+                return Err(
+                    "job.bin: a thermal front-end run takes variant 1, policy 2 and no flag but the fault bit",
+                );
             }
             if method == 4 && (policy != RescalePolicy::None || flags & !2 != 0) {
                 return Err("job.bin: an AGC run takes policy 2 and no flag but the fault bit");
@@ -152,6 +165,11 @@ impl Run {
     /// An AGC run: `Some(true)` for the linear stretch, `Some(false)` for plateau equalisation.
     pub fn agc(&self) -> Option<bool> {
         (self.method == 4).then_some(self.variant == Variant::Flight)
+    }
+
+    /// A thermal front-end run.
+    pub fn thermal(&self) -> bool {
+        self.method == 5
     }
 
     /// Skip level as printed.

@@ -67,6 +67,25 @@ static mut OUT: [u8; sizes::OUT] = [0; sizes::OUT];
 static mut TIR16: [u16; sizes::TIR] = [0; sizes::TIR];
 /// The AGC state of an AGC run (112 KiB, `.bss`).
 static mut AGC: fusion_nostd::Agc = fusion_nostd::Agc::new();
+/// A thermal front-end run's tables, map and frames (the 512² image only: 2.1 MiB of `.bss`
+/// at 512², more than the 1024² image's RAM has beside its 2 MiB of counts).
+#[cfg(not(feature = "rescale-only"))]
+pub(crate) mod thermal_buffers {
+    /// Pixels of the largest thermal frame a front-end run takes.
+    #[cfg(feature = "grid512")]
+    pub const PX: usize = super::sizes::TIR;
+    #[cfg(not(feature = "grid512"))]
+    pub const PX: usize = 0;
+    /// NUC gains (Q2.14) then offsets (`i16` bits), as read from `nuc.bin`.
+    pub static mut NUC: [u16; 2 * PX] = [0; 2 * PX];
+    /// The one-bit map (`bad.bin`).
+    pub static mut BAD: [u8; PX / 8 + 2048] = [0; PX / 8 + 2048];
+    /// The corrected frame after each stage.
+    pub static mut STAGE_A: [u16; PX] = [0; PX];
+    pub static mut STAGE_B: [u16; PX] = [0; PX];
+    /// The column filter's state (44 KiB).
+    pub static mut COLUMN: fusion_nostd::thermal::ColumnFilter = fusion_nostd::thermal::ColumnFilter::new();
+}
 #[unsafe(link_section = ".bigram")]
 static mut SCRATCH: sizes::Scratch = sizes::Scratch::new();
 /// The strip pipeline's whole working set (512 KiB), in the processor's RAM (`.bss`), not in

@@ -145,6 +145,20 @@ pub fn run_job(m: &mut Meter) -> Result<(), FwError> {
     m.region("overhead", || core::hint::black_box(()));
 
     for (i, run) in job.runs().enumerate() {
+        if run.thermal() {
+            let out = out_buf.get_mut(..tir_px).ok_or(FwError::Job("output too large for the image"))?;
+            say!(m.con, "@fw run {} thermal chain none {}x{}", i, tw, th);
+            if run.fault {
+                crate::arch::undefined_instruction();
+            }
+            thermal_run(m, (tw, th), agc, out)?;
+            let sum = fnv1a(out);
+            let mut file_name = [0u8; 16];
+            let file = job::out_name(i, &mut file_name);
+            semihosting::write_file(file, out).map_err(|e| FwError::Io(e, "out<i>.gray"))?;
+            say!(m.con, "@fw result {} guards 0x00 rescaled 0 fnv1a {:08x} file {}", i, sum, file);
+            continue;
+        }
         if let Some(linear) = run.agc() {
             let out = out_buf.get_mut(..tir_px).ok_or(FwError::Job("output too large for the image"))?;
             let name = if linear { "linear" } else { "plateau" };
@@ -292,5 +306,91 @@ pub fn self_test(m: &mut Meter) -> Result<(), FwError> {
             fnv1a(out)
         );
     }
+    Ok(())
+}
+
+/// `u16` words viewed as their bytes (both targets are little-endian, the files' byte order).
+fn words_as_bytes(words: &mut [u16]) -> &mut [u8] {
+    // SAFETY: alignment 1 ≤ 2, the length doubled; `u8` has no invalid values.
+    unsafe { core::slice::from_raw_parts_mut(words.as_mut_ptr().cast::<u8>(), words.len() * 2) }
+}
+
+/// A thermal front-end run (`job.rs`): the raw counts of `raw.gray` (the TIR size) through the
+/// NUC tables, the bad-pixel map and the column filter, each stage in its own region, then the
+/// linear AGC into `out`.
+fn thermal_run(
+    m: &mut Meter,
+    (tw, th): (usize, usize),
+    agc: &mut fusion_nostd::Agc,
+    out: &mut [u8],
+) -> Result<(), FwError> {
+    use crate::thermal_buffers as tb;
+    use fusion_nostd::thermal::{
+        BadPixelMap, ColumnParams, Correction, NucTables, bad_map_bytes, column_filter_frame, correct_frame,
+        nuc_frame,
+    };
+    let px = tw * th;
+    if px > tb::PX {
+        return Err(FwError::Job("a thermal front-end run needs the 512x512 image (feature grid512)"));
+    }
+    // SAFETY: single-threaded; the only references to these statics.
+    let (nuc, bad, a, b, column) = unsafe {
+        (
+            &mut *core::ptr::addr_of_mut!(tb::NUC),
+            &mut *core::ptr::addr_of_mut!(tb::BAD),
+            &mut *core::ptr::addr_of_mut!(tb::STAGE_A),
+            &mut *core::ptr::addr_of_mut!(tb::STAGE_B),
+            &mut *core::ptr::addr_of_mut!(tb::COLUMN),
+        )
+    };
+    let nuc = nuc.get_mut(..2 * px).ok_or(FwError::Job("TIR too large"))?;
+    if semihosting::read_file("nuc.bin", words_as_bytes(nuc)).map_err(|e| FwError::Io(e, "nuc.bin"))?
+        != 4 * px
+    {
+        return Err(FwError::Job("nuc.bin has the wrong length"));
+    }
+    let bad = bad.get_mut(..bad_map_bytes(tw, th)).ok_or(FwError::Job("TIR too large"))?;
+    if semihosting::read_file("bad.bin", bad).map_err(|e| FwError::Io(e, "bad.bin"))? != bad.len() {
+        return Err(FwError::Job("bad.bin has the wrong length"));
+    }
+    let mut cfg = [0u8; 12];
+    if semihosting::read_file("column.bin", &mut cfg).map_err(|e| FwError::Io(e, "column.bin"))? != 12 {
+        return Err(FwError::Job("column.bin has the wrong length"));
+    }
+    let field =
+        |k: usize| cfg.get(4 * k..4 * k + 4).map_or(0, |w| u32::from_le_bytes([w[0], w[1], w[2], w[3]]));
+    let params = ColumnParams {
+        threshold: u16::try_from(field(0)).map_err(|_| FwError::Job("column.bin: threshold"))?,
+        radius: u16::try_from(field(1)).map_err(|_| FwError::Job("column.bin: radius"))?,
+        smoothing: u8::try_from(field(2)).map_err(|_| FwError::Job("column.bin: smoothing"))?,
+    };
+    let (gain, offset) = nuc.split_at(px);
+    // SAFETY: `i16` and `u16` have the same size and alignment; the offsets are their bits.
+    let offset = unsafe { core::slice::from_raw_parts(offset.as_ptr().cast::<i16>(), offset.len()) };
+    let tables = NucTables::new(tw, th, gain, offset)?;
+    let map = BadPixelMap::new(tw, th, bad)?;
+    let a = a.get_mut(..px).ok_or(FwError::Job("TIR too large"))?;
+    let b = b.get_mut(..px).ok_or(FwError::Job("TIR too large"))?;
+    // The raw counts in the second stage buffer: the tables read them into the first, the
+    // bad-pixel stage writes over them.
+    if semihosting::read_file("raw.gray", words_as_bytes(b)).map_err(|e| FwError::Io(e, "raw.gray"))?
+        != 2 * px
+    {
+        return Err(FwError::Job("raw.gray has the wrong length"));
+    }
+    let raw = FrameRef::new(&b[..], tw, th)?;
+    let fa = FrameMut::new(&mut *a, tw, th)?;
+    m.region("nuc", || nuc_frame(&tables, raw, fa))?;
+    let fb = FrameMut::new(&mut *b, tw, th)?;
+    let stages = Correction { nuc: None, bad: Some(map) };
+    let fa = FrameRef::new(&a[..], tw, th)?;
+    m.region("bad_pixels", || correct_frame(&stages, None, fa, fb))?;
+    column.reset();
+    let fb = FrameMut::new(&mut *b, tw, th)?;
+    m.region("column", || column_filter_frame(column, fb, &params))?;
+    agc.reset();
+    let fb = FrameRef::new(&b[..], tw, th)?;
+    let out_frame = FrameMut::new(out, tw, th)?;
+    m.region("agc", || agc_frame(agc, fb, out_frame, &fusion_nostd::AgcParams::linear()))?;
     Ok(())
 }

@@ -642,6 +642,11 @@ pub fn render_sequence(cfg: &SequenceConfig, out_dir: &Path, progress: bool) -> 
     Ok(manifest)
 }
 
+/// A 16-bit grey image of `w × h` counts.
+fn gray16(w: usize, h: usize, data: Vec<u16>) -> Result<image::ImageBuffer<image::Luma<u16>, Vec<u16>>> {
+    image::ImageBuffer::from_raw(w as u32, h as u32, data).context("raw frame size")
+}
+
 /// Reads a sequence's `manifest.json`.
 pub fn read_manifest(dir: &Path) -> Result<SequenceManifest> {
     let path = dir.join("manifest.json");
@@ -667,9 +672,4 @@ mod tests {
         // At a quarter of the diameter: 1 − (acos(0.5) − 0.5·√0.75)/π = 0.8045.
         assert!((disc_fraction_uncovered(0.25) - 0.804_498).abs() < 1e-5);
     }
-}
-
-/// A 16-bit grey image of `w × h` counts.
-fn gray16(w: usize, h: usize, data: Vec<u16>) -> Result<image::ImageBuffer<image::Luma<u16>, Vec<u16>>> {
-    image::ImageBuffer::from_raw(w as u32, h as u32, data).context("raw frame size")
 }

@@ -13,7 +13,10 @@ use fusion_io::{Gray, OutFormat, Picture};
 
 /// A pair's two files and its thermal frame already through the AGC (`--agc-smoothing`), or
 /// why that failed.
-type PairFiles<'a> = (&'a [std::path::PathBuf], Option<Result<Gray<u8>, String>>);
+type PairFiles<'a> = (&'a [std::path::PathBuf], Option<Mapped>);
+
+/// A thermal frame through the sequential front end and AGC, or why that failed.
+type Mapped = Result<Gray<u8>, String>;
 
 /// The thermal frames through the front end (`--nuc`, `--bad-pixels`, `--column-filter`) and
 /// the AGC in natural name order (frame_99 before frame_100), one state of each carried from
@@ -23,7 +26,7 @@ type PairFiles<'a> = (&'a [std::path::PathBuf], Option<Result<Gray<u8>, String>>
 fn sequential_thermal(
     args: &FuseArgs,
     pairs: &[(String, Vec<std::path::PathBuf>)],
-) -> Result<Vec<Option<Result<Gray<u8>, String>>>> {
+) -> Result<Vec<Option<Mapped>>> {
     let mut agc = fusion_engine::agc::fresh();
     let mut chain = thermal_chain(args)?;
     Ok(pairs

@@ -302,6 +302,33 @@ typedef struct FusionImageMut16 {
   size_t stride;
 } FusionImageMut16;
 
+// One camera's calibration (`fusion_nostd::thermal`): per pixel a Q2.14 gain and an offset in
+// counts (row-major, `width·height` each; both NULL: no correction), and the one-bit bad-pixel
+// map (`⌈width/8⌉` bytes a row, pixel x in bit x mod 8 of byte x/8, 1 = bad; NULL: none).
+typedef struct FusionThermalTables {
+  // Array width, px.
+  size_t width;
+  // Array height, px.
+  size_t height;
+  // Gains, Q2.14 (16384 = 1), or NULL.
+  const uint16_t *gain;
+  // Offsets, counts, or NULL (with `gain`).
+  const int16_t *offset;
+  // The bad-pixel map, or NULL.
+  const uint8_t *bad_pixels;
+} FusionThermalTables;
+
+// Column filter parameters (`fusion_nostd::thermal::ColumnParams`).
+typedef struct FusionColumnParams {
+  // Threshold of the horizontal differences that count, counts (1..=32767): a few times the
+  // temporal noise of a difference.
+  uint16_t threshold;
+  // Radius of the profile's low-pass, columns (≥ 1; 16 suits a 512-row array).
+  uint16_t radius;
+  // Temporal smoothing shift k (0: each frame's own estimate, ≤ 8).
+  uint8_t smoothing;
+} FusionColumnParams;
+
 #ifdef __cplusplus
 extern "C" {
 #endif // __cplusplus
@@ -440,6 +467,52 @@ const char *fusion_status_text(int status);
 
 // The library's version, `"MAJOR.MINOR.PATCH"`, NUL-terminated, static.
 const char *fusion_version(void);
+
+// Corrects one frame of raw counts: the NUC tables (if given), then the bad pixels (if given)
+// into `output` (the input's size, the tables' size). Nothing is written on an error.
+//
+// # Safety
+// `tables`' pointers are NULL or point to `width·height` readable elements (the map:
+// `⌈width/8⌉·height` bytes); the images' pointers are valid for their documented use; `error`
+// is NULL or writable.
+enum FusionStatus fusion_thermal_correct(const struct FusionThermalTables *tables,
+                                         const struct FusionImage16 *input,
+                                         const struct FusionImageMut16 *output,
+                                         struct FusionError *error);
+
+// Re-levels the offsets from a shutter frame (the raw counts of a flat field): the corrected
+// shutter frame becomes flat at its mean over the valid pixels. `tables` gives the gains, the
+// map (optional) and the size; `offset` (its `width·height` offsets, updated in place) must be
+// the table's own offsets or a copy. Nothing is written on an error.
+//
+// # Safety
+// As [`fusion_thermal_correct`]; `offset` points to `width·height` writable `int16_t`.
+enum FusionStatus fusion_thermal_shutter(const struct FusionThermalTables *tables,
+                                         int16_t *offset,
+                                         const struct FusionImage16 *shutter,
+                                         struct FusionError *error);
+
+// Bytes of one column filter state (about 44 KiB); one per camera (it carries the smoothed
+// estimate from frame to frame).
+size_t fusion_column_state_bytes(void);
+
+// Makes `state` a fresh column filter state (zero-fills it). `state` must be aligned to 8 bytes.
+//
+// # Safety
+// `state` is NULL or points to `bytes` writable bytes; `error` is NULL or writable.
+enum FusionStatus fusion_column_init(void *state, size_t bytes, struct FusionError *error);
+
+// The column filter on one corrected frame, in place, with the frame's own estimate (smoothed
+// with the state's previous one when `params.smoothing > 0`).
+//
+// # Safety
+// `state` was initialised by [`fusion_column_init`] and is used by one call at a time; `frame`
+// is valid for reading and writing; `error` is NULL or writable.
+enum FusionStatus fusion_column_frame(void *state,
+                                      size_t state_bytes,
+                                      const struct FusionColumnParams *params,
+                                      const struct FusionImageMut16 *frame,
+                                      struct FusionError *error);
 
 #ifdef __cplusplus
 }  // extern "C"

@@ -48,6 +48,7 @@ mod image;
 mod status;
 #[cfg(test)]
 mod tests;
+mod thermal;
 
 pub use agc::{
     FusionAgcParams, FusionAgcReport, fusion_agc_frame, fusion_agc_init, fusion_agc_linear,
@@ -63,6 +64,10 @@ pub use image::{
     fusion_rescale_u16,
 };
 pub use status::{FusionError, FusionStatus, fusion_status_text, fusion_version};
+pub use thermal::{
+    FusionColumnParams, FusionThermalTables, fusion_column_frame, fusion_column_init,
+    fusion_column_state_bytes, fusion_thermal_correct, fusion_thermal_shutter,
+};
 
 /// Guard bits of [`FusionReport::guards`] (`fusion_nostd::Guards`): ADF's detail covariance was
 /// zero.

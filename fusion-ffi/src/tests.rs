@@ -498,3 +498,120 @@ fn constants_and_texts_match_the_core() {
     let version = unsafe { core::ffi::CStr::from_ptr(fusion_version()) };
     assert_eq!(version.to_str().unwrap(), env!("CARGO_PKG_VERSION"));
 }
+
+/// The thermal front end: the core's bytes for the correction (tables and map), the shutter's
+/// offsets and the column filter over a sequence (smoothing in the caller's state), and the
+/// refusals with nothing written.
+#[test]
+fn thermal_front_end_follows_the_core() {
+    use fusion_nostd::thermal as t;
+    let (w, h) = (37usize, 21usize);
+    let n = w * h;
+    let gain: Vec<u16> = (0..n).map(|i| 16_000 + (i * 131 % 800) as u16).collect();
+    let offset: Vec<i16> = (0..n).map(|i| (i * 71 % 400) as i16 - 200).collect();
+    let mut bits = vec![0u8; t::bad_map_bytes(w, h)];
+    for i in [5usize, 40, 41, 300, 301, 302, 500] {
+        bits[(i / w) * w.div_ceil(8) + (i % w) / 8] |= 1 << (i % w % 8);
+    }
+    let tables = FusionThermalTables {
+        width: w,
+        height: h,
+        gain: gain.as_ptr(),
+        offset: offset.as_ptr(),
+        bad_pixels: bits.as_ptr(),
+    };
+    let core_stages = t::Correction {
+        nuc: Some(t::NucTables::new(w, h, &gain, &offset).unwrap()),
+        bad: Some(t::BadPixelMap::new(w, h, &bits).unwrap()),
+    };
+    let raw = |f: u32| -> Vec<u16> { frame(w, h, f).iter().map(|&v| 3000 + u16::from(v) * 20).collect() };
+    let img16 = |d: &Vec<u16>| FusionImage16 { data: d.as_ptr(), width: w, height: h, stride: w };
+    // Correction.
+    let r = raw(1);
+    let mut expected = vec![0u16; n];
+    t::correct_frame(
+        &core_stages,
+        None,
+        FrameRef::new(&r, w, h).unwrap(),
+        FrameMut::new(&mut expected, w, h).unwrap(),
+    )
+    .unwrap();
+    let mut got = vec![0u16; n];
+    let out = FusionImageMut16 { data: got.as_mut_ptr(), width: w, height: h, stride: w };
+    assert_eq!(
+        unsafe { fusion_thermal_correct(&tables, &img16(&r), &out, core::ptr::null_mut()) },
+        FusionStatus::Ok
+    );
+    assert_eq!(got, expected);
+    // The shutter.
+    let shutter: Vec<u16> = (0..n).map(|i| 5000 + (i * 17 % 90) as u16).collect();
+    let mut core_offset = offset.clone();
+    t::shutter_update(
+        &gain,
+        &mut core_offset,
+        core_stages.bad.as_ref(),
+        FrameRef::new(&shutter, w, h).unwrap(),
+    )
+    .unwrap();
+    let mut c_offset = offset.clone();
+    let st = unsafe {
+        fusion_thermal_shutter(&tables, c_offset.as_mut_ptr(), &img16(&shutter), core::ptr::null_mut())
+    };
+    assert_eq!(st, FusionStatus::Ok);
+    assert_eq!(c_offset, core_offset);
+    // The column filter over three frames with smoothing.
+    let params = FusionColumnParams { threshold: 300, radius: 4, smoothing: 1 };
+    let core_params = t::ColumnParams { threshold: 300, radius: 4, smoothing: 1 };
+    let mut state = vec![0xFFFF_FFFF_FFFF_FFFFu64; fusion_column_state_bytes().div_ceil(8)];
+    let (sp, sb): (*mut core::ffi::c_void, usize) = (state.as_mut_ptr().cast(), state.len() * 8);
+    assert_eq!(unsafe { fusion_column_init(sp, sb, core::ptr::null_mut()) }, FusionStatus::Ok);
+    let mut core_filter = std::boxed::Box::new(t::ColumnFilter::new());
+    for f in 0..3 {
+        let mut a = raw(f + 10);
+        let mut b = a.clone();
+        t::column_filter_frame(&mut core_filter, FrameMut::new(&mut a, w, h).unwrap(), &core_params).unwrap();
+        let fr = FusionImageMut16 { data: b.as_mut_ptr(), width: w, height: h, stride: w };
+        assert_eq!(
+            unsafe { fusion_column_frame(sp, sb, &params, &fr, core::ptr::null_mut()) },
+            FusionStatus::Ok
+        );
+        assert_eq!(a, b, "frame {f}");
+    }
+    // Refusals, nothing written: gain without offsets, a map that loses whole rows, an output
+    // over the input, bad column parameters, a short state.
+    let mut err = FusionError::of(FusionStatus::Ok);
+    let mut keep = vec![7u16; n];
+    let out = FusionImageMut16 { data: keep.as_mut_ptr(), width: w, height: h, stride: w };
+    let half = FusionThermalTables { offset: core::ptr::null(), ..tables };
+    assert_eq!(
+        unsafe { fusion_thermal_correct(&half, &img16(&r), &out, &mut err) },
+        FusionStatus::InvalidParameter
+    );
+    let dead = vec![0xFFu8; t::bad_map_bytes(w, h)];
+    let dead_tables = FusionThermalTables { bad_pixels: dead.as_ptr(), ..tables };
+    assert_eq!(
+        unsafe { fusion_thermal_correct(&dead_tables, &img16(&r), &out, &mut err) },
+        FusionStatus::InvalidParameter
+    );
+    assert!(keep.iter().all(|&v| v == 7));
+    let mut same = r.clone();
+    let over = FusionImageMut16 { data: same.as_mut_ptr(), width: w, height: h, stride: w };
+    let inp = FusionImage16 { data: same.as_ptr(), width: w, height: h, stride: w };
+    assert_eq!(unsafe { fusion_thermal_correct(&tables, &inp, &over, &mut err) }, FusionStatus::Overlap);
+    let bad_params = FusionColumnParams { threshold: 0, ..params };
+    let fr = FusionImageMut16 { data: keep.as_mut_ptr(), width: w, height: h, stride: w };
+    assert_eq!(
+        unsafe { fusion_column_frame(sp, sb, &bad_params, &fr, &mut err) },
+        FusionStatus::InvalidParameter
+    );
+    assert_eq!(unsafe { fusion_column_frame(sp, 16, &params, &fr, &mut err) }, FusionStatus::ScratchTooSmall);
+    assert!(keep.iter().all(|&v| v == 7));
+    let mut off = offset.clone();
+    let short = vec![0u16; w * (h - 1)];
+    let short_img = FusionImage16 { data: short.as_ptr(), width: w, height: h - 1, stride: w };
+    assert_eq!(
+        unsafe { fusion_thermal_shutter(&tables, off.as_mut_ptr(), &short_img, &mut err) },
+        FusionStatus::SizeMismatch
+    );
+    assert_eq!(off, offset);
+}

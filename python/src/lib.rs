@@ -480,6 +480,65 @@ fn render<'py>(
     py.import("json")?.call_method1("loads", (manifest,))
 }
 
+/// Corrects raw 14/16-bit thermal counts with the core's front end, as `fusion fuse --nuc
+/// --bad-pixels --shutter --column-filter` does before its AGC; returns uint16 (H, W).
+///
+/// raw: uint16 (H, W) counts. nuc: path of the camera's NUC tables (the `VISTNUC1` file the
+///   renderer writes as calibration/tir.nuc). bad_pixels: path of its bad-pixel map (8-bit
+///   image, non-zero = bad). shutter: uint16 (H, W) raw counts of a flat field, re-levelling the
+///   tables' offsets first (needs nuc). column_filter: a threshold in counts, or "auto".
+#[pyfunction]
+#[pyo3(signature = (raw, *, nuc=None, bad_pixels=None, shutter=None, column_filter=None))]
+fn correct_thermal<'py>(
+    py: Python<'py>,
+    raw: PyReadonlyArray2<'py, u16>,
+    nuc: Option<PathBuf>,
+    bad_pixels: Option<PathBuf>,
+    shutter: Option<PyReadonlyArray2<'py, u16>>,
+    column_filter: Option<&Bound<'py, PyAny>>,
+) -> PyResult<Py<PyAny>> {
+    let column = match column_filter {
+        None => None,
+        Some(c) => Some(match c.extract::<String>() {
+            Ok(s) if s == "auto" => None,
+            Ok(s) => {
+                return Err(PyValueError::new_err(format!("column_filter {s:?} is not \"auto\" or a count")));
+            }
+            Err(_) => Some(c.extract::<u16>().map_err(|_| {
+                PyValueError::new_err("column_filter: a threshold of 1 to 32767 counts, or \"auto\"")
+            })?),
+        }),
+    };
+    if shutter.is_some() && nuc.is_none() {
+        return Err(PyValueError::new_err("shutter= re-levels the NUC offsets: give nuc= too"));
+    }
+    let raw = Plane::of(raw.as_array()).to_gray().map_err(py_err)?;
+    let shutter = shutter.map(|s| Plane::of(s.as_array()).to_gray()).transpose().map_err(py_err)?;
+    let (h, w) = (raw.height, raw.width);
+    let out = py
+        .detach(|| -> anyhow::Result<Vec<u16>> {
+            use fusion_engine::thermal::{COLUMN_RADIUS, ThermalChain, column_threshold};
+            let (tables, map) = fusion_engine::thermal::load(nuc.as_deref(), bad_pixels.as_deref())?;
+            let mut chain = ThermalChain::new(tables, map, None)?;
+            if let Some(s) = &shutter {
+                chain.shutter(s)?;
+            }
+            let corrected = chain.correct(&raw)?;
+            // `column`: None without the filter; Some(None) for "auto".
+            let Some(fixed) = column else { return Ok(corrected.data) };
+            let threshold = fixed.unwrap_or_else(|| column_threshold(&corrected));
+            let params =
+                fusion_nostd::thermal::ColumnParams { threshold, radius: COLUMN_RADIUS, smoothing: 0 };
+            let mut with_column =
+                ThermalChain::new(chain.nuc().cloned(), chain.bad().cloned(), Some(params))?;
+            Ok(with_column.correct(&raw)?.data)
+        })
+        .map_err(py_err)?;
+    let arr = numpy::ndarray::Array2::from_shape_vec((h, w), out)
+        .map_err(|e| PyValueError::new_err(e.to_string()))?;
+    Ok(numpy::PyArray2::from_owned_array(py, arr).into_any().unbind())
+}
+
 /// VIS/TIR image fusion for spacecraft navigation: the flight core, the metrics and the
 /// renderer from Python.
 #[pymodule]
@@ -487,6 +546,7 @@ fn vistir(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add_function(wrap_pyfunction!(fuse, m)?)?;
     m.add_function(wrap_pyfunction!(rescale, m)?)?;
+    m.add_function(wrap_pyfunction!(correct_thermal, m)?)?;
     m.add_function(wrap_pyfunction!(eval_metrics, m)?)?;
     m.add_function(wrap_pyfunction!(load, m)?)?;
     m.add_function(wrap_pyfunction!(save, m)?)?;

@@ -287,3 +287,44 @@ def test_the_gil_is_released_while_the_core_runs():
         spinner.join()
     assert inside, "every call was too short to judge"
     assert max(inside) > 0, inside
+
+
+@pytest.fixture(scope="module")
+def raw_sequence(tmp_path_factory):
+    """A two-frame sequence with the thermal camera's raw counts and calibration."""
+    out = tmp_path_factory.mktemp("raw") / "seq"
+    fusion("render", "--sequence", "flyaround", "--frames", "2", "--vis-size", "128",
+           "--tir-sizes", "64", "--samples", "1", "--raw-tir", "--out", out)
+    return out
+
+
+@pytest.mark.parametrize("column", [None, 900, "auto"])
+def test_correct_thermal_gives_the_cli_bytes(tmp_path, raw_sequence, column):
+    seq = raw_sequence
+    nuc, bad = seq / "calibration" / "tir.nuc", seq / "calibration" / "tir_bad_pixels.png"
+    raw, shutter = vistir.load(seq / "tir_raw" / "frame_001.png"), vistir.load(seq / "tir_raw" / "frame_000.png")
+    assert raw.dtype == np.uint16
+    kwargs = {} if column is None else {"column_filter": column}
+    corrected = vistir.correct_thermal(raw, nuc=nuc, bad_pixels=bad, shutter=shutter, **kwargs)
+    assert corrected.dtype == np.uint16 and corrected.shape == raw.shape
+    assert not np.array_equal(corrected, raw)
+    options = ["--nuc", nuc, "--bad-pixels", bad, "--shutter", seq / "tir_raw" / "frame_000.png"]
+    if column is not None:
+        options += ["--column-filter", column]
+    vis = vistir.load(seq / "vis" / "frame_001.png")
+    got = vistir.fuse(vis, corrected, method="tsifsd")
+    want = cli_fuse(tmp_path, seq / "vis" / "frame_001.png", seq / "tir_raw" / "frame_001.png",
+                    "--method", "tsifsd", *options)
+    np.testing.assert_array_equal(got, want)
+
+
+def test_correct_thermal_refuses_bad_calibration(tmp_path, raw_sequence):
+    raw = vistir.load(raw_sequence / "tir_raw" / "frame_000.png")
+    with pytest.raises(ValueError, match="VISTNUC1"):
+        vistir.correct_thermal(raw, nuc=raw_sequence / "vis" / "frame_000.png")
+    with pytest.raises(ValueError, match="nuc="):
+        vistir.correct_thermal(raw, shutter=raw)
+    with pytest.raises(ValueError, match="column_filter"):
+        vistir.correct_thermal(raw, column_filter="often")
+    with pytest.raises(ValueError, match="64x64"):
+        vistir.correct_thermal(raw[:32], nuc=raw_sequence / "calibration" / "tir.nuc")

@@ -492,7 +492,7 @@ enum FusionStatus fusion_thermal_shutter(const struct FusionThermalTables *table
                                          const struct FusionImage16 *shutter,
                                          struct FusionError *error);
 
-// Bytes of one column filter state (about 44 KiB); one per camera (it carries the smoothed
+// Bytes of one column filter state (about 28 KiB); one per camera (it carries the smoothed
 // estimate from frame to frame).
 size_t fusion_column_state_bytes(void);
 

@@ -151,7 +151,7 @@ pub unsafe extern "C" fn fusion_thermal_shutter(
     })
 }
 
-/// Bytes of one column filter state (about 44 KiB); one per camera (it carries the smoothed
+/// Bytes of one column filter state (about 28 KiB); one per camera (it carries the smoothed
 /// estimate from frame to frame).
 #[unsafe(no_mangle)]
 pub extern "C" fn fusion_column_state_bytes() -> usize {

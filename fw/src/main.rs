@@ -83,7 +83,7 @@ pub(crate) mod thermal_buffers {
     /// The corrected frame after each stage.
     pub static mut STAGE_A: [u16; PX] = [0; PX];
     pub static mut STAGE_B: [u16; PX] = [0; PX];
-    /// The column filter's state (44 KiB).
+    /// The column filter's state (28 KiB).
     pub static mut COLUMN: fusion_nostd::thermal::ColumnFilter = fusion_nostd::thermal::ColumnFilter::new();
 }
 #[unsafe(link_section = ".bigram")]

@@ -407,3 +407,14 @@ fn bad_tables_and_maps_are_refused_with_nothing_written() {
     assert!(shutter_update(&short, &mut off, None, FrameRef::new(&raw, w, h).unwrap()).is_err());
     assert!(off.iter().all(|&o| o == 5));
 }
+
+#[test]
+fn the_documented_memory_holds() {
+    use fusion_nostd::thermal::nuc_table_bytes;
+    // Tables 4 bytes a pixel, the map a bit, the column state 28 KiB (module docs).
+    assert_eq!(nuc_table_bytes(512, 512), 1 << 20);
+    assert_eq!(nuc_table_bytes(640, 512), 1_310_720);
+    assert_eq!((bad_map_bytes(512, 512), bad_map_bytes(640, 512)), (32 * 1024, 40 * 1024));
+    let column = std::mem::size_of::<ColumnFilter>();
+    assert!(column > 28 * 1024 && column < 29 * 1024, "{column}");
+}

@@ -29,7 +29,7 @@
 //! `r ≈ σ_col·√(3H/2)/σ_d`; r = 16 suits a 512-row array whose column spread is near its
 //! temporal noise.
 //!
-//! State: [`COLUMN_MAX_WIDTH`] columns of sum, row count, profile and estimate, 44 KiB.
+//! State: [`COLUMN_MAX_WIDTH`] columns of sum, row count, profile and estimate: 28 KiB.
 
 use crate::error::Error;
 use crate::frame::FrameMut;

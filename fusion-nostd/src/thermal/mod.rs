@@ -25,7 +25,7 @@
 //!
 //! Memory, besides the frames: the tables, 4 bytes a pixel ([`nuc_table_bytes`]: 1 MiB at
 //! 512², 1.25 MiB at 640 × 512, read row by row, so they can sit in slow memory), the map,
-//! one bit a pixel ([`bad_map_bytes`]: 32 KiB and 40 KiB), and a [`ColumnFilter`] (40 KiB).
+//! one bit a pixel ([`bad_map_bytes`]: 32 KiB and 40 KiB), and a [`ColumnFilter`] (28 KiB).
 
 pub mod bad_pixels;
 pub mod column;

@@ -14,6 +14,9 @@
 //!   ([`fuse_strips`]), bit-identical to the whole-frame run.
 //! * [`scene`] — scene analysis (background, noise, target box, illumination) that lets the
 //!   pipeline skip what the scene does not need ([`pipeline::SkipPolicy`]).
+//! * [`thermal`] — the thermal camera's front end on raw focal-plane counts: two-point
+//!   non-uniformity correction, the shutter's offset update, bad-pixel replacement, a
+//!   column-noise filter; by frame, strip or row.
 //! * [`agc`] — thermal automatic gain control: 14/16-bit counts to 8 bits (plateau histogram
 //!   equalisation or a percentile stretch), by frame, strip or row, with temporal smoothing.
 //! * [`Error`] — the one small `Copy` error type; bad input is an `Err`, never a panic.

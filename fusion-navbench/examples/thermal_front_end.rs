@@ -15,7 +15,8 @@
 //! 2. **A rendered frame** (`DIR FRAME`): the renderer's 8-bit TIR (an ideal array), the raw
 //!    counts, the factory tables, the whole chain — each through the linear AGC — written side
 //!    by side into `OUT/front_end_frame.png`, with the target's contrast-to-noise ratio on the
-//!    TIR grid (navbench's definition: the TIR mask against a ring 4–12 px outside it).
+//!    TIR grid (navbench's definition: the TIR mask against a ring 4–12 px outside it); and
+//!    that ratio for every frame of the sequence per stage, `OUT/front_end_cnr.png`.
 //!
 //! Prints Markdown tables (BENCHMARKS.md, "The thermal camera off the focal plane").
 
@@ -103,8 +104,33 @@ fn flat_field() -> Result<()> {
 fn rendered(dir: &PathBuf, frame: usize, out: &PathBuf) -> Result<()> {
     let m = read_manifest(dir)?;
     let f = m.frames.get(frame).context("no such frame")?;
-    let sensor = sensor_frames(dir, &m, frame + 1)?;
-    let [raw, nuc, chain] = sensor.last().context("no frame")?.clone();
+    let sensor = sensor_frames(dir, &m, m.frames.len())?;
+    // Every frame's CNR per stage, for the chart.
+    let names = ["ideal array", "raw counts", "factory tables", "whole chain"];
+    let mut series: Vec<fusion_report::plot::Series> =
+        names.iter().map(|n| fusion_report::plot::Series { name: n.to_string(), points: Vec::new() }).collect();
+    for (k, (fr, stages)) in m.frames.iter().zip(&sensor).enumerate() {
+        let ideal = load_gray_u8(&dir.join(&fr.files.tir), ColorPolicy::Refuse)?;
+        let mask: Vec<bool> =
+            load_gray_u8(&dir.join(&fr.files.tir_mask), ColorPolicy::Refuse)?.data.iter().map(|&v| v > 127).collect();
+        let bg = ring(&mask, ideal.width, ideal.height, 4, 12);
+        for (s, img) in series.iter_mut().zip([&ideal, &stages[0], &stages[1], &stages[2]]) {
+            s.points.push((k as f64, cnr(&img.data, &mask, &bg)));
+        }
+    }
+    std::fs::create_dir_all(out)?;
+    let shutters: Vec<(f64, f64)> =
+        m.frames.iter().filter(|f| f.tir_frozen).map(|f| (f.index as f64 - 0.5, f.index as f64 + 0.5)).collect();
+    let title = format!("{} seed {}: TIR target CNR per frame (shutter closures shaded)", m.config.name.as_str(), m.config.seed);
+    let chart = fusion_report::plot::chart_shaded(
+        &out.join("front_end_cnr"),
+        fusion_report::plot::Labels { title: &title, x: "frame", y: "CNR" },
+        &series,
+        fusion_report::plot::Style::Lines,
+        &shutters,
+    )?;
+    println!("wrote {}\n", chart.display());
+    let [raw, nuc, chain] = sensor.get(frame).context("no frame")?.clone();
     let ideal = load_gray_u8(&dir.join(&f.files.tir), ColorPolicy::Refuse)?;
     let mask: Vec<bool> =
         load_gray_u8(&dir.join(&f.files.tir_mask), ColorPolicy::Refuse)?.data.iter().map(|&v| v > 127).collect();
@@ -125,7 +151,6 @@ fn rendered(dir: &PathBuf, frame: usize, out: &PathBuf) -> Result<()> {
             strip.data[o..o + w].copy_from_slice(&img.data[y * w..(y + 1) * w]);
         }
     }
-    std::fs::create_dir_all(out)?;
     fusion_io::save_gray_u8(&out.join("front_end_frame.png"), &strip)?;
     println!("\nwrote {}", out.join("front_end_frame.png").display());
     Ok(())

@@ -70,9 +70,12 @@ fn flyaround_crosses_an_eclipse_and_fusion_is_judged_per_phase() {
     let read = read_manifest(dir.path()).unwrap();
     assert_eq!(read.frames.len(), 48);
     let rows = run_sequence(dir.path(), None, None, false).unwrap();
-    assert_eq!(rows.len(), 48 * streams().len());
+    // Every source but the raw-sensor ones (the sequence has no raw thermal counts).
+    let image_streams = streams().iter().filter(|(_, s)| !s.needs_raw()).count();
+    assert!(image_streams < streams().len());
+    assert_eq!(rows.len(), 48 * image_streams);
     let s = summary(&rows);
-    assert_eq!(s.sources.len(), streams().len());
+    assert_eq!(s.sources.len(), image_streams);
     // In eclipse the visible camera sees (almost) nothing of the target: its CNR is far below
     // the thermal camera's, which does not care about the sun.
     let cnr = |src: &str, p: Phase| s.sources[src][p.as_str()].cnr.expect("an image stream has a CNR");
@@ -202,4 +205,49 @@ fn the_predicted_box_holds_the_target_and_grows_with_the_uncertainty() {
         let behind = PoseFilter::new(q, -p, 1e-6, 1e-6, FilterParams::default());
         assert!(predicted_box(&model, &behind, 160).is_empty(), "frame {}", f.index);
     }
+}
+
+/// A sequence rendered with the thermal focal plane: the raw files and calibration the manifest
+/// names, the shutter closing (a frozen frame repeating the one before), and the raw-sensor
+/// sources, whose target contrast the front end raises stage by stage; a raw source asked of a
+/// sequence without raw counts is refused.
+#[test]
+fn the_raw_thermal_sources_judge_the_front_end() {
+    use render_host::focal_plane::FocalPlaneParams;
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = SequenceConfig {
+        focal_plane: Some(FocalPlaneParams { shutter_period_s: 4.0, ..FocalPlaneParams::default() }),
+        vis: render_host::VisParams { samples: 1, ..SequenceConfig::new(SequenceName::Flyaround).vis },
+        tir: render_host::TirParams { samples: 1, ..SequenceConfig::new(SequenceName::Flyaround).tir },
+        vis_size: 320,
+        tir_size: 160,
+        ..small(SequenceName::Flyaround, 10)
+    };
+    let m = render_sequence(&cfg, dir.path(), false).unwrap();
+    assert_eq!(m.nuc.as_deref(), Some("calibration/tir.nuc"));
+    assert!(dir.path().join(m.bad_pixels.as_deref().unwrap()).exists());
+    let frozen: Vec<usize> = m.frames.iter().filter(|f| f.tir_frozen).map(|f| f.index).collect();
+    assert_eq!(frozen, [4, 8]);
+    for &i in &frozen {
+        let raw =
+            |k: usize| std::fs::read(dir.path().join(m.frames[k].files.tir_raw.as_ref().unwrap())).unwrap();
+        assert_eq!(raw(i), raw(i - 1), "frame {i} repeats the one before");
+        assert!(m.frames[i].files.tir_shutter.is_some());
+    }
+    let only: Vec<String> = ["tir", "tir-raw", "tir-nuc", "tir-chain"].map(String::from).to_vec();
+    let rows = run_sequence(dir.path(), None, Some(&only), false).unwrap();
+    let s = summary(&rows);
+    let cnr = |src: &str| s.sources[src]["all"].cnr.unwrap();
+    assert!(
+        cnr("tir-raw") < cnr("tir-nuc") && cnr("tir-nuc") < cnr("tir-chain"),
+        "{} {} {}",
+        cnr("tir-raw"),
+        cnr("tir-nuc"),
+        cnr("tir-chain")
+    );
+    // Without raw counts: refused when asked for, left out otherwise.
+    let plain = tempfile::tempdir().unwrap();
+    render_sequence(&SequenceConfig { focal_plane: None, ..cfg.clone() }, plain.path(), false).unwrap();
+    let e = run_sequence(plain.path(), Some(2), Some(&only), false).unwrap_err();
+    assert!(format!("{e:#}").contains("--raw-tir"), "{e:#}");
 }

@@ -10,7 +10,7 @@
 //!    (Q2.14 gain, whole-count offset), and the offsets re-levelled from a shutter frame;
 //! 2. [`bad_pixels`] — dead and hot pixels from a one-bit map take the median of their valid
 //!    8-neighbours (the nearest valid pixel of the row inside a cluster);
-//! 3. [`column`] — a scene-based filter removes what column offsets the tables left (the
+//! 3. [`column`](mod@column) — a scene-based filter removes what column offsets the tables left (the
 //!    readout's drift), from clipped horizontal differences averaged down the columns;
 //!
 //! then [`crate::agc`] maps the corrected 16-bit counts to the 8-bit frame the fusion takes.
@@ -20,7 +20,7 @@
 //! from their raw counts, so no corrected row needs keeping. [`correct_frame`] runs every row,
 //! a strip is any run of them, and a camera read out line by line calls [`correct_row`] one
 //! row behind the readout. Step 3, like the AGC, needs the frame's statistics: the frame's own
-//! (a first pass: [`column_filter_frame`]) or the previous frame's (one pass; see [`column`]).
+//! (a first pass: [`column_filter_frame`]) or the previous frame's (one pass; see [`column`](mod@column)).
 //! Every form gives the same bits (tested).
 //!
 //! Memory, besides the frames: the tables, 4 bytes a pixel ([`nuc_table_bytes`]: 1 MiB at

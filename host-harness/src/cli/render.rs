@@ -1,4 +1,4 @@
-//! `fusion render`: the flags of [`render_host::render`] (a dataset in the study's layout or a
+//! `fusion render`: the flags of [`render_host::render()`] (a dataset in the study's layout or a
 //! rendezvous sequence), its summary line printed.
 
 use anyhow::Result;

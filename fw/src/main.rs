@@ -307,6 +307,65 @@ fn exercise_entry_points() {
         }
         agc.reset();
     }
+    // The thermal front end: tables, map, the frame, strip and row entries, the shutter and
+    // the column filter, sizes and parameters unseen.
+    #[cfg(not(feature = "rescale-only"))]
+    {
+        use fusion_nostd::thermal::{
+            BadPixelMap, ColumnParams, Correction, NucTables, correct_frame, correct_row, correct_strip,
+            nuc_frame, shutter_update,
+        };
+        static mut OFFSETS: [i16; 1024] = [0; 1024];
+        static mut BITS: [u8; 1024] = [0; 1024];
+        // SAFETY: single-threaded; the only references to these statics while this runs.
+        let (offsets, bits, filter) = unsafe {
+            (
+                &mut *core::ptr::addr_of_mut!(OFFSETS),
+                &*core::ptr::addr_of!(BITS),
+                &mut *core::ptr::addr_of_mut!(crate::thermal_buffers::COLUMN),
+            )
+        };
+        let n = sw * sh;
+        let gain = c.get(..n).unwrap_or(&[]);
+        if let Ok(frame) = FrameRef::new(c, sw, sh) {
+            let _ = black_box(shutter_update(gain, offsets.get_mut(..n).unwrap_or(&mut []), None, frame));
+        }
+        let bad = BadPixelMap::new(sw, sh, bits.get(..sw.div_ceil(8) * sh).unwrap_or(&[])).ok();
+        let nuc = NucTables::new(sw, sh, gain, offsets.get(..n).unwrap_or(&[])).ok();
+        if let (Some(t), Ok(s), Ok(o)) = (nuc, FrameRef::new(c, sw, sh), FrameMut::new(&mut *d, sw, sh)) {
+            let _ = black_box(nuc_frame(&t, s, o));
+        }
+        let stages = black_box(Correction { nuc, bad });
+        let p = black_box(ColumnParams {
+            threshold: black_box(40),
+            radius: black_box(16),
+            smoothing: black_box(2),
+        });
+        if let (Ok(s), Ok(o)) = (FrameRef::new(c, sw, sh), FrameMut::new(&mut *d, sw, sh)) {
+            let _ = black_box(correct_frame(&stages, Some((&mut *filter, &p)), s, o));
+        }
+        if let (Ok(s), Ok(o)) = (FrameRef::new(c, sw, sh), FrameMut::new(&mut *d, sw, black_box(1))) {
+            let _ = black_box(correct_strip(&stages, s, black_box(1), o));
+        }
+        let (r0, r1, r2) = (
+            c.get(..sw).unwrap_or(&[]),
+            c.get(sw..2 * sw).unwrap_or(&[]),
+            c.get(2 * sw..3 * sw).unwrap_or(&[]),
+        );
+        let _ = black_box(correct_row(
+            &stages,
+            sh,
+            black_box(1),
+            Some(r0),
+            r1,
+            Some(r2),
+            d.get_mut(..sw).unwrap_or(&mut []),
+        ));
+        let _ = black_box(filter.accumulate(r1, &p));
+        let _ = black_box(filter.update(&p));
+        let _ = black_box(filter.apply(r1, d.get_mut(..sw).unwrap_or(&mut [])));
+        filter.reset();
+    }
     // The pipeline entry (and the pre-cast entry) with every method and rescale policy.
     #[cfg(not(feature = "rescale-only"))]
     {

@@ -230,7 +230,8 @@ impl ColumnFilter {
         let mut max_correction = 0u16;
         for x in 0..w {
             let (lo, hi) = (x.saturating_sub(r), (x + r).min(w - 1));
-            let count = (hi - lo + 1) as i64;
+            // At least 1 (x lies in its window); `max` lets the compiler see the division is safe.
+            let count = ((hi - lo + 1) as i64).max(1);
             let s = (2 * sum + count).div_euclid(2 * count) as i32;
             let e = at(&self.profile, x) as i32 - s;
             // Step 4: the held estimate moves towards e, the step rounded away from zero.

@@ -30,7 +30,7 @@ use render_host::focal_plane::{FocalPlane, FocalPlaneParams};
 use render_host::image::Image;
 use render_host::noise::rng_for;
 use render_host::sequence::read_manifest;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 /// Spatial σ over the valid pixels and the σ of the column means (same pixels), in counts.
 fn spread(frame: &[f64], valid: &[bool], w: usize) -> (f64, f64) {
@@ -70,14 +70,24 @@ fn flat_field() -> Result<()> {
         let raw: Vec<Gray<u16>> =
             (0..16).map(|_| Gray { width: w, height: h, data: fp.raw(&v, t, &mut rng) }).collect();
         let shutter = Gray { width: w, height: h, data: fp.shutter(150.0, t, &mut rng) };
-        let threshold = column_threshold(&ThermalChain::new(Some(nuc.clone()), Some(bad.clone()), None)?.correct(&raw[0])?);
+        let threshold = column_threshold(
+            &ThermalChain::new(Some(nuc.clone()), Some(bad.clone()), None)?.correct(&raw[0])?,
+        );
         let column = ColumnParams { threshold, radius: COLUMN_RADIUS, smoothing: 0 };
         let stages: Vec<(&str, Option<ThermalChain>, bool)> = vec![
             ("raw counts", None, false),
             ("factory tables", Some(ThermalChain::new(Some(nuc.clone()), None, None)?), false),
             ("tables + shutter", Some(ThermalChain::new(Some(nuc.clone()), None, None)?), true),
-            ("tables + column filter", Some(ThermalChain::new(Some(nuc.clone()), Some(bad.clone()), Some(column))?), false),
-            ("tables + shutter + column filter", Some(ThermalChain::new(Some(nuc.clone()), Some(bad.clone()), Some(column))?), true),
+            (
+                "tables + column filter",
+                Some(ThermalChain::new(Some(nuc.clone()), Some(bad.clone()), Some(column))?),
+                false,
+            ),
+            (
+                "tables + shutter + column filter",
+                Some(ThermalChain::new(Some(nuc.clone()), Some(bad.clone()), Some(column))?),
+                true,
+            ),
         ];
         for (name, chain, use_shutter) in stages {
             let frames: Vec<Gray<u16>> = match chain {
@@ -91,7 +101,12 @@ fn flat_field() -> Result<()> {
             };
             let (s, c) = spread(&mean_of(&frames), &valid, w);
             // 16 frames averaged: the temporal part left is NETD/4 (in the spatial σ).
-            println!("| {t:.0} | {:.2} | {name} | {:.2} | {:.2} |", fp.fpa_delta_k(t), s / netd_counts, c / netd_counts);
+            println!(
+                "| {t:.0} | {:.2} | {name} | {:.2} | {:.2} |",
+                fp.fpa_delta_k(t),
+                s / netd_counts,
+                c / netd_counts
+            );
         }
     }
     println!(
@@ -101,27 +116,40 @@ fn flat_field() -> Result<()> {
     Ok(())
 }
 
-fn rendered(dir: &PathBuf, frame: usize, out: &PathBuf) -> Result<()> {
+fn rendered(dir: &Path, frame: usize, out: &Path) -> Result<()> {
     let m = read_manifest(dir)?;
     let f = m.frames.get(frame).context("no such frame")?;
     let sensor = sensor_frames(dir, &m, m.frames.len())?;
     // Every frame's CNR per stage, for the chart.
     let names = ["ideal array", "raw counts", "factory tables", "whole chain"];
-    let mut series: Vec<fusion_report::plot::Series> =
-        names.iter().map(|n| fusion_report::plot::Series { name: n.to_string(), points: Vec::new() }).collect();
+    let mut series: Vec<fusion_report::plot::Series> = names
+        .iter()
+        .map(|n| fusion_report::plot::Series { name: n.to_string(), points: Vec::new() })
+        .collect();
     for (k, (fr, stages)) in m.frames.iter().zip(&sensor).enumerate() {
         let ideal = load_gray_u8(&dir.join(&fr.files.tir), ColorPolicy::Refuse)?;
-        let mask: Vec<bool> =
-            load_gray_u8(&dir.join(&fr.files.tir_mask), ColorPolicy::Refuse)?.data.iter().map(|&v| v > 127).collect();
+        let mask: Vec<bool> = load_gray_u8(&dir.join(&fr.files.tir_mask), ColorPolicy::Refuse)?
+            .data
+            .iter()
+            .map(|&v| v > 127)
+            .collect();
         let bg = ring(&mask, ideal.width, ideal.height, 4, 12);
         for (s, img) in series.iter_mut().zip([&ideal, &stages[0], &stages[1], &stages[2]]) {
             s.points.push((k as f64, cnr(&img.data, &mask, &bg)));
         }
     }
     std::fs::create_dir_all(out)?;
-    let shutters: Vec<(f64, f64)> =
-        m.frames.iter().filter(|f| f.tir_frozen).map(|f| (f.index as f64 - 0.5, f.index as f64 + 0.5)).collect();
-    let title = format!("{} seed {}: TIR target CNR per frame (shutter closures shaded)", m.config.name.as_str(), m.config.seed);
+    let shutters: Vec<(f64, f64)> = m
+        .frames
+        .iter()
+        .filter(|f| f.tir_frozen)
+        .map(|f| (f.index as f64 - 0.5, f.index as f64 + 0.5))
+        .collect();
+    let title = format!(
+        "{} seed {}: TIR target CNR per frame (shutter closures shaded)",
+        m.config.name.as_str(),
+        m.config.seed
+    );
     let chart = fusion_report::plot::chart_shaded(
         &out.join("front_end_cnr"),
         fusion_report::plot::Labels { title: &title, x: "frame", y: "CNR" },
@@ -132,13 +160,26 @@ fn rendered(dir: &PathBuf, frame: usize, out: &PathBuf) -> Result<()> {
     println!("wrote {}\n", chart.display());
     let [raw, nuc, chain] = sensor.get(frame).context("no frame")?.clone();
     let ideal = load_gray_u8(&dir.join(&f.files.tir), ColorPolicy::Refuse)?;
-    let mask: Vec<bool> =
-        load_gray_u8(&dir.join(&f.files.tir_mask), ColorPolicy::Refuse)?.data.iter().map(|&v| v > 127).collect();
+    let mask: Vec<bool> = load_gray_u8(&dir.join(&f.files.tir_mask), ColorPolicy::Refuse)?
+        .data
+        .iter()
+        .map(|&v| v > 127)
+        .collect();
     let (w, h) = (ideal.width, ideal.height);
     let bg = ring(&mask, w, h, 4, 12);
-    println!("| {} frame {frame} ({}, ΔT {:.2} K) | CNR |", m.config.name.as_str(), f.phase.as_str(), f.fpa_delta_k.unwrap_or(0.0));
+    println!(
+        "| {} frame {frame} ({}, ΔT {:.2} K) | CNR |",
+        m.config.name.as_str(),
+        f.phase.as_str(),
+        f.fpa_delta_k.unwrap_or(0.0)
+    );
     println!("|---|---:|");
-    let panels = [("ideal array (renderer's 8-bit)", &ideal), ("raw counts", &raw), ("factory tables", &nuc), ("whole chain", &chain)];
+    let panels = [
+        ("ideal array (renderer's 8-bit)", &ideal),
+        ("raw counts", &raw),
+        ("factory tables", &nuc),
+        ("whole chain", &chain),
+    ];
     for (name, img) in panels {
         println!("| {name} | {:.2} |", cnr(&img.data, &mask, &bg));
     }

@@ -158,6 +158,68 @@ fn raw_counts_through_the_front_end_match_the_core_by_hand() {
             "folder frame {k}"
         );
     }
+    // A sequence's shutter frames (named like the frame they were captured at): frame f0 is
+    // corrected with the factory tables, f1 after the shutter re-levelled them — as the single
+    // pairs without and with --shutter.
+    let shutters = d.join("shutters");
+    std::fs::create_dir_all(&shutters).unwrap();
+    std::fs::copy(&sh, shutters.join("f1.png")).unwrap();
+    let seq_out = d.join("seq_out");
+    let (vd, rd) = (d.join("vis"), d.join("raw"));
+    let o = fusion(&[
+        "fuse",
+        "--method",
+        "tsifsd",
+        "--rescale",
+        "none",
+        "--nuc",
+        p(&nuc),
+        "--bad-pixels",
+        p(&bad),
+        "--shutter-dir",
+        p(&shutters),
+        p(&vd),
+        p(&rd),
+        p(&seq_out),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    for (k, with_shutter) in [(0, false), (1, true)] {
+        let single = d.join(format!("single{k}.png"));
+        let mut args = vec![
+            "fuse",
+            "--method",
+            "tsifsd",
+            "--rescale",
+            "none",
+            "--nuc",
+            p(&nuc),
+            "--bad-pixels",
+            p(&bad),
+        ];
+        if with_shutter {
+            args.extend_from_slice(&["--shutter", p(&sh)]);
+        }
+        let (v, r) = (d.join(format!("vis/f{k}.png")), d.join(format!("raw/f{k}.png")));
+        args.extend_from_slice(&[p(&v), p(&r), p(&single)]);
+        assert!(fusion(&args).status.success());
+        assert_eq!(
+            load_gray_u8(&seq_out.join(format!("f{k}.png")), ColorPolicy::Refuse).unwrap(),
+            load_gray_u8(&single, ColorPolicy::Refuse).unwrap(),
+            "sequence frame {k}"
+        );
+    }
+    // One pair cannot follow a sequence's shutter frames.
+    let o = fusion(&[
+        "fuse",
+        "--nuc",
+        p(&nuc),
+        "--shutter-dir",
+        p(&shutters),
+        p(&d.join("vis/f0.png")),
+        p(&d.join("raw/f0.png")),
+        p(&d.join("x.png")),
+    ]);
+    assert!(!o.status.success() && String::from_utf8_lossy(&o.stderr).contains("two folders"));
 }
 
 #[test]

@@ -112,6 +112,11 @@ pub struct FuseArgs {
     /// thermal frames are corrected.
     #[arg(long, value_name = "FRAME", requires = "nuc")]
     pub shutter: Option<PathBuf>,
+    /// Folders as a sequence: the shutter frames of the thermal camera (raw counts of its flat
+    /// field), named like the thermal frames they were captured at (`fusion render --raw-tir`
+    /// writes `tir_shutter/`); each re-levels the --nuc offsets before its frame is corrected.
+    #[arg(long, value_name = "DIR", requires = "nuc")]
+    pub shutter_dir: Option<PathBuf>,
     /// Remove column stripes from the raw thermal counts (after --nuc and --bad-pixels, before
     /// the AGC): the threshold of the differences that count, in counts, or `auto` (three
     /// robust standard deviations of neighbouring pixels' differences in the frame).

@@ -29,16 +29,52 @@ fn sequential_thermal(
 ) -> Result<Vec<Option<Mapped>>> {
     let mut agc = fusion_engine::agc::fresh();
     let mut chain = thermal_chain(args)?;
+    let shutters = shutter_frames(args)?;
     Ok(pairs
         .iter()
-        .map(|(_, files)| match fusion_io::load_picture(&files[1]) {
-            Ok(Picture::Gray16(counts)) => Some(
-                agc_map(args, &mut agc, chain.as_mut(), &counts, &files[1]).map_err(|e| format!("{e:#}")),
-            ),
-            Ok(_) => None,
-            Err(e) => Some(Err(format!("thermal image: {e:#}"))),
+        .map(|(stem, files)| {
+            if let (Some(path), Some(c)) = (shutters.get(stem.as_str()), chain.as_mut()) {
+                let levelled = match fusion_io::load_picture(path) {
+                    Ok(Picture::Gray16(flat)) => c.shutter(&flat).map(|_| ()),
+                    Ok(_) => Err(anyhow::anyhow!("{} is not 14/16-bit raw counts", path.display())),
+                    Err(e) => Err(e),
+                };
+                if let Err(e) = levelled {
+                    return Some(Err(format!("shutter frame {}: {e:#}", path.display())));
+                }
+            }
+            thermal_frame(args, &mut agc, chain.as_mut(), &files[1])
         })
         .collect())
+}
+
+/// The `--shutter-dir` frames by file name without extension.
+fn shutter_frames(args: &FuseArgs) -> Result<std::collections::HashMap<String, std::path::PathBuf>> {
+    let Some(dir) = &args.shutter_dir else { return Ok(Default::default()) };
+    let mut out = std::collections::HashMap::new();
+    for entry in std::fs::read_dir(dir).with_context(|| format!("--shutter-dir {}", dir.display()))? {
+        let path = entry.with_context(|| format!("--shutter-dir {}", dir.display()))?.path();
+        if let (true, Some(stem)) = (path.is_file(), path.file_stem().and_then(|s| s.to_str())) {
+            out.insert(stem.to_string(), path.clone());
+        }
+    }
+    Ok(out)
+}
+
+/// One thermal frame through the front end and the AGC (`None`: not 16-bit).
+fn thermal_frame(
+    args: &FuseArgs,
+    agc: &mut fusion_nostd::Agc,
+    chain: Option<&mut fusion_engine::thermal::ThermalChain>,
+    path: &std::path::Path,
+) -> Option<Mapped> {
+    match fusion_io::load_picture(path) {
+        Ok(Picture::Gray16(counts)) => {
+            Some(agc_map(args, agc, chain, &counts, path).map_err(|e| format!("{e:#}")))
+        }
+        Ok(_) => None,
+        Err(e) => Some(Err(format!("thermal image: {e:#}"))),
+    }
 }
 
 /// Runs the folder form of `fusion fuse`.
@@ -56,6 +92,11 @@ pub fn run(args: &FuseArgs) -> Result<()> {
     let ext = args.format.unwrap_or(OutFormat::Png).extension();
     let jobs = args.jobs.unwrap_or(0);
     let front_end = args.nuc.is_some() || args.bad_pixels.is_some() || args.column_filter.is_some();
+    if let Some(d) = &args.shutter_dir
+        && !d.is_dir()
+    {
+        bail!("--shutter-dir {} is not a folder", d.display());
+    }
     let mapped = if args.agc_smoothing.is_some_and(|k| k > 0) || front_end {
         sequential_thermal(args, &pairs)?
     } else {

@@ -27,6 +27,11 @@ pub fn run(args: &FuseArgs) -> Result<()> {
             if args.agc_smoothing.is_some() {
                 bail!("--agc-smoothing smooths over a sequence: give two folders of frames");
             }
+            if args.shutter_dir.is_some() {
+                bail!(
+                    "--shutter-dir follows a sequence's shutter frames: give two folders (one frame: --shutter)"
+                );
+            }
             if args.jobs.is_some() || args.format.is_some() {
                 bail!("--jobs and --format are for folders; one output's format follows its extension");
             }

@@ -391,6 +391,9 @@ pub struct Job {
 pub struct ThermalInputs {
     /// Raw counts of the TIR size, written as `raw.gray`.
     pub raw: Gray<u16>,
+    /// A flat field's raw counts (the TIR size), written as `shutter.gray`: the offsets are
+    /// re-levelled from it first.
+    pub shutter: Gray<u16>,
     /// NUC tables of the TIR size.
     pub nuc: fusion_io::thermal::NucTables,
     /// Bad-pixel map of the TIR size.
@@ -413,6 +416,7 @@ impl Job {
             self.runs.iter().all(|r| !r.thermal)
                 || self.thermal.as_ref().is_some_and(|t| {
                     (t.raw.width, t.raw.height) == tir_size
+                        && (t.shutter.width, t.shutter.height) == tir_size
                         && (t.nuc.width, t.nuc.height) == tir_size
                         && (t.bad.width, t.bad.height) == tir_size
                 }),
@@ -629,8 +633,10 @@ fn emulate(
         files.add_bytes(&dir.join("tir16.gray"), &bytes)?;
     }
     if let Some(t) = &job.thermal {
-        let bytes: Vec<u8> = t.raw.data.iter().flat_map(|v| v.to_le_bytes()).collect();
-        files.add_bytes(&dir.join("raw.gray"), &bytes)?;
+        for (name, frame) in [("raw.gray", &t.raw), ("shutter.gray", &t.shutter)] {
+            let bytes: Vec<u8> = frame.data.iter().flat_map(|v| v.to_le_bytes()).collect();
+            files.add_bytes(&dir.join(name), &bytes)?;
+        }
         // The table file without its 16-byte header: gains, then offsets.
         files.add_bytes(&dir.join("nuc.bin"), t.nuc.to_bytes().get(16..).unwrap_or(&[]))?;
         files.add_bytes(&dir.join("bad.bin"), &t.bad.bits)?;
@@ -854,6 +860,7 @@ mod tests {
         let (w, h) = (job.tir.width, job.tir.height);
         let inputs = ThermalInputs {
             raw: Gray::new(w, h),
+            shutter: Gray::new(w, h),
             nuc: fusion_io::thermal::NucTables {
                 width: w,
                 height: h,

@@ -86,7 +86,8 @@ pub fn counts_of(tir: &Gray<u8>) -> Gray<u16> {
 
 /// The budget pair's TIR frame as the raw counts of the renderer's focal plane
 /// (`render_host::focal_plane`, default parameters, 20 s after calibration: drift, stripes,
-/// dead and hot pixels), with its factory tables and map and the column filter's parameters
+/// dead and hot pixels) and a shutter frame taken then, with its factory tables and map and the
+/// column filter's parameters
 /// (threshold from the corrected frame, [`fusion_engine::thermal::column_threshold`]): the
 /// input of the thermal front-end run.
 pub fn raw_thermal(tir: &Gray<u8>) -> Result<fw::ThermalInputs> {
@@ -97,11 +98,9 @@ pub fn raw_thermal(tir: &Gray<u8>) -> Result<fw::ThermalInputs> {
         height: tir.height as u32,
         data: tir.data.iter().map(|&t| f32::from(t) / 255.0).collect(),
     };
-    let raw = Gray {
-        width: tir.width,
-        height: tir.height,
-        data: fp.raw(&v, 20.0, &mut render_host::noise::rng_for(7, 0)),
-    };
+    let mut rng = render_host::noise::rng_for(7, 0);
+    let raw = Gray { width: tir.width, height: tir.height, data: fp.raw(&v, 20.0, &mut rng) };
+    let shutter = Gray { width: tir.width, height: tir.height, data: fp.shutter(150.0, 20.0, &mut rng) };
     let nuc = fusion_io::thermal::NucTables {
         width: tir.width,
         height: tir.height,
@@ -109,22 +108,24 @@ pub fn raw_thermal(tir: &Gray<u8>) -> Result<fw::ThermalInputs> {
         offset: fp.nuc_offset.clone(),
     };
     let bad = fusion_io::thermal::BadPixels::from_mask(tir.width, tir.height, &fp.bad_mask());
-    let corrected = fusion_engine::thermal::ThermalChain::new(Some(nuc.clone()), Some(bad.clone()), None)?
-        .correct(&raw)?;
+    let mut levelled = fusion_engine::thermal::ThermalChain::new(Some(nuc.clone()), Some(bad.clone()), None)?;
+    levelled.shutter(&shutter)?;
+    let corrected = levelled.correct(&raw)?;
     let column = fusion_nostd::thermal::ColumnParams {
         threshold: fusion_engine::thermal::column_threshold(&corrected),
         radius: fusion_engine::thermal::COLUMN_RADIUS,
         smoothing: 0,
     };
-    Ok(fw::ThermalInputs { raw, nuc, bad, column })
+    Ok(fw::ThermalInputs { raw, shutter, nuc, bad, column })
 }
 
-/// The host's result of a thermal front-end run: the chain in one call
-/// (`fusion_nostd::thermal::correct_frame`, the frame's own column estimate), then the linear
-/// AGC — what the image computes stage by stage.
+/// The host's result of a thermal front-end run: the offsets re-levelled from the shutter frame,
+/// the chain in one call (`fusion_nostd::thermal::correct_frame`, the frame's own column
+/// estimate), then the linear AGC — what the image computes stage by stage.
 pub fn thermal_host(t: &fw::ThermalInputs) -> Result<Gray<u8>> {
     let mut chain =
         fusion_engine::thermal::ThermalChain::new(Some(t.nuc.clone()), Some(t.bad.clone()), Some(t.column))?;
+    chain.shutter(&t.shutter)?;
     let corrected = chain.correct(&t.raw)?;
     fusion_engine::agc::map_counts(
         &mut fusion_engine::agc::fresh(),

@@ -103,13 +103,13 @@ pub struct Outcome {
 pub enum TirStage {
     /// The thermal AGC alone, this mapping.
     Agc(fw::AgcKind),
-    /// One stage of the thermal front end's run (`nuc`, `bad_pixels`, `column`, `agc`).
+    /// One stage of the thermal front end's run (`shutter`, `nuc`, `bad_pixels`, `column`, `agc`).
     Thermal(&'static str),
 }
 
 impl TirStage {
     /// The thermal front end's regions, in order.
-    pub const THERMAL: [&'static str; 4] = ["nuc", "bad_pixels", "column", "agc"];
+    pub const THERMAL: [&'static str; 5] = ["shutter", "nuc", "bad_pixels", "column", "agc"];
 
     /// The budget table (`agc` or `thermal`).
     pub fn table(self) -> &'static str {

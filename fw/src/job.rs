@@ -22,7 +22,8 @@
 //! A thermal front-end run (method 5, variant 1, policy 2, flags 0 or the fault bit) corrects
 //! `raw.gray` (raw counts, the TIR size, `u16` little-endian) with `nuc.bin` (the TIR size of `u16` Q2.14 gains, then of `i16`
 //! offsets), `bad.bin` (the one-bit map, `⌈width/8⌉` bytes a row) and `column.bin` (`u32`
-//! threshold, radius, smoothing), stage by stage in the regions `nuc`, `bad_pixels`, `column`
+//! threshold, radius, smoothing), after re-levelling the offsets from `shutter.gray` (a flat
+//! field's raw counts, region `shutter`), stage by stage in the regions `nuc`, `bad_pixels`, `column`
 //! (`fusion_nostd::thermal`, the frame's own estimate) and `agc` (`AgcParams::linear()`), and
 //! writes the 8-bit frame.
 //! Method parameters are the core's defaults for the variant, the scene analysis thresholds

@@ -315,9 +315,9 @@ fn words_as_bytes(words: &mut [u16]) -> &mut [u8] {
     unsafe { core::slice::from_raw_parts_mut(words.as_mut_ptr().cast::<u8>(), words.len() * 2) }
 }
 
-/// A thermal front-end run (`job.rs`): the raw counts of `raw.gray` (the TIR size) through the
-/// NUC tables, the bad-pixel map and the column filter, each stage in its own region, then the
-/// linear AGC into `out`.
+/// A thermal front-end run (`job.rs`): the NUC offsets re-levelled from `shutter.gray`, then the
+/// raw counts of `raw.gray` (the TIR size) through the tables, the bad-pixel map and the column
+/// filter, each stage in its own region, then the linear AGC into `out`.
 fn thermal_run(
     m: &mut Meter,
     (tw, th): (usize, usize),
@@ -327,7 +327,7 @@ fn thermal_run(
     use crate::thermal_buffers as tb;
     use fusion_nostd::thermal::{
         BadPixelMap, ColumnParams, Correction, NucTables, bad_map_bytes, column_filter_frame, correct_frame,
-        nuc_frame,
+        nuc_frame, shutter_update,
     };
     let px = tw * th;
     if px > tb::PX {
@@ -364,13 +364,23 @@ fn thermal_run(
         radius: u16::try_from(field(1)).map_err(|_| FwError::Job("column.bin: radius"))?,
         smoothing: u8::try_from(field(2)).map_err(|_| FwError::Job("column.bin: smoothing"))?,
     };
-    let (gain, offset) = nuc.split_at(px);
+    let (gain, offset) = nuc.split_at_mut(px);
     // SAFETY: `i16` and `u16` have the same size and alignment; the offsets are their bits.
-    let offset = unsafe { core::slice::from_raw_parts(offset.as_ptr().cast::<i16>(), offset.len()) };
-    let tables = NucTables::new(tw, th, gain, offset)?;
+    let offset = unsafe { core::slice::from_raw_parts_mut(offset.as_mut_ptr().cast::<i16>(), offset.len()) };
     let map = BadPixelMap::new(tw, th, bad)?;
     let a = a.get_mut(..px).ok_or(FwError::Job("TIR too large"))?;
     let b = b.get_mut(..px).ok_or(FwError::Job("TIR too large"))?;
+    // The shutter's flat field (in the first stage buffer until the tables need it) re-levels
+    // the offsets in place.
+    if semihosting::read_file("shutter.gray", words_as_bytes(a))
+        .map_err(|e| FwError::Io(e, "shutter.gray"))?
+        != 2 * px
+    {
+        return Err(FwError::Job("shutter.gray has the wrong length"));
+    }
+    let flat = FrameRef::new(&a[..], tw, th)?;
+    m.region("shutter", || shutter_update(gain, &mut *offset, Some(&map), flat))?;
+    let tables = NucTables::new(tw, th, gain, offset)?;
     // The raw counts in the second stage buffer: the tables read them into the first, the
     // bad-pixel stage writes over them.
     if semihosting::read_file("raw.gray", words_as_bytes(b)).map_err(|e| FwError::Io(e, "raw.gray"))?

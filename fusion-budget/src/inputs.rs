@@ -123,8 +123,11 @@ pub fn raw_thermal(tir: &Gray<u8>) -> Result<fw::ThermalInputs> {
 /// the chain in one call (`fusion_nostd::thermal::correct_frame`, the frame's own column
 /// estimate), then the linear AGC — what the image computes stage by stage.
 pub fn thermal_host(t: &fw::ThermalInputs) -> Result<Gray<u8>> {
-    let mut chain =
-        fusion_engine::thermal::ThermalChain::new(Some(t.nuc.clone()), Some(t.bad.clone()), Some(t.column))?;
+    let mut chain = fusion_engine::thermal::ThermalChain::new(
+        Some(t.nuc.clone()),
+        Some(t.bad.clone()),
+        Some(fusion_engine::thermal::Column::Params(t.column)),
+    )?;
     chain.shutter(&t.shutter)?;
     let corrected = chain.correct(&t.raw)?;
     fusion_engine::agc::map_counts(

@@ -6,23 +6,40 @@
 use anyhow::{Context, Result};
 use fusion_io::Gray;
 use fusion_io::thermal::{BadPixels, NucTables};
-use fusion_nostd::thermal::{ColumnFilter, ColumnParams, Correction, correct_frame, shutter_update};
+use fusion_nostd::thermal::{
+    ColumnFilter, ColumnParams, Correction, column_filter_frame, correct_frame, shutter_update,
+};
 
 /// The column filter's radius used by the host tools (columns).
 pub const COLUMN_RADIUS: u16 = 16;
+
+/// The column filter of a [`ThermalChain`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Column {
+    /// These parameters on every frame.
+    Params(ColumnParams),
+    /// Each frame's threshold from the frame itself after the tables and the map
+    /// ([`column_threshold`]), this radius and smoothing.
+    Auto {
+        /// Radius of the profile's low-pass, columns.
+        radius: u16,
+        /// Temporal smoothing shift.
+        smoothing: u8,
+    },
+}
 
 /// One thermal camera's correction state.
 pub struct ThermalChain {
     nuc: Option<NucTables>,
     bad: Option<BadPixels>,
-    column: Option<ColumnParams>,
+    column: Option<Column>,
     filter: Box<ColumnFilter>,
 }
 
 impl ThermalChain {
     /// A chain of the given stages (each optional); `column`: the column filter's parameters.
     /// `Err` when the tables and the map are of different arrays.
-    pub fn new(nuc: Option<NucTables>, bad: Option<BadPixels>, column: Option<ColumnParams>) -> Result<Self> {
+    pub fn new(nuc: Option<NucTables>, bad: Option<BadPixels>, column: Option<Column>) -> Result<Self> {
         if let (Some(t), Some(b)) = (&nuc, &bad)
             && (t.width, t.height) != (b.width, b.height)
         {
@@ -34,29 +51,18 @@ impl ThermalChain {
                 b.height
             );
         }
-        if let Some(p) = &column {
+        let check = match column {
+            Some(Column::Params(p)) => Some(p),
+            // Any valid threshold stands in for the frame's own.
+            Some(Column::Auto { radius, smoothing }) => {
+                Some(ColumnParams { threshold: 1, radius, smoothing })
+            }
+            None => None,
+        };
+        if let Some(p) = check {
             p.validate().map_err(|e| anyhow::anyhow!("column filter: {e}"))?;
         }
         Ok(ThermalChain { nuc, bad, column, filter: Box::new(ColumnFilter::new()) })
-    }
-
-    /// The NUC tables (as re-levelled by the shutter frames so far).
-    pub fn nuc(&self) -> Option<&NucTables> {
-        self.nuc.as_ref()
-    }
-
-    /// The bad-pixel map.
-    pub fn bad(&self) -> Option<&BadPixels> {
-        self.bad.as_ref()
-    }
-
-    /// Sets the column filter's threshold (counts; no column filter: nothing to do).
-    pub fn set_column_threshold(&mut self, threshold: u16) -> Result<()> {
-        if let Some(p) = self.column.as_mut() {
-            p.threshold = threshold;
-            p.validate().map_err(|e| anyhow::anyhow!("column filter: {e}"))?;
-        }
-        Ok(())
     }
 
     /// Whether any stage is present.
@@ -91,9 +97,18 @@ impl ThermalChain {
             bad: self.bad.as_ref().map(|b| b.view()).transpose()?,
         };
         let mut out = Gray::<u16>::new(raw.width, raw.height);
-        let column = self.column.as_ref().map(|p| (&mut *self.filter, p));
-        correct_frame(&stages, column, raw.view()?, out.view_mut()?)
+        correct_frame(&stages, None, raw.view()?, out.view_mut()?)
             .map_err(|e| anyhow::anyhow!("thermal correction: {e}"))?;
+        // The column filter on the corrected frame, in place (`correct_frame`'s own last step).
+        let params = match self.column {
+            None => return Ok(out),
+            Some(Column::Params(p)) => p,
+            Some(Column::Auto { radius, smoothing }) => {
+                ColumnParams { threshold: column_threshold(&out), radius, smoothing }
+            }
+        };
+        column_filter_frame(&mut self.filter, out.view_mut()?, &params)
+            .map_err(|e| anyhow::anyhow!("column filter: {e}"))?;
         Ok(out)
     }
 }

@@ -21,7 +21,7 @@
 //! Prints Markdown tables (BENCHMARKS.md, "The thermal camera off the focal plane").
 
 use anyhow::{Context, Result};
-use fusion_engine::thermal::{COLUMN_RADIUS, ThermalChain, column_threshold};
+use fusion_engine::thermal::{COLUMN_RADIUS, Column, ThermalChain, column_threshold};
 use fusion_io::thermal::{BadPixels, NucTables};
 use fusion_io::{ColorPolicy, Gray, load_gray_u8};
 use fusion_navbench::bench::{cnr, ring, sensor_frames};
@@ -80,12 +80,12 @@ fn flat_field() -> Result<()> {
             ("tables + shutter", Some(ThermalChain::new(Some(nuc.clone()), None, None)?), true),
             (
                 "tables + column filter",
-                Some(ThermalChain::new(Some(nuc.clone()), Some(bad.clone()), Some(column))?),
+                Some(ThermalChain::new(Some(nuc.clone()), Some(bad.clone()), Some(Column::Params(column)))?),
                 false,
             ),
             (
                 "tables + shutter + column filter",
-                Some(ThermalChain::new(Some(nuc.clone()), Some(bad.clone()), Some(column))?),
+                Some(ThermalChain::new(Some(nuc.clone()), Some(bad.clone()), Some(Column::Params(column)))?),
                 true,
             ),
         ];

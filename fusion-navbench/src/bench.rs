@@ -562,7 +562,7 @@ fn sensor_frame(fd: &FrameData, stage: SensorStage) -> Result<&Gray<u8>> {
 /// from the first frame ([`fusion_engine::thermal::column_threshold`] after the tables and the
 /// bad pixels).
 pub fn sensor_frames(dir: &Path, m: &SequenceManifest, n: usize) -> Result<Vec<[Gray<u8>; 3]>> {
-    use fusion_engine::thermal::{COLUMN_RADIUS, ThermalChain, column_threshold};
+    use fusion_engine::thermal::{COLUMN_RADIUS, Column, ThermalChain, column_threshold};
     use fusion_nostd::thermal::ColumnParams;
     let read = |rel: &str| -> Result<Gray<u16>> {
         let p = dir.join(rel);
@@ -579,7 +579,7 @@ pub fn sensor_frames(dir: &Path, m: &SequenceManifest, n: usize) -> Result<Vec<[
     let threshold = column_threshold(&ThermalChain::new(nuc.clone(), bad.clone(), None)?.correct(&first)?);
     let column = ColumnParams { threshold, radius: COLUMN_RADIUS, smoothing: SENSOR_COLUMN_SMOOTHING };
     let mut nuc_only = ThermalChain::new(nuc.clone(), None, None)?;
-    let mut chain = ThermalChain::new(nuc, bad, Some(column))?;
+    let mut chain = ThermalChain::new(nuc, bad, Some(Column::Params(column)))?;
     let agc = |counts: &Gray<u16>| {
         fusion_engine::agc::map_counts(
             &mut fusion_engine::agc::fresh(),

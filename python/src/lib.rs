@@ -517,21 +517,22 @@ fn correct_thermal<'py>(
     let (h, w) = (raw.height, raw.width);
     let out = py
         .detach(|| -> anyhow::Result<Vec<u16>> {
-            use fusion_engine::thermal::{COLUMN_RADIUS, ThermalChain, column_threshold};
+            use fusion_engine::thermal::{COLUMN_RADIUS, Column, ThermalChain};
             let (tables, map) = fusion_engine::thermal::load(nuc.as_deref(), bad_pixels.as_deref())?;
-            let mut chain = ThermalChain::new(tables, map, None)?;
+            // `column`: None without the filter; Some(None) for "auto".
+            let column = column.map(|fixed| match fixed {
+                Some(threshold) => Column::Params(fusion_nostd::thermal::ColumnParams {
+                    threshold,
+                    radius: COLUMN_RADIUS,
+                    smoothing: 0,
+                }),
+                None => Column::Auto { radius: COLUMN_RADIUS, smoothing: 0 },
+            });
+            let mut chain = ThermalChain::new(tables, map, column)?;
             if let Some(s) = &shutter {
                 chain.shutter(s)?;
             }
-            let corrected = chain.correct(&raw)?;
-            // `column`: None without the filter; Some(None) for "auto".
-            let Some(fixed) = column else { return Ok(corrected.data) };
-            let threshold = fixed.unwrap_or_else(|| column_threshold(&corrected));
-            let params =
-                fusion_nostd::thermal::ColumnParams { threshold, radius: COLUMN_RADIUS, smoothing: 0 };
-            let mut with_column =
-                ThermalChain::new(chain.nuc().cloned(), chain.bad().cloned(), Some(params))?;
-            Ok(with_column.correct(&raw)?.data)
+            Ok(chain.correct(&raw)?.data)
         })
         .map_err(py_err)?;
     let arr = numpy::ndarray::Array2::from_shape_vec((h, w), out)

@@ -6,7 +6,7 @@ use anyhow::{Context, Result, bail};
 use fusion_engine::methods::{
     AgcArg, EngineArg, Fused, RescaleArg, VariantArg, fuse_core, fuse_reference, method_for,
 };
-use fusion_engine::thermal::ThermalChain;
+use fusion_engine::thermal::{Column, ThermalChain};
 use fusion_io::npy::encode_npy_f32;
 use fusion_io::{Batch, Channels, Gray, OutFormat, Picture, encode_channels};
 use fusion_nostd::methods::Guards;
@@ -123,14 +123,10 @@ pub fn thermal_chain(args: &FuseArgs) -> Result<Option<ThermalChain>> {
         return Ok(None);
     }
     let (nuc, bad) = fusion_engine::thermal::load(args.nuc.as_deref(), args.bad_pixels.as_deref())?;
-    // An automatic threshold is set per frame (`correct_counts`); 1 stands in until then.
-    let column = args.column_filter.map(|c| ColumnParams {
-        threshold: match c {
-            ColumnArg::Counts(t) => t,
-            ColumnArg::Auto => 1,
-        },
-        radius: fusion_engine::thermal::COLUMN_RADIUS,
-        smoothing: 0,
+    let radius = fusion_engine::thermal::COLUMN_RADIUS;
+    let column = args.column_filter.map(|c| match c {
+        ColumnArg::Counts(threshold) => Column::Params(ColumnParams { threshold, radius, smoothing: 0 }),
+        ColumnArg::Auto => Column::Auto { radius, smoothing: 0 },
     });
     let mut chain = ThermalChain::new(nuc, bad, column)?;
     if let Some(path) = &args.shutter {
@@ -141,24 +137,6 @@ pub fn thermal_chain(args: &FuseArgs) -> Result<Option<ThermalChain>> {
         chain.shutter(&frame).with_context(|| format!("shutter frame {}", path.display()))?;
     }
     Ok(Some(chain))
-}
-
-/// Raw counts through the thermal front end (when asked for): a `--column-filter auto`
-/// threshold from the frame after the tables and the map.
-pub fn correct_counts(
-    args: &FuseArgs,
-    chain: &mut ThermalChain,
-    counts: &Gray<u16>,
-    path: &Path,
-) -> Result<Gray<u16>> {
-    let what = || format!("thermal image {}", path.display());
-    if args.column_filter == Some(ColumnArg::Auto) {
-        let mut first =
-            ThermalChain::new(chain.nuc().cloned(), chain.bad().cloned(), None).with_context(what)?;
-        let t = fusion_engine::thermal::column_threshold(&first.correct(counts).with_context(what)?);
-        chain.set_column_threshold(t).with_context(what)?;
-    }
-    chain.correct(counts).with_context(what)
 }
 
 /// One thermal frame's counts through the front end (`chain`) and the core AGC, with `agc`'s
@@ -173,7 +151,7 @@ pub fn agc_map(
     let corrected;
     let counts = match chain {
         Some(c) => {
-            corrected = correct_counts(args, c, counts, path)?;
+            corrected = c.correct(counts).with_context(|| format!("thermal image {}", path.display()))?;
             &corrected
         }
         None => counts,

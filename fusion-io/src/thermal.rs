@@ -110,12 +110,11 @@ pub struct BadPixels {
 impl BadPixels {
     /// Packs a mask (`true` = bad).
     pub fn from_mask(width: usize, height: usize, bad: &[bool]) -> BadPixels {
-        let stride = width.div_ceil(8);
-        let mut bits = vec![0u8; stride * height];
+        let mut bits = vec![0u8; fusion_nostd::thermal::bad_map_bytes(width, height)];
         for (i, _) in bad.iter().enumerate().filter(|(_, b)| **b) {
-            let (x, y) = (i % width, i / width);
-            if let Some(b) = bits.get_mut(y * stride + x / 8) {
-                *b |= 1 << (x % 8);
+            let (byte, k) = fusion_nostd::thermal::bit_of(width, i % width, i / width);
+            if let Some(b) = bits.get_mut(byte) {
+                *b |= 1 << k;
             }
         }
         BadPixels { width, height, bits }
@@ -131,7 +130,8 @@ impl BadPixels {
 
     /// Whether pixel `(x, y)` is bad.
     pub fn is_bad(&self, x: usize, y: usize) -> bool {
-        self.bits.get(y * self.width.div_ceil(8) + x / 8).is_some_and(|b| b >> (x % 8) & 1 == 1)
+        let (byte, k) = fusion_nostd::thermal::bit_of(self.width, x, y);
+        self.bits.get(byte).is_some_and(|b| b >> k & 1 == 1)
     }
 
     /// Bad pixels in the map.

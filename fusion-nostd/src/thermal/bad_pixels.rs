@@ -21,6 +21,12 @@ pub const fn bad_map_bytes(width: usize, height: usize) -> usize {
     width.div_ceil(8) * height
 }
 
+/// Where pixel `(x, y)` of a `width`-wide map lies: its byte and the bit within it.
+#[inline]
+pub const fn bit_of(width: usize, x: usize, y: usize) -> (usize, u32) {
+    (y * width.div_ceil(8) + x / 8, (x % 8) as u32)
+}
+
 /// A validated bad-pixel map (see the module's documentation for the format and the rule).
 #[derive(Debug, Clone, Copy)]
 pub struct BadPixelMap<'a> {
@@ -78,8 +84,8 @@ impl<'a> BadPixelMap<'a> {
         if x >= self.width {
             return false;
         }
-        let i = y * self.width.div_ceil(8) + x / 8;
-        self.bits.get(i).is_some_and(|&b| b >> (x % 8) & 1 == 1)
+        let (i, k) = bit_of(self.width, x, y);
+        self.bits.get(i).is_some_and(|&b| b >> k & 1 == 1)
     }
 
     /// The bad pixels' columns in row `y`, left to right (whole zero bytes skipped).

@@ -31,7 +31,7 @@ pub mod bad_pixels;
 pub mod column;
 pub mod nuc;
 
-pub use bad_pixels::{BadPixelMap, bad_map_bytes};
+pub use bad_pixels::{BadPixelMap, bad_map_bytes, bit_of};
 pub use column::{COLUMN_MAX_WIDTH, ColumnFilter, ColumnParams, ColumnReport, column_filter_frame};
 pub use nuc::{
     GAIN_FRAC_BITS, GAIN_ONE, NucTables, ShutterReport, nuc_frame, nuc_row, nuc_table_bytes, shutter_update,

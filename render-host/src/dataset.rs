@@ -2,6 +2,7 @@
 //! and in eclipse, TIR at 512² and 1024², noiseless and noisy, PNGs plus a JSON manifest.
 
 use crate::camera::{Camera, Pose};
+use crate::focal_plane::{FocalPlane, FocalPlaneParams, repeat_frozen};
 use crate::image::Image;
 use crate::image::{write_png8, write_png16};
 use crate::noise::{Band, NoiseParams, apply_sensor_noise, rng_for};
@@ -71,7 +72,18 @@ pub struct DatasetConfig {
     /// draws the sensor noise): another noise seed shows the same spacecraft.
     #[serde(default)]
     pub surface_seed: u64,
+    /// Write the thermal camera's raw counts too: per TIR set `raw/` (16-bit PNG of the
+    /// focal plane's counts, [`crate::focal_plane`], from the noisy frame) and `shutter/` (its
+    /// flat fields, on the frames the shutter closes), frames [`DATASET_FRAME_INTERVAL_S`]
+    /// apart; the factory calibration per TIR size in `calibration/` (named by the sets'
+    /// `nuc` and `bad_pixels`). Absent from manifests written without it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub focal_plane: Option<FocalPlaneParams>,
 }
+
+/// Time between two frames of a dataset for the focal plane's drift and shutter, s: the
+/// study's layout has no clock, so its frames are taken as a 1 Hz video like the sequences.
+pub const DATASET_FRAME_INTERVAL_S: f64 = 1.0;
 
 impl Default for DatasetConfig {
     fn default() -> Self {
@@ -98,6 +110,7 @@ impl Default for DatasetConfig {
             contact_sheet_frames: 5,
             surface_detail: true,
             surface_seed: 0,
+            focal_plane: None,
         }
     }
 }
@@ -203,6 +216,12 @@ pub struct SetInfo {
     pub focal_px: f32,
     /// Principal point (x, y), px (pixel centres at `i + 0.5`).
     pub principal_point: [f32; 2],
+    /// The thermal camera's factory NUC tables (`fusion_io::thermal`), with raw counts.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub nuc: Option<String>,
+    /// The thermal camera's factory bad-pixel map (8-bit PNG, 255 = bad), with raw counts.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub bad_pixels: Option<String>,
 }
 
 /// The files of one frame of one set (paths relative to the dataset folder).
@@ -220,6 +239,13 @@ pub struct FrameFiles {
     /// Noisy 16-bit PNG (TIR with `tir_16bit`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub noisy16: Option<String>,
+    /// The focal plane's raw counts, 16-bit PNG (TIR with `focal_plane`); on a frozen frame
+    /// the previous frame's counts.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub raw: Option<String>,
+    /// The shutter's flat field, on the frames where it closes (TIR with `focal_plane`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub shutter: Option<String>,
 }
 
 /// The random stream of frame `frame` of set `set`: a hash of the set's name and the frame
@@ -263,6 +289,12 @@ pub struct FrameInfo {
     pub tilt_deg: f64,
     /// Files per set name.
     pub files: BTreeMap<String, FrameFiles>,
+    /// The thermal focal plane's warming since its calibration, K (with `focal_plane`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub fpa_delta_k: Option<f64>,
+    /// The shutter froze the thermal video on this frame: every `raw` repeats the frame before.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub tir_frozen: bool,
 }
 
 /// The JSON manifest of a dataset (`manifest.json` in its folder).
@@ -316,6 +348,8 @@ pub fn sets(cfg: &DatasetConfig) -> Vec<SetInfo> {
             height: size,
             focal_px: cam.focal_px,
             principal_point: [cam.cx, cam.cy],
+            nuc: None,
+            bad_pixels: None,
         });
     };
     for ill in [Illumination::Light, Illumination::Eclipse] {
@@ -344,7 +378,8 @@ fn arr(v: Vec3) -> [f32; 3] {
 type FrameOutput = (BTreeMap<String, FrameFiles>, Vec<Image>);
 
 /// Renders a dataset into `out_dir` (created if missing): per set a folder with `clean/` and
-/// `noisy/` PNGs named `frame_NNN.png` (and `clean16/`, `noisy16/` for 16-bit TIR), plus
+/// `noisy/` PNGs named `frame_NNN.png` (and `clean16/`, `noisy16/` for 16-bit TIR; `raw/`,
+/// `shutter/` and `calibration/` with [`DatasetConfig::focal_plane`]), plus
 /// `manifest.json` and `contact_sheet.png`. Frames render in parallel (rayon), and so do the rows
 /// of each image; `progress` shows an `indicatif` bar counting images.
 ///
@@ -373,14 +408,35 @@ pub fn render_dataset(cfg: &DatasetConfig, out_dir: &Path, progress: bool) -> Re
     let traj = trajectory(cfg, scene.centre);
     let tir_params = TirParams { earth_dir: cfg.vis.earth_dir, ..cfg.tir };
 
+    // One thermal camera per TIR size (the eclipse sets are the same camera later on).
+    let range_k = cfg.tir.t_max - cfg.tir.t_min;
+    let focal_planes: BTreeMap<u32, FocalPlane> = cfg
+        .focal_plane
+        .map(|p| {
+            cfg.tir_sizes.iter().map(|&s| (s, FocalPlane::new(p, s as usize, s as usize, range_k))).collect()
+        })
+        .unwrap_or_default();
+    let shutters = focal_planes
+        .values()
+        .next()
+        .map(|fp| fp.shutter_frames(cfg.frames, 1.0 / DATASET_FRAME_INTERVAL_S))
+        .unwrap_or_default();
+
     std::fs::create_dir_all(out_dir).with_context(|| format!("cannot create {}", out_dir.display()))?;
+    if !focal_planes.is_empty() {
+        let d = out_dir.join("calibration");
+        std::fs::create_dir_all(&d).with_context(|| format!("cannot create {}", d.display()))?;
+    }
     for s in &set_list {
-        for sub in ["clean", "noisy", "clean16", "noisy16"] {
+        let raw = s.band == Band::Tir && !focal_planes.is_empty();
+        for sub in ["clean", "noisy", "clean16", "noisy16", "raw", "shutter"] {
             let wanted = match sub {
                 "clean" => cfg.write_clean,
                 "noisy" => cfg.write_noisy,
                 "clean16" => cfg.write_clean && cfg.tir_16bit && s.band == Band::Tir,
-                _ => cfg.write_noisy && cfg.tir_16bit && s.band == Band::Tir,
+                "noisy16" => cfg.write_noisy && cfg.tir_16bit && s.band == Band::Tir,
+                "raw" => raw,
+                _ => raw && !shutters.is_empty(),
             };
             if wanted {
                 let d = out_dir.join(&s.name).join(sub);
@@ -445,6 +501,19 @@ pub fn render_dataset(cfg: &DatasetConfig, out_dir: &Path, progress: bool) -> Re
                         *slot16 = Some(rel);
                     }
                 }
+                if let Some(fp) = focal_planes.get(&s.width).filter(|_| s.band == Band::Tir) {
+                    let t = i as f64 * DATASET_FRAME_INTERVAL_S;
+                    let rel = format!("{}/raw/{name}", s.name);
+                    let mut rng = rng_for(cfg.seed, noise_stream(&format!("{}_raw", s.name), i));
+                    fp.write_raw(out_dir, &rel, &noisy, t, &mut rng)?;
+                    ff.raw = Some(rel);
+                    if shutters.iter().any(|(k, _)| *k == i) {
+                        let rel = format!("{}/shutter/{name}", s.name);
+                        let mut rng = rng_for(cfg.seed, noise_stream(&format!("{}_shutter", s.name), i));
+                        fp.write_shutter(out_dir, &rel, cfg.tir.t_min, t, &mut rng)?;
+                        ff.shutter = Some(rel);
+                    }
+                }
                 if columns.contains(&i) {
                     let (x0, y0, side) = target_square(&scene, &cam);
                     thumbs.push(clean.crop_thumbnail(x0, y0, side, thumb));
@@ -472,9 +541,31 @@ pub fn render_dataset(cfg: &DatasetConfig, out_dir: &Path, progress: bool) -> Re
             anomaly_deg: tp.anomaly_deg,
             tilt_deg: tp.tilt_deg,
             files,
+            fpa_delta_k: focal_planes
+                .values()
+                .next()
+                .map(|fp| fp.fpa_delta_k(i as f64 * DATASET_FRAME_INTERVAL_S)),
+            tir_frozen: shutters.iter().any(|(_, frozen)| frozen.contains(&i)),
         });
         if !th.is_empty() {
             thumbs.push(th);
+        }
+    }
+
+    // The shutter froze the video: those frames repeat the counts of the frame before, in order.
+    for f in frames.iter().filter(|f| f.tir_frozen) {
+        let Some(prev) = f.index.checked_sub(1) else { continue };
+        for (set, ff) in &f.files {
+            if let Some(this) = &ff.raw {
+                repeat_frozen(out_dir, &format!("{set}/raw/frame_{prev:03}.png"), this)?;
+            }
+        }
+    }
+    let mut set_list = set_list;
+    for (size, fp) in &focal_planes {
+        let (nuc, bad) = fp.write_calibration(out_dir, &format!("calibration/tir{size}"))?;
+        for s in set_list.iter_mut().filter(|s| s.band == Band::Tir && s.width == *size) {
+            (s.nuc, s.bad_pixels) = (Some(nuc.clone()), Some(bad.clone()));
         }
     }
 

@@ -39,11 +39,13 @@
 //! choice of the orders of magnitude the literature on non-uniformity correction reports —
 //! an uncorrected frame is dominated by its pattern — not one camera's measurement.
 
-use crate::image::Image;
+use crate::image::{Image, write_png16};
 use crate::noise::{NoiseRng, mix64, rng_for};
+use anyhow::{Context, Result};
 use rand::RngExt;
 use rand_distr::{Distribution, StandardNormal};
 use serde::{Deserialize, Serialize};
+use std::path::Path;
 
 /// Parameters of the focal-plane model (see the module's documentation for the formula).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -279,10 +281,58 @@ impl FocalPlane {
         out
     }
 
+    /// Writes frame `v`'s raw counts at time `t` to `out_dir/rel` (16-bit PNG); `rng` draws the
+    /// array's temporal noise.
+    pub fn write_raw(&self, out_dir: &Path, rel: &str, v: &Image, t: f64, rng: &mut NoiseRng) -> Result<()> {
+        write_png16(&out_dir.join(rel), &self.gray16(self.raw(v, t, rng))?)
+    }
+
+    /// Writes the shutter's flat field at time `t` to `out_dir/rel` (16-bit PNG).
+    pub fn write_shutter(
+        &self,
+        out_dir: &Path,
+        rel: &str,
+        t_min: f64,
+        t: f64,
+        rng: &mut NoiseRng,
+    ) -> Result<()> {
+        write_png16(&out_dir.join(rel), &self.gray16(self.shutter(t_min, t, rng))?)
+    }
+
+    fn gray16(&self, data: Vec<u16>) -> Result<image::ImageBuffer<image::Luma<u16>, Vec<u16>>> {
+        image::ImageBuffer::from_raw(self.width as u32, self.height as u32, data).context("raw frame size")
+    }
+
+    /// Writes the factory calibration into `out_dir`: the NUC tables at `{stem}.nuc`
+    /// (`fusion_io::thermal::NucTables`) and the bad-pixel map at `{stem}_bad_pixels.png`;
+    /// returns both paths as given (relative to `out_dir`).
+    pub fn write_calibration(&self, out_dir: &Path, stem: &str) -> Result<(String, String)> {
+        let (nuc, bad) = (format!("{stem}.nuc"), format!("{stem}_bad_pixels.png"));
+        let tables = fusion_io::thermal::NucTables {
+            width: self.width,
+            height: self.height,
+            gain: self.nuc_gain.clone(),
+            offset: self.nuc_offset.clone(),
+        };
+        tables.write(&out_dir.join(&nuc))?;
+        fusion_io::thermal::BadPixels::from_mask(self.width, self.height, &self.bad_mask())
+            .write(&out_dir.join(&bad))?;
+        Ok((nuc, bad))
+    }
+
     /// The ideal corrected counts of a value `v`: `R·(T_max − T_min)·v`.
     pub fn ideal_counts(&self, v: f64) -> f64 {
         self.params.responsivity_counts_per_k * self.scene_range_k * v
     }
+}
+
+/// A frame the shutter froze repeats the raw counts of the frame before: copies the file
+/// `out_dir/from` over `out_dir/to` (call in frame order, so a run of frozen frames repeats the
+/// last live one).
+pub fn repeat_frozen(out_dir: &Path, from: &str, to: &str) -> Result<()> {
+    let src = out_dir.join(from);
+    let bytes = std::fs::read(&src).with_context(|| format!("cannot read {}", src.display()))?;
+    fusion_io::write_bytes(&out_dir.join(to), &bytes)
 }
 
 #[cfg(test)]

@@ -44,8 +44,10 @@ pub struct RenderOptions {
     pub t_max: f64,
     /// Also write 16-bit TIR PNGs (`clean16/`, `noisy16/`; with --sequence: `tir16/`, noisy).
     pub tir16: bool,
-    /// With a sequence: also write the thermal camera's raw counts through the default
-    /// focal-plane model (`crate::focal_plane`), its shutter frames and factory calibration.
+    /// Also write the thermal camera's raw counts through the default focal-plane model
+    /// (`crate::focal_plane`), its shutter frames and factory calibration: a sequence's
+    /// `tir_raw/`, `tir_shutter/`, `calibration/`; in the study's layout each TIR set's `raw/`
+    /// and `shutter/` and `calibration/tir<size>.*`.
     pub raw_tir: bool,
     /// Also write TIR sets after this many minutes in eclipse (lumped transient).
     pub eclipse_minutes: Option<f64>,
@@ -148,6 +150,7 @@ impl RenderOptions {
         cfg.tir.t_min = self.t_min;
         cfg.tir.t_max = self.t_max;
         cfg.tir_16bit = self.tir16;
+        cfg.focal_plane = self.raw_tir.then(crate::focal_plane::FocalPlaneParams::default);
         cfg.tir_eclipse_minutes = self.eclipse_minutes;
         cfg.vis.specular = !self.no_specular;
         cfg.surface_detail = !self.flat;
@@ -211,7 +214,12 @@ pub fn render(args: &RenderOptions) -> Result<String> {
         .frames
         .iter()
         .flat_map(|f| f.files.values())
-        .map(|f| [&f.clean, &f.noisy, &f.clean16, &f.noisy16].iter().filter(|x| x.is_some()).count())
+        .map(|f| {
+            [&f.clean, &f.noisy, &f.clean16, &f.noisy16, &f.raw, &f.shutter]
+                .iter()
+                .filter(|x| x.is_some())
+                .count()
+        })
         .sum();
     let sheet = manifest.contact_sheet.as_deref().map(|s| format!(", {s}")).unwrap_or_default();
     Ok(format!(

@@ -518,22 +518,14 @@ pub fn render_sequence(cfg: &SequenceConfig, out_dir: &Path, progress: bool) -> 
             let mut fpa_delta_k = None;
             if let Some(fp) = &focal_plane {
                 let t = cfg.time(i);
-                let raw = fp.raw(
-                    &tir_noisy,
-                    t,
-                    &mut rng_for(cfg.seed, noise_stream(&format!("{name}_tir_raw"), i)),
-                );
                 let r = format!("tir_raw/{file}");
-                write_png16(&out_dir.join(&r), &gray16(fp.width, fp.height, raw)?)?;
+                let mut rng = rng_for(cfg.seed, noise_stream(&format!("{name}_tir_raw"), i));
+                fp.write_raw(out_dir, &r, &tir_noisy, t, &mut rng)?;
                 files.tir_raw = Some(r);
                 if shutters.iter().any(|(s, _)| *s == i) {
-                    let flat = fp.shutter(
-                        cfg.tir.t_min,
-                        t,
-                        &mut rng_for(cfg.seed, noise_stream(&format!("{name}_tir_shutter"), i)),
-                    );
                     let sh = format!("tir_shutter/{file}");
-                    write_png16(&out_dir.join(&sh), &gray16(fp.width, fp.height, flat)?)?;
+                    let mut rng = rng_for(cfg.seed, noise_stream(&format!("{name}_tir_shutter"), i));
+                    fp.write_shutter(out_dir, &sh, cfg.tir.t_min, t, &mut rng)?;
                     files.tir_shutter = Some(sh);
                 }
                 fpa_delta_k = Some(fp.fpa_delta_k(t));
@@ -599,24 +591,13 @@ pub fn render_sequence(cfg: &SequenceConfig, out_dir: &Path, progress: bool) -> 
     // order (a run of frozen frames repeats the last live one).
     for f in frames.iter().filter(|f| f.tir_frozen) {
         if let (Some(prev), Some(this)) = (f.index.checked_sub(1), &f.files.tir_raw) {
-            let from = out_dir.join(format!("tir_raw/frame_{prev:03}.png"));
-            let bytes = std::fs::read(&from).with_context(|| format!("cannot read {}", from.display()))?;
-            fusion_io::write_bytes(&out_dir.join(this), &bytes)?;
+            crate::focal_plane::repeat_frozen(out_dir, &format!("tir_raw/frame_{prev:03}.png"), this)?;
         }
     }
     let (mut nuc, mut bad_pixels) = (None, None);
     if let Some(fp) = &focal_plane {
-        let tables = fusion_io::thermal::NucTables {
-            width: fp.width,
-            height: fp.height,
-            gain: fp.nuc_gain.clone(),
-            offset: fp.nuc_offset.clone(),
-        };
-        tables.write(&out_dir.join("calibration/tir.nuc"))?;
-        fusion_io::thermal::BadPixels::from_mask(fp.width, fp.height, &fp.bad_mask())
-            .write(&out_dir.join("calibration/tir_bad_pixels.png"))?;
-        (nuc, bad_pixels) =
-            (Some("calibration/tir.nuc".to_string()), Some("calibration/tir_bad_pixels.png".to_string()));
+        let (n, b) = fp.write_calibration(out_dir, "calibration/tir")?;
+        (nuc, bad_pixels) = (Some(n), Some(b));
     }
     let mut phase_frames = [0usize; 3];
     for f in &frames {
@@ -643,10 +624,6 @@ pub fn render_sequence(cfg: &SequenceConfig, out_dir: &Path, progress: bool) -> 
 }
 
 /// A 16-bit grey image of `w × h` counts.
-fn gray16(w: usize, h: usize, data: Vec<u16>) -> Result<image::ImageBuffer<image::Luma<u16>, Vec<u16>>> {
-    image::ImageBuffer::from_raw(w as u32, h as u32, data).context("raw frame size")
-}
-
 /// Reads a sequence's `manifest.json`.
 pub fn read_manifest(dir: &Path) -> Result<SequenceManifest> {
     let path = dir.join("manifest.json");

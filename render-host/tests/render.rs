@@ -454,6 +454,89 @@ fn manifest_and_files() {
     assert!(mean(f0["tir64_eclipse"].clean.as_ref().unwrap()) < mean(f0["tir64"].clean.as_ref().unwrap()));
 }
 
+/// With a focal plane, every TIR set also gets raw counts and the shutter's flat fields, and
+/// each TIR size its factory calibration (the eclipse sets share their size's); the tables,
+/// applied by hand in f64, take a raw frame back to the noisy frame's counts within the
+/// calibration's stated error (the raw pattern is tens of times larger); the frame the shutter
+/// froze repeats the one before; without a focal plane the manifest is as before.
+#[test]
+fn raw_thermal_counts_in_the_study_layout() {
+    use render_host::focal_plane::FocalPlaneParams;
+    let p = FocalPlaneParams { shutter_period_s: 2.0, ..FocalPlaneParams::default() };
+    let cfg = DatasetConfig {
+        focal_plane: Some(p),
+        tir_eclipse_minutes: Some(30.0),
+        contact_sheet_thumb: 0,
+        ..DatasetConfig::small(4, 64)
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let m = render_dataset(&cfg, dir.path(), false).unwrap();
+    let tir: Vec<_> = m.sets.iter().filter(|s| s.band == Band::Tir).collect();
+    assert_eq!(tir.len(), 4);
+    for s in &tir {
+        assert_eq!(s.nuc.as_deref(), Some(format!("calibration/tir{}.nuc", s.width).as_str()), "{}", s.name);
+        assert_eq!(
+            s.bad_pixels.as_deref(),
+            Some(format!("calibration/tir{}_bad_pixels.png", s.width).as_str())
+        );
+    }
+    assert!(m.sets.iter().filter(|s| s.band == Band::Vis).all(|s| s.nuc.is_none()));
+    // Shutter every 2 s at 1 Hz: closes at frame 2, freezing it.
+    let frozen: Vec<bool> = m.frames.iter().map(|f| f.tir_frozen).collect();
+    assert_eq!(frozen, [false, false, true, false]);
+    assert_eq!(m.frames[3].fpa_delta_k, Some(3.0 * p.fpa_drift_k_per_s));
+    for f in &m.frames {
+        for s in &tir {
+            let ff = &f.files[&s.name];
+            assert_eq!(ff.shutter.is_some(), f.index == 2, "{} frame {}", s.name, f.index);
+            assert!(ff.raw.is_some());
+        }
+        assert!(f.files["vis_light"].raw.is_none());
+    }
+    let read = |rel: &Option<String>| std::fs::read(dir.path().join(rel.as_ref().unwrap())).unwrap();
+    assert_eq!(read(&m.frames[2].files["tir64"].raw), read(&m.frames[1].files["tir64"].raw));
+    assert_ne!(read(&m.frames[3].files["tir64"].raw), read(&m.frames[1].files["tir64"].raw));
+
+    let tables = fusion_io::thermal::NucTables::read(&dir.path().join("calibration/tir64.nuc")).unwrap();
+    let bad =
+        fusion_io::thermal::BadPixels::read(&dir.path().join("calibration/tir64_bad_pixels.png")).unwrap();
+    assert_eq!((tables.width, tables.height, bad.width, bad.height), (64, 64, 64, 64));
+    let f0 = &m.frames[0].files["tir64"];
+    let raw = image::open(dir.path().join(f0.raw.as_ref().unwrap())).unwrap().to_luma16();
+    let noisy = image::open(dir.path().join(f0.noisy.as_ref().unwrap())).unwrap().to_luma8();
+    let scene_counts = p.responsivity_counts_per_k * (cfg.tir.t_max - cfg.tir.t_min) / 255.0;
+    let (mut raw_err, mut nuc_err, mut n) = (0.0, 0.0, 0.0);
+    for (i, (&r, &v)) in raw.iter().zip(noisy.iter()).enumerate() {
+        if bad.is_bad(i % 64, i / 64) {
+            continue;
+        }
+        let ideal = f64::from(v) * scene_counts;
+        let corrected = f64::from(r) * f64::from(tables.gain[i]) / 16_384.0 + f64::from(tables.offset[i]);
+        raw_err += (f64::from(r) - ideal).abs();
+        nuc_err += (corrected - ideal).abs();
+        n += 1.0;
+    }
+    let (raw_err, nuc_err) = (raw_err / n, nuc_err / n);
+    // Left after the tables: the 0.3 K calibration error, NETD and the 8-bit quantisation of
+    // the comparison (one level = 39 counts), in counts; the raw frame is off by its pedestal.
+    let bound = p.responsivity_counts_per_k * (p.calibration_offset_error_k + p.netd_k) + scene_counts;
+    assert!(nuc_err < bound, "mean |error| after the tables {nuc_err:.1} counts, bound {bound:.1}");
+    assert!(raw_err > 20.0 * bound, "raw mean |error| {raw_err:.1}");
+
+    let plain = tempfile::tempdir().unwrap();
+    let m = render_dataset(
+        &DatasetConfig { contact_sheet_thumb: 0, ..DatasetConfig::small(2, 32) },
+        plain.path(),
+        false,
+    )
+    .unwrap();
+    let text = std::fs::read_to_string(plain.path().join("manifest.json")).unwrap();
+    for key in ["focal_plane", "nuc", "bad_pixels", "raw", "shutter", "fpa_delta_k", "tir_frozen"] {
+        assert!(!text.contains(&format!("\"{key}\"")), "{key} in a manifest without raw counts");
+    }
+    assert!(!plain.path().join("calibration").exists() && m.frames[0].fpa_delta_k.is_none());
+}
+
 /// Binary-mask centroid in relative image coordinates (0..1).
 fn centroid(img: &Image, inside: impl Fn(f32) -> bool) -> (f64, f64, usize) {
     let (mut sx, mut sy, mut n) = (0.0, 0.0, 0usize);

@@ -52,11 +52,13 @@ pub struct RenderArgs {
     /// Also write 16-bit TIR PNGs (`clean16/`, `noisy16/`; with --sequence: `tir16/`, noisy).
     #[arg(long)]
     pub tir16: bool,
-    /// With --sequence: also write the thermal camera's raw 14-bit counts (`tir_raw/`) through
-    /// a microbolometer model — fixed-pattern noise, column stripes, dead and hot pixels, drift,
-    /// shutter closures (`tir_shutter/`) — and its factory calibration (`calibration/tir.nuc`,
-    /// `calibration/tir_bad_pixels.png`, named in the manifest as `nuc` and `bad_pixels`).
-    #[arg(long, requires = "sequence")]
+    /// Also write the thermal camera's raw 14-bit counts through a microbolometer model —
+    /// fixed-pattern noise, column stripes, dead and hot pixels, drift, shutter closures — and
+    /// its factory calibration, named in the manifest as `nuc` and `bad_pixels`. With
+    /// --sequence: `tir_raw/`, `tir_shutter/`, `calibration/tir.nuc`,
+    /// `calibration/tir_bad_pixels.png`; in the study's layout (frames 1 s apart): each TIR
+    /// set's `raw/` and `shutter/`, `calibration/tir<size>.nuc` and `…_bad_pixels.png`.
+    #[arg(long)]
     pub raw_tir: bool,
     /// Also write TIR sets after this many minutes in eclipse (lumped transient).
     #[arg(long, value_name = "MINUTES")]

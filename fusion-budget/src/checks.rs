@@ -98,15 +98,19 @@ pub fn budget_table_text(measured: &[Measured], agc: &[TirMeasured], old: &Table
     for a in agc {
         let table = format!("{}.{}.{}", a.target, a.size.0, a.stage.table());
         if table != header {
-            let what = match a.stage {
-                crate::TirStage::Agc(_) => "The thermal AGC (fusion_nostd::agc)",
-                crate::TirStage::Thermal(_) => {
-                    "The thermal front end's stages (fusion_nostd::thermal, then the linear AGC)"
-                }
+            let (what, per) = match a.stage {
+                crate::TirStage::Agc(_) => ("The thermal AGC (fusion_nostd::agc)", String::new()),
+                crate::TirStage::Thermal(_) => (
+                    "The thermal front end's stages (fusion_nostd::thermal, then the linear AGC)",
+                    format!(
+                        " (the most any frame of the budget job's {}-frame raw sequence took)",
+                        crate::inputs::THERMAL_FRAMES
+                    ),
+                ),
             };
             let _ = writeln!(
                 s,
-                "\n# {what} on a {}x{} 14-bit TIR frame, per TIR pixel.\n[{table}]",
+                "\n# {what} on a {}x{} 14-bit TIR frame, per TIR pixel{per}.\n[{table}]",
                 a.size.0, a.size.1
             );
             header = table;

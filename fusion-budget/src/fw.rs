@@ -227,8 +227,11 @@ pub struct RunSpec {
     pub strips: bool,
     /// An AGC run instead of a fusion.
     pub agc: Option<AgcKind>,
-    /// A thermal front-end run instead of a fusion (`fw/src/job.rs`, method 5).
+    /// A thermal front-end run instead of a fusion (`fw/src/job.rs`, method 5): one frame of
+    /// the job's raw sequence ([`ThermalInputs`]).
     pub thermal: bool,
+    /// A thermal run whose frame comes with a shutter frame (its flag bit 5).
+    pub shutter: bool,
 }
 
 impl RunSpec {
@@ -244,12 +247,18 @@ impl RunSpec {
             strips: false,
             agc: None,
             thermal: false,
+            shutter: false,
         }
     }
 
-    /// A thermal front-end run on the job's raw counts and tables ([`Job::thermal`]).
-    pub fn thermal() -> Self {
-        RunSpec { thermal: true, ..RunSpec::plain(MethodArg::Tsifsd, VariantArg::Flight, RescaleArg::None) }
+    /// A thermal front-end run on the next frame of the job's raw sequence ([`Job::thermal`]),
+    /// re-levelled from its shutter frame first with `shutter`.
+    pub fn thermal(shutter: bool) -> Self {
+        RunSpec {
+            thermal: true,
+            shutter,
+            ..RunSpec::plain(MethodArg::Tsifsd, VariantArg::Flight, RescaleArg::None)
+        }
     }
 
     /// An AGC run on the job's 16-bit TIR frame.
@@ -277,7 +286,7 @@ impl RunSpec {
             return [4, u8::from(kind == AgcKind::Linear), 2, u8::from(self.fault) << 1];
         }
         if self.thermal {
-            return [5, 1, 2, u8::from(self.fault) << 1];
+            return [5, 1, 2, (u8::from(self.fault) << 1) | (u8::from(self.shutter) << 5)];
         }
         let method = match self.method {
             MethodArg::Adf => 0,
@@ -320,10 +329,10 @@ impl RunSpec {
         }
         if method == 5 {
             ensure!(
-                variant == 1 && policy == 2 && flags & !2 == 0,
-                "a thermal front-end run takes variant 1, policy 2 and no flag but the fault bit"
+                variant == 1 && policy == 2 && flags & !0x22 == 0,
+                "a thermal front-end run takes variant 1, policy 2 and no flag but the fault and shutter bits"
             );
-            return Ok(RunSpec { fault: flags & 2 != 0, ..RunSpec::thermal() });
+            return Ok(RunSpec { fault: flags & 2 != 0, ..RunSpec::thermal(flags & 0x20 != 0) });
         }
         let method = match method {
             0 => MethodArg::Adf,
@@ -353,7 +362,18 @@ impl RunSpec {
         let (stages, fault, strips) = (flags & 1 != 0, flags & 2 != 0, flags & 0x10 != 0);
         ensure!(!(stages && skip != SkipArg::None), "a staged run cannot skip");
         ensure!(!(strips && (stages || skip != SkipArg::None)), "a strip run cannot be staged or skip");
-        Ok(RunSpec { method, variant, policy, skip, stages, fault, strips, agc: None, thermal: false })
+        Ok(RunSpec {
+            method,
+            variant,
+            policy,
+            skip,
+            stages,
+            fault,
+            strips,
+            agc: None,
+            thermal: false,
+            shutter: false,
+        })
     }
 }
 
@@ -381,19 +401,27 @@ pub struct Job {
     pub runs: Vec<RunSpec>,
     /// 16-bit TIR counts of the AGC and thermal runs (the TIR size), written as `tir16.gray`.
     pub tir16: Option<Gray<u16>>,
-    /// The thermal front-end run's tables, map and column parameters, written as `nuc.bin`,
-    /// `bad.bin` and `column.bin`.
+    /// The thermal front-end runs' raw sequence, tables, map and column parameters.
     pub thermal: Option<ThermalInputs>,
 }
 
-/// What a thermal front-end run reads.
+/// One frame of a thermal sequence.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ThermalFrame {
+    /// Raw counts of the TIR size, written as `raw<i>.gray` for run `i`.
+    pub raw: Gray<u16>,
+    /// A flat field's raw counts (the TIR size) the shutter took before this frame, written as
+    /// `shutter<i>.gray`: the offsets are re-levelled from it first.
+    pub shutter: Option<Gray<u16>>,
+}
+
+/// What the thermal front-end runs read: a raw sequence, the k-th thermal run of the job
+/// correcting `frames[k]` with the state (re-levelled offsets, column estimate) the runs before
+/// left, and the calibration, written as `nuc.bin`, `bad.bin` and `column.bin`.
 #[derive(Debug, Clone)]
 pub struct ThermalInputs {
-    /// Raw counts of the TIR size, written as `raw.gray`.
-    pub raw: Gray<u16>,
-    /// A flat field's raw counts (the TIR size), written as `shutter.gray`: the offsets are
-    /// re-levelled from it first.
-    pub shutter: Gray<u16>,
+    /// The frames, in order.
+    pub frames: Vec<ThermalFrame>,
     /// NUC tables of the TIR size.
     pub nuc: fusion_io::thermal::NucTables,
     /// Bad-pixel map of the TIR size.
@@ -412,15 +440,19 @@ impl Job {
                 || self.tir16.as_ref().is_some_and(|t| (t.width, t.height) == tir_size),
             "AGC runs need 16-bit TIR counts of the TIR size"
         );
+        let thermal: Vec<bool> = self.runs.iter().filter(|r| r.thermal).map(|r| r.shutter).collect();
         ensure!(
-            self.runs.iter().all(|r| !r.thermal)
+            thermal.is_empty()
                 || self.thermal.as_ref().is_some_and(|t| {
-                    (t.raw.width, t.raw.height) == tir_size
-                        && (t.shutter.width, t.shutter.height) == tir_size
+                    t.frames.iter().map(|f| f.shutter.is_some()).eq(thermal.iter().copied())
+                        && t.frames.iter().all(|f| {
+                            (f.raw.width, f.raw.height) == tir_size
+                                && f.shutter.as_ref().is_none_or(|s| (s.width, s.height) == tir_size)
+                        })
                         && (t.nuc.width, t.nuc.height) == tir_size
                         && (t.bad.width, t.bad.height) == tir_size
                 }),
-            "thermal runs need raw counts, NUC tables and a bad-pixel map of the TIR size"
+            "thermal runs need a raw frame each (with a shutter frame where the run has its bit), NUC tables and a bad-pixel map, of the TIR size"
         );
         let mut b = b"FWJ1".to_vec();
         for v in [self.vis.width, self.vis.height, self.tir.width, self.tir.height, self.runs.len()] {
@@ -633,9 +665,14 @@ fn emulate(
         files.add_bytes(&dir.join("tir16.gray"), &bytes)?;
     }
     if let Some(t) = &job.thermal {
-        for (name, frame) in [("raw.gray", &t.raw), ("shutter.gray", &t.shutter)] {
-            let bytes: Vec<u8> = frame.data.iter().flat_map(|v| v.to_le_bytes()).collect();
-            files.add_bytes(&dir.join(name), &bytes)?;
+        let runs = job.runs.iter().enumerate().filter(|(_, r)| r.thermal).map(|(i, _)| i);
+        for (i, frame) in runs.zip(&t.frames) {
+            for (name, counts) in [("raw", Some(&frame.raw)), ("shutter", frame.shutter.as_ref())] {
+                if let Some(counts) = counts {
+                    let bytes: Vec<u8> = counts.data.iter().flat_map(|v| v.to_le_bytes()).collect();
+                    files.add_bytes(&dir.join(format!("{name}{i}.gray")), &bytes)?;
+                }
+            }
         }
         // The table file without its 16-byte header: gains, then offsets.
         files.add_bytes(&dir.join("nuc.bin"), t.nuc.to_bytes().get(16..).unwrap_or(&[]))?;
@@ -819,6 +856,7 @@ mod tests {
                 strips: false,
                 agc: None,
                 thermal: false,
+                shutter: false,
             }],
             tir16: None,
             thermal: None,
@@ -846,21 +884,25 @@ mod tests {
         assert!(agc.encode().is_err(), "no counts");
         let agc = Job { tir16: Some(Gray::new(3, 2)), ..agc };
         assert_eq!(&agc.encode()?[24..], &[4, 1, 2, 0]);
-        // The thermal front end: method 5, variant 1, policy 2; its inputs of the TIR size.
-        let spec = RunSpec::thermal();
+        // The thermal front end: method 5, variant 1, policy 2, the shutter bit 5; a frame of
+        // the TIR size per thermal run, a shutter frame where its run has the bit.
+        let spec = RunSpec::thermal(false);
         assert_eq!(spec.encode(), [5, 1, 2, 0]);
-        assert_eq!(RunSpec::decode(spec.encode())?, spec);
-        let fault = RunSpec { fault: true, ..spec };
-        assert_eq!(RunSpec::decode(fault.encode())?, fault);
-        for bad in [[5, 0, 2, 0], [5, 1, 0, 0], [5, 1, 2, 1], [6, 1, 2, 0]] {
+        assert_eq!(RunSpec::thermal(true).encode(), [5, 1, 2, 0x20]);
+        for s in [spec, RunSpec::thermal(true), RunSpec { fault: true, ..RunSpec::thermal(true) }] {
+            assert_eq!(RunSpec::decode(s.encode())?, s);
+        }
+        for bad in [[5, 0, 2, 0], [5, 1, 0, 0], [5, 1, 2, 1], [5, 1, 2, 0x40], [6, 1, 2, 0], [1, 1, 2, 0x20]]
+        {
             assert!(RunSpec::decode(bad).is_err(), "{bad:?}");
         }
-        let thermal = Job { runs: vec![spec], ..job.clone() };
+        let thermal = Job { runs: vec![spec, RunSpec::thermal(true)], ..job.clone() };
         assert!(thermal.encode().is_err(), "no inputs");
         let (w, h) = (job.tir.width, job.tir.height);
+        let frame =
+            |shutter: bool| ThermalFrame { raw: Gray::new(w, h), shutter: shutter.then(|| Gray::new(w, h)) };
         let inputs = ThermalInputs {
-            raw: Gray::new(w, h),
-            shutter: Gray::new(w, h),
+            frames: vec![frame(false), frame(true)],
             nuc: fusion_io::thermal::NucTables {
                 width: w,
                 height: h,
@@ -870,9 +912,19 @@ mod tests {
             bad: fusion_io::thermal::BadPixels::from_mask(w, h, &vec![false; w * h]),
             column: fusion_nostd::thermal::ColumnParams { threshold: 9, radius: 4, smoothing: 0 },
         };
-        let wrong = ThermalInputs { raw: Gray::new(w + 1, h), ..inputs.clone() };
+        let wrong = ThermalInputs {
+            frames: vec![frame(false), ThermalFrame { raw: Gray::new(w + 1, h), shutter: None }],
+            ..inputs.clone()
+        };
         assert!(Job { thermal: Some(wrong), ..thermal.clone() }.encode().is_err(), "raw of another size");
-        assert_eq!(&Job { thermal: Some(inputs), ..thermal }.encode()?[24..], &[5, 1, 2, 0]);
+        let unmatched = ThermalInputs { frames: vec![frame(false), frame(false)], ..inputs.clone() };
+        assert!(
+            Job { thermal: Some(unmatched), ..thermal.clone() }.encode().is_err(),
+            "a shutter run without its frame"
+        );
+        let short = ThermalInputs { frames: vec![frame(false)], ..inputs.clone() };
+        assert!(Job { thermal: Some(short), ..thermal.clone() }.encode().is_err(), "a run without its frame");
+        assert_eq!(&Job { thermal: Some(inputs), ..thermal }.encode()?[24..], &[5, 1, 2, 0, 5, 1, 2, 0x20]);
         Ok(())
     }
 }

@@ -84,12 +84,19 @@ pub fn counts_of(tir: &Gray<u8>) -> Gray<u16> {
     Gray { width: tir.width, height: tir.height, data }
 }
 
-/// The budget pair's TIR frame as the raw counts of the renderer's focal plane
-/// (`render_host::focal_plane`, default parameters, 20 s after calibration: drift, stripes,
-/// dead and hot pixels) and a shutter frame taken then, with its factory tables and map and the
-/// column filter's parameters
-/// (threshold from the corrected frame, [`fusion_engine::thermal::column_threshold`]): the
-/// input of the thermal front-end run.
+/// Frames of the thermal front end's raw sequence in the budget job, and the one (by index)
+/// the shutter closes before.
+pub const THERMAL_FRAMES: usize = 3;
+/// The frame of [`raw_thermal`]'s sequence that comes with a shutter frame.
+pub const THERMAL_SHUTTER_FRAME: usize = 1;
+
+/// The budget pair's TIR frame as a short raw video of the renderer's focal plane
+/// (`render_host::focal_plane`, default parameters; frames 1 s apart from 19 s after
+/// calibration: drift, stripes, dead and hot pixels, fresh noise each frame), the shutter
+/// closing before frame [`THERMAL_SHUTTER_FRAME`], with its factory tables and map and the
+/// column filter's parameters (threshold from the first corrected frame,
+/// [`fusion_engine::thermal::column_threshold`]; temporal smoothing 2⁻³, so the filter's state
+/// carries from frame to frame): the input of the thermal front-end runs.
 pub fn raw_thermal(tir: &Gray<u8>) -> Result<fw::ThermalInputs> {
     use render_host::focal_plane::{FocalPlane, FocalPlaneParams};
     let fp = FocalPlane::new(FocalPlaneParams::default(), tir.width, tir.height, 250.0);
@@ -99,8 +106,14 @@ pub fn raw_thermal(tir: &Gray<u8>) -> Result<fw::ThermalInputs> {
         data: tir.data.iter().map(|&t| f32::from(t) / 255.0).collect(),
     };
     let mut rng = render_host::noise::rng_for(7, 0);
-    let raw = Gray { width: tir.width, height: tir.height, data: fp.raw(&v, 20.0, &mut rng) };
-    let shutter = Gray { width: tir.width, height: tir.height, data: fp.shutter(150.0, 20.0, &mut rng) };
+    let gray = |data| Gray { width: tir.width, height: tir.height, data };
+    let frames: Vec<fw::ThermalFrame> = (0..THERMAL_FRAMES)
+        .map(|k| {
+            let t = 19.0 + k as f64;
+            let shutter = (k == THERMAL_SHUTTER_FRAME).then(|| gray(fp.shutter(150.0, t, &mut rng)));
+            fw::ThermalFrame { raw: gray(fp.raw(&v, t, &mut rng)), shutter }
+        })
+        .collect();
     let nuc = fusion_io::thermal::NucTables {
         width: tir.width,
         height: tir.height,
@@ -108,31 +121,44 @@ pub fn raw_thermal(tir: &Gray<u8>) -> Result<fw::ThermalInputs> {
         offset: fp.nuc_offset.clone(),
     };
     let bad = fusion_io::thermal::BadPixels::from_mask(tir.width, tir.height, &fp.bad_mask());
-    let mut levelled = fusion_engine::thermal::ThermalChain::new(Some(nuc.clone()), Some(bad.clone()), None)?;
-    levelled.shutter(&shutter)?;
-    let corrected = levelled.correct(&raw)?;
+    let first = frames.first().context("no thermal frame")?;
+    let corrected = fusion_engine::thermal::ThermalChain::new(Some(nuc.clone()), Some(bad.clone()), None)?
+        .correct(&first.raw)?;
     let column = fusion_nostd::thermal::ColumnParams {
         threshold: fusion_engine::thermal::column_threshold(&corrected),
         radius: fusion_engine::thermal::COLUMN_RADIUS,
-        smoothing: 0,
+        smoothing: 3,
     };
-    Ok(fw::ThermalInputs { raw, shutter, nuc, bad, column })
+    Ok(fw::ThermalInputs { frames, nuc, bad, column })
 }
 
-/// The host's result of a thermal front-end run: the offsets re-levelled from the shutter frame,
-/// the chain in one call (`fusion_nostd::thermal::correct_frame`, the frame's own column
-/// estimate), then the linear AGC — what the image computes stage by stage.
-pub fn thermal_host(t: &fw::ThermalInputs) -> Result<Gray<u8>> {
+/// The thermal runs of a job on `inputs`: one per frame, the shutter bit where it has one.
+pub fn thermal_runs(inputs: &fw::ThermalInputs) -> impl Iterator<Item = fw::RunSpec> + '_ {
+    inputs.frames.iter().map(|f| fw::RunSpec::thermal(f.shutter.is_some()))
+}
+
+/// The host's result of the thermal front-end runs, frame by frame: the offsets re-levelled
+/// at each shutter frame, the chain in one call per frame (`fusion_nostd::thermal::correct_frame`,
+/// the column filter's state carried on), then the linear AGC (a fresh state each frame) —
+/// what the image computes stage by stage.
+pub fn thermal_host(t: &fw::ThermalInputs) -> Result<Vec<Gray<u8>>> {
     let mut chain = fusion_engine::thermal::ThermalChain::new(
         Some(t.nuc.clone()),
         Some(t.bad.clone()),
         Some(fusion_engine::thermal::Column::Params(t.column)),
     )?;
-    chain.shutter(&t.shutter)?;
-    let corrected = chain.correct(&t.raw)?;
-    fusion_engine::agc::map_counts(
-        &mut fusion_engine::agc::fresh(),
-        &corrected,
-        &fusion_nostd::AgcParams::linear(),
-    )
+    t.frames
+        .iter()
+        .map(|f| {
+            if let Some(flat) = &f.shutter {
+                chain.shutter(flat)?;
+            }
+            let corrected = chain.correct(&f.raw)?;
+            fusion_engine::agc::map_counts(
+                &mut fusion_engine::agc::fresh(),
+                &corrected,
+                &fusion_nostd::AgcParams::linear(),
+            )
+        })
+        .collect()
 }

@@ -175,16 +175,17 @@ pub struct StripRun {
 /// runs were identical, and describes the first difference in `diffs`.
 fn compare_with_host(job: &Job, report: &FwReport, diffs: &mut Vec<String>, what: &str) -> Result<usize> {
     let mut same = 0;
+    let thermal = job.thermal.as_ref().map(inputs::thermal_host).transpose()?.unwrap_or_default();
+    let mut thermal = thermal.iter().enumerate();
     for (spec, run) in job.runs.iter().zip(&report.runs) {
         if spec.thermal {
-            let inputs = job.thermal.as_ref().context("a thermal run without its inputs")?;
-            let host = inputs::thermal_host(inputs)?;
+            let (k, host) = thermal.next().context("a thermal run without its frame")?;
             let fw = run.image.as_ref().context("no image")?;
-            if host == *fw {
+            if host == fw {
                 same += 1;
             } else {
                 let differ = host.data.iter().zip(&fw.data).filter(|(a, b)| a != b).count();
-                diffs.push(format!("{what}: thermal front end: {differ} pixels differ"));
+                diffs.push(format!("{what}: thermal front end, frame {k}: {differ} pixels differ"));
             }
             continue;
         }
@@ -359,15 +360,17 @@ pub fn run(opts: &Options) -> Result<Outcome> {
             // The thermal AGC on the pair's TIR frame as 14-bit counts (the TIR frame is 512² on
             // both grids: measured once, in the 512² job).
             let agc = fw::AgcKind::ALL.into_iter().filter(|_| grid == Grid::G512).map(RunSpec::agc);
-            // The thermal front end on the same TIR frame as raw counts of the renderer's focal
-            // plane (`inputs::raw_thermal`), in the 512² job (its tables need that image's RAM).
-            let thermal = (grid == Grid::G512).then(RunSpec::thermal);
+            // The thermal front end on the same TIR frame as a short raw video of the renderer's
+            // focal plane with a shutter closure (`inputs::raw_thermal`), a run per frame, in the
+            // 512² job (its tables need that image's RAM).
+            let raw = (grid == Grid::G512).then(|| inputs::raw_thermal(&pair.1)).transpose()?;
+            let thermal: Vec<RunSpec> = raw.iter().flat_map(inputs::thermal_runs).collect();
             let job = Job {
                 vis: pair.0.clone(),
                 tir: pair.1.clone(),
                 runs: staged.chain(strips).chain(skipping).chain(classic).chain(agc).chain(thermal).collect(),
                 tir16: (grid == Grid::G512).then(|| counts_of(&pair.1)),
-                thermal: (grid == Grid::G512).then(|| inputs::raw_thermal(&pair.1)).transpose()?,
+                thermal: raw,
             };
             let reps = opts.repeat.max(1);
             progress(&format!("{target} {}²: budget runs 1–{reps} (in parallel, one per core)", grid.side()));
@@ -419,20 +422,16 @@ pub fn run(opts: &Options) -> Result<Outcome> {
             out.stacks.push((target, grid, report.stack_bytes));
             out.overheads.push((target, grid, report.overhead));
             let mut classic_whole = None;
+            let mut thermal_runs = Vec::new();
+            let size = (job.tir.width, job.tir.height);
             for (spec, run) in job.runs.iter().zip(&report.runs) {
-                let size = (job.tir.width, job.tir.height);
                 if let Some(kind) = spec.agc {
                     let count = run.region("agc").context("no agc region in an AGC run")?;
                     out.agc.push(TirMeasured { target, stage: TirStage::Agc(kind), count, size });
                     continue;
                 }
                 if spec.thermal {
-                    for stage in TirStage::THERMAL {
-                        let count = run
-                            .region(stage)
-                            .with_context(|| format!("no {stage} region in a thermal run"))?;
-                        out.agc.push(TirMeasured { target, stage: TirStage::Thermal(stage), count, size });
-                    }
+                    thermal_runs.push(run);
                     continue;
                 }
                 if spec.variant == VariantArg::Classic {
@@ -495,6 +494,18 @@ pub fn run(opts: &Options) -> Result<Outcome> {
                     count,
                     whole,
                 });
+            }
+            // Per stage, the most any frame of the thermal sequence took (the shutter stage: on
+            // the frames that had one).
+            if !thermal_runs.is_empty() {
+                for stage in TirStage::THERMAL {
+                    let count = thermal_runs
+                        .iter()
+                        .filter_map(|run| run.region(stage))
+                        .max()
+                        .with_context(|| format!("no {stage} region in the thermal runs"))?;
+                    out.agc.push(TirMeasured { target, stage: TirStage::Thermal(stage), count, size });
+                }
             }
         }
         if opts.exactness {

@@ -13,19 +13,23 @@
 //!         bit 1: raise a fault instead, to test that a fault ends the emulation with status 1;
 //!         bits 2–3: scene skip level, 0 none, 1 ROI, 2 all; bit 4: fuse in strips
 //!         (`fusion_nostd::strips::fuse_strips`, the 512 KiB strip scratch, tallest strips;
-//!         not with bits 0 or 2–3); bits 5–7 must be 0)
+//!         not with bits 0 or 2–3); bit 5: thermal front-end runs only, see below;
+//!         bits 6–7 must be 0)
 //! ```
 //! An AGC run (method 4) maps `tir16.gray` (the TIR size, `u16` little-endian counts) to 8 bits
 //! with `fusion_nostd::agc_frame` (`AgcParams::plateau(pixels)` or `AgcParams::linear()`, a
 //! fresh state) in one `agc` region and writes that frame; its policy byte must be 2 and its
 //! flags 0 or the fault bit.
-//! A thermal front-end run (method 5, variant 1, policy 2, flags 0 or the fault bit) corrects
-//! `raw.gray` (raw counts, the TIR size, `u16` little-endian) with `nuc.bin` (the TIR size of `u16` Q2.14 gains, then of `i16`
-//! offsets), `bad.bin` (the one-bit map, `⌈width/8⌉` bytes a row) and `column.bin` (`u32`
-//! threshold, radius, smoothing), after re-levelling the offsets from `shutter.gray` (a flat
-//! field's raw counts, region `shutter`), stage by stage in the regions `nuc`, `bad_pixels`, `column`
-//! (`fusion_nostd::thermal`, the frame's own estimate) and `agc` (`AgcParams::linear()`), and
-//! writes the 8-bit frame.
+//! A thermal front-end run (method 5, variant 1, policy 2, flags 0 or the fault and shutter
+//! bits) corrects one frame of a sequence: run `i` reads `raw<i>.gray` (raw counts, the TIR
+//! size, `u16` little-endian) and, with the shutter bit (5), first re-levels the offsets from
+//! `shutter<i>.gray` (a flat field's raw counts, region `shutter`). The job's first thermal run
+//! reads `nuc.bin` (the TIR size of `u16` Q2.14 gains, then of `i16` offsets), `bad.bin` (the
+//! one-bit map, `⌈width/8⌉` bytes a row) and `column.bin` (`u32` threshold, radius, smoothing)
+//! and starts the column filter afresh; later thermal runs carry the re-levelled offsets and
+//! the filter's state on, as a camera's video does. Stage by stage in the regions `nuc`,
+//! `bad_pixels`, `column` (`fusion_nostd::thermal`, the filter's temporal estimate) and `agc`
+//! (`AgcParams::linear()`, a fresh state each frame); each run writes its 8-bit frame.
 //! Method parameters are the core's defaults for the variant, the scene analysis thresholds
 //! `SceneParams::default()` (the host builds the same [`FuseConfig`] for its comparison run).
 
@@ -50,6 +54,8 @@ pub struct Run {
     pub fault: bool,
     /// Fuse strip by strip in the strip scratch.
     pub strips: bool,
+    /// A thermal front-end run: re-level the offsets from `shutter<i>.gray` first.
+    pub shutter: bool,
 }
 
 /// A parsed job.
@@ -100,10 +106,11 @@ impl Job {
             if method > 5 {
                 return Err("job.bin: bad method");
             }
-            if method == 5 && (policy != RescalePolicy::None || flags & !2 != 0 || variant != Variant::Flight)
+            if method == 5
+                && (policy != RescalePolicy::None || flags & !0x22 != 0 || variant != Variant::Flight)
             {
                 return Err(
-                    "job.bin: a thermal front-end run takes variant 1, policy 2 and no flag but the fault bit",
+                    "job.bin: a thermal front-end run takes variant 1, policy 2 and no flag but the fault and shutter bits",
                 );
             }
             if method == 4 && (policy != RescalePolicy::None || flags & !2 != 0) {
@@ -115,7 +122,7 @@ impl Job {
                 2 => SkipPolicy::All,
                 _ => return Err("job.bin: bad skip level"),
             };
-            if flags >> 5 != 0 {
+            if flags >> 6 != 0 || (flags & 0x20 != 0 && method != 5) {
                 return Err("job.bin: unknown flags");
             }
             if flags & 1 != 0 && skip != SkipPolicy::None {
@@ -133,6 +140,7 @@ impl Job {
                 stages: flags & 1 != 0,
                 fault: flags & 2 != 0,
                 strips,
+                shutter: flags & 0x20 != 0,
             });
         }
         Ok(Job { vis, tir, runs, n })
@@ -153,6 +161,7 @@ impl Run {
         stages: false,
         fault: false,
         strips: false,
+        shutter: false,
     };
 
     /// The core configuration of this run.
@@ -218,6 +227,12 @@ impl Run {
 
 /// `out<i>.gray` written into `buf`.
 pub fn out_name(i: usize, buf: &mut [u8; 16]) -> &str {
+    file_name(b"out", i, buf)
+}
+
+/// `<stem><i>.gray` written into `buf` (`shutter31.gray`, the longest a job names, is 14
+/// bytes).
+pub fn file_name<'a>(stem: &[u8], i: usize, buf: &'a mut [u8; 16]) -> &'a str {
     let mut digits = [0u8; 10];
     let mut n = i;
     let mut k = 0;
@@ -232,7 +247,7 @@ pub fn out_name(i: usize, buf: &mut [u8; 16]) -> &str {
         }
     }
     let mut len = 0;
-    for &b in b"out".iter().chain(digits.iter().take(k).rev()).chain(b".gray".iter()) {
+    for &b in stem.iter().chain(digits.iter().take(k).rev()).chain(b".gray".iter()) {
         if let Some(slot) = buf.get_mut(len) {
             *slot = b;
             len += 1;

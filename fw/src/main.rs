@@ -83,8 +83,11 @@ pub(crate) mod thermal_buffers {
     /// The corrected frame after each stage.
     pub static mut STAGE_A: [u16; PX] = [0; PX];
     pub static mut STAGE_B: [u16; PX] = [0; PX];
-    /// The column filter's state (28 KiB).
+    /// The column filter's state (28 KiB), carried from frame to frame.
     pub static mut COLUMN: fusion_nostd::thermal::ColumnFilter = fusion_nostd::thermal::ColumnFilter::new();
+    /// The column filter's parameters (`column.bin`, read by the job's first thermal run).
+    pub static mut COLUMN_PARAMS: fusion_nostd::thermal::ColumnParams =
+        fusion_nostd::thermal::ColumnParams { threshold: 0, radius: 0, smoothing: 0 };
 }
 #[unsafe(link_section = ".bigram")]
 static mut SCRATCH: sizes::Scratch = sizes::Scratch::new();

@@ -144,6 +144,7 @@ pub fn run_job(m: &mut Meter) -> Result<(), FwError> {
     say!(m.con, "@fw job {}x{} {}x{} runs {}", vw, vh, tw, th, job.runs().len());
     m.region("overhead", || core::hint::black_box(()));
 
+    let mut thermal_started = false;
     for (i, run) in job.runs().enumerate() {
         if run.thermal() {
             let out = out_buf.get_mut(..tir_px).ok_or(FwError::Job("output too large for the image"))?;
@@ -151,7 +152,8 @@ pub fn run_job(m: &mut Meter) -> Result<(), FwError> {
             if run.fault {
                 crate::arch::undefined_instruction();
             }
-            thermal_run(m, (tw, th), agc, out)?;
+            thermal_run(m, i, (tw, th), (!thermal_started, run.shutter), agc, out)?;
+            thermal_started = true;
             let sum = fnv1a(out);
             let mut file_name = [0u8; 16];
             let file = job::out_name(i, &mut file_name);
@@ -315,12 +317,16 @@ fn words_as_bytes(words: &mut [u16]) -> &mut [u8] {
     unsafe { core::slice::from_raw_parts_mut(words.as_mut_ptr().cast::<u8>(), words.len() * 2) }
 }
 
-/// A thermal front-end run (`job.rs`): the NUC offsets re-levelled from `shutter.gray`, then the
-/// raw counts of `raw.gray` (the TIR size) through the tables, the bad-pixel map and the column
-/// filter, each stage in its own region, then the linear AGC into `out`.
+/// A thermal front-end run (`job.rs`), run `i` of the job: on the job's first (`first`) the
+/// tables, map and column parameters are read and the filter starts afresh; with `shutter` the
+/// offsets are re-levelled from `shutter<i>.gray`; then the raw counts of `raw<i>.gray` (the TIR
+/// size) go through the tables, the bad-pixel map and the column filter, each stage in its own
+/// region, then the linear AGC into `out`.
 fn thermal_run(
     m: &mut Meter,
+    i: usize,
     (tw, th): (usize, usize),
+    (first, shutter): (bool, bool),
     agc: &mut fusion_nostd::Agc,
     out: &mut [u8],
 ) -> Result<(), FwError> {
@@ -334,59 +340,66 @@ fn thermal_run(
         return Err(FwError::Job("a thermal front-end run needs the 512x512 image (feature grid512)"));
     }
     // SAFETY: single-threaded; the only references to these statics.
-    let (nuc, bad, a, b, column) = unsafe {
+    let (nuc, bad, a, b, column, column_params) = unsafe {
         (
             &mut *core::ptr::addr_of_mut!(tb::NUC),
             &mut *core::ptr::addr_of_mut!(tb::BAD),
             &mut *core::ptr::addr_of_mut!(tb::STAGE_A),
             &mut *core::ptr::addr_of_mut!(tb::STAGE_B),
             &mut *core::ptr::addr_of_mut!(tb::COLUMN),
+            &mut *core::ptr::addr_of_mut!(tb::COLUMN_PARAMS),
         )
     };
     let nuc = nuc.get_mut(..2 * px).ok_or(FwError::Job("TIR too large"))?;
-    if semihosting::read_file("nuc.bin", words_as_bytes(nuc)).map_err(|e| FwError::Io(e, "nuc.bin"))?
-        != 4 * px
-    {
-        return Err(FwError::Job("nuc.bin has the wrong length"));
-    }
     let bad = bad.get_mut(..bad_map_bytes(tw, th)).ok_or(FwError::Job("TIR too large"))?;
-    if semihosting::read_file("bad.bin", bad).map_err(|e| FwError::Io(e, "bad.bin"))? != bad.len() {
-        return Err(FwError::Job("bad.bin has the wrong length"));
+    if first {
+        if semihosting::read_file("nuc.bin", words_as_bytes(nuc)).map_err(|e| FwError::Io(e, "nuc.bin"))?
+            != 4 * px
+        {
+            return Err(FwError::Job("nuc.bin has the wrong length"));
+        }
+        if semihosting::read_file("bad.bin", bad).map_err(|e| FwError::Io(e, "bad.bin"))? != bad.len() {
+            return Err(FwError::Job("bad.bin has the wrong length"));
+        }
+        let mut cfg = [0u8; 12];
+        if semihosting::read_file("column.bin", &mut cfg).map_err(|e| FwError::Io(e, "column.bin"))? != 12 {
+            return Err(FwError::Job("column.bin has the wrong length"));
+        }
+        let field =
+            |k: usize| cfg.get(4 * k..4 * k + 4).map_or(0, |w| u32::from_le_bytes([w[0], w[1], w[2], w[3]]));
+        *column_params = ColumnParams {
+            threshold: u16::try_from(field(0)).map_err(|_| FwError::Job("column.bin: threshold"))?,
+            radius: u16::try_from(field(1)).map_err(|_| FwError::Job("column.bin: radius"))?,
+            smoothing: u8::try_from(field(2)).map_err(|_| FwError::Job("column.bin: smoothing"))?,
+        };
+        column.reset();
     }
-    let mut cfg = [0u8; 12];
-    if semihosting::read_file("column.bin", &mut cfg).map_err(|e| FwError::Io(e, "column.bin"))? != 12 {
-        return Err(FwError::Job("column.bin has the wrong length"));
-    }
-    let field =
-        |k: usize| cfg.get(4 * k..4 * k + 4).map_or(0, |w| u32::from_le_bytes([w[0], w[1], w[2], w[3]]));
-    let params = ColumnParams {
-        threshold: u16::try_from(field(0)).map_err(|_| FwError::Job("column.bin: threshold"))?,
-        radius: u16::try_from(field(1)).map_err(|_| FwError::Job("column.bin: radius"))?,
-        smoothing: u8::try_from(field(2)).map_err(|_| FwError::Job("column.bin: smoothing"))?,
-    };
+    let params = *column_params;
     let (gain, offset) = nuc.split_at_mut(px);
     // SAFETY: `i16` and `u16` have the same size and alignment; the offsets are their bits.
     let offset = unsafe { core::slice::from_raw_parts_mut(offset.as_mut_ptr().cast::<i16>(), offset.len()) };
     let map = BadPixelMap::new(tw, th, bad)?;
     let a = a.get_mut(..px).ok_or(FwError::Job("TIR too large"))?;
     let b = b.get_mut(..px).ok_or(FwError::Job("TIR too large"))?;
-    // The shutter's flat field (in the first stage buffer until the tables need it) re-levels
-    // the offsets in place.
-    if semihosting::read_file("shutter.gray", words_as_bytes(a))
-        .map_err(|e| FwError::Io(e, "shutter.gray"))?
-        != 2 * px
-    {
-        return Err(FwError::Job("shutter.gray has the wrong length"));
+    let mut name = [0u8; 16];
+    if shutter {
+        // The shutter's flat field (in the first stage buffer until the tables need it)
+        // re-levels the offsets in place.
+        let file = job::file_name(b"shutter", i, &mut name);
+        if semihosting::read_file(file, words_as_bytes(a)).map_err(|e| FwError::Io(e, "shutter<i>.gray"))?
+            != 2 * px
+        {
+            return Err(FwError::Job("shutter<i>.gray has the wrong length"));
+        }
+        let flat = FrameRef::new(&a[..], tw, th)?;
+        m.region("shutter", || shutter_update(gain, &mut *offset, Some(&map), flat))?;
     }
-    let flat = FrameRef::new(&a[..], tw, th)?;
-    m.region("shutter", || shutter_update(gain, &mut *offset, Some(&map), flat))?;
     let tables = NucTables::new(tw, th, gain, offset)?;
     // The raw counts in the second stage buffer: the tables read them into the first, the
     // bad-pixel stage writes over them.
-    if semihosting::read_file("raw.gray", words_as_bytes(b)).map_err(|e| FwError::Io(e, "raw.gray"))?
-        != 2 * px
-    {
-        return Err(FwError::Job("raw.gray has the wrong length"));
+    let file = job::file_name(b"raw", i, &mut name);
+    if semihosting::read_file(file, words_as_bytes(b)).map_err(|e| FwError::Io(e, "raw<i>.gray"))? != 2 * px {
+        return Err(FwError::Job("raw<i>.gray has the wrong length"));
     }
     let raw = FrameRef::new(&b[..], tw, th)?;
     let fa = FrameMut::new(&mut *a, tw, th)?;
@@ -395,7 +408,6 @@ fn thermal_run(
     let stages = Correction { nuc: None, bad: Some(map) };
     let fa = FrameRef::new(&a[..], tw, th)?;
     m.region("bad_pixels", || correct_frame(&stages, None, fa, fb))?;
-    column.reset();
     let fb = FrameMut::new(&mut *b, tw, th)?;
     m.region("column", || column_filter_frame(column, fb, &params))?;
     agc.reset();

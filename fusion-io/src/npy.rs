@@ -1,4 +1,4 @@
-//! Float arrays as NumPy `.npy` files: the published reference outputs are read as `f64`
+//! Arrays as NumPy `.npy` files: the published reference outputs are read as `f64`
 //! ([`read_npy_2d`]), float results written as `float32` ([`write_npy_f32`], through the atomic
 //! write path).
 
@@ -7,8 +7,8 @@ use crate::output::write_atomic;
 use anyhow::{Context, Result, bail};
 use std::path::Path;
 
-/// Reads a float32 or float64 `.npy` array of shape `(H, W)` (C or Fortran order) as `f64`,
-/// row-major.
+/// Reads a float32, float64, uint8, uint16 or int16 `.npy` array of shape `(H, W)` (C or
+/// Fortran order) as `f64` (every value exact), row-major.
 pub fn read_npy_2d(path: &Path) -> Result<Gray<f64>> {
     let bytes = std::fs::read(path).with_context(|| format!("cannot read {}", path.display()))?;
     let npy =
@@ -23,6 +23,15 @@ pub fn read_npy_2d(path: &Path) -> Result<Gray<f64>> {
         }
         npyz::DType::Plain(t) if t.type_char() == npyz::TypeChar::Float && t.size_field() == 8 => {
             npy.into_vec::<f64>()?
+        }
+        npyz::DType::Plain(t) if t.type_char() == npyz::TypeChar::Uint && t.size_field() == 1 => {
+            npy.into_vec::<u8>()?.into_iter().map(f64::from).collect()
+        }
+        npyz::DType::Plain(t) if t.type_char() == npyz::TypeChar::Uint && t.size_field() == 2 => {
+            npy.into_vec::<u16>()?.into_iter().map(f64::from).collect()
+        }
+        npyz::DType::Plain(t) if t.type_char() == npyz::TypeChar::Int && t.size_field() == 2 => {
+            npy.into_vec::<i16>()?.into_iter().map(f64::from).collect()
         }
         other => bail!("{}: unsupported dtype {other:?}", path.display()),
     };

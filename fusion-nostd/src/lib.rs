@@ -188,6 +188,7 @@ pub mod filters;
 pub mod frame;
 pub mod methods;
 pub mod pipeline;
+pub mod registration;
 pub mod rescalers;
 pub mod scene;
 pub mod scratch;

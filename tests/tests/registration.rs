@@ -1,0 +1,154 @@
+//! Registration (`fusion_nostd::registration`): the remap kernel against OpenCV's `remap` on
+//! the same fixed-point map (`tests/data/remap/`, made by `scripts/cv2_remap_fixtures.py` with
+//! the OpenCV named in its `versions.txt`), and the kernel's own properties.
+
+use fusion_io::npy::read_npy_2d;
+use fusion_io::testdata::file;
+use fusion_nostd::registration::{Border, FixedMap, Interpolation, RemapSample, TAB_SIZE, remap};
+use fusion_nostd::{Error, FrameMut, FrameRef};
+
+fn load(name: &str) -> (usize, usize, Vec<f64>) {
+    let g = read_npy_2d(&file(&format!("remap/{name}.npy"))).unwrap();
+    (g.width, g.height, g.data)
+}
+
+struct Fixture {
+    w: usize,
+    h: usize,
+    xy: Vec<i16>,
+    frac: Vec<u16>,
+}
+
+fn fixture_map() -> Fixture {
+    let (w, h, x) = load("map_x");
+    let (_, _, y) = load("map_y");
+    let (_, _, f) = load("map_frac");
+    let xy = x.iter().zip(&y).flat_map(|(&x, &y)| [x as i16, y as i16]).collect();
+    Fixture { w, h, xy, frac: f.iter().map(|&v| v as u16).collect() }
+}
+
+/// Our remap of the fixture's source through its map, and OpenCV's result, for one case.
+fn case<T: RemapSample + Default>(depth: &str, interp: Interpolation, border: &str) -> (Vec<u32>, Vec<u32>) {
+    let m = fixture_map();
+    let (sw, sh, src) = load(&format!("src_{depth}"));
+    let src: Vec<T> = src.iter().map(|&v| T::put(v as u32)).collect();
+    let full = T::MAX;
+    let b = match border {
+        "constant0" => Border::Constant(0),
+        "constant" => Border::Constant((full / 3) as u16),
+        _ => Border::Replicate,
+    };
+    let map = FixedMap::new(m.w, m.h, &m.xy, &m.frac).unwrap();
+    let mut out = vec![T::default(); m.w * m.h];
+    remap(FrameRef::new(&src, sw, sh).unwrap(), &map, FrameMut::new(&mut out, m.w, m.h).unwrap(), interp, b)
+        .unwrap();
+    let name = match interp {
+        Interpolation::Linear => "linear",
+        Interpolation::Cubic => "cubic",
+    };
+    let (_, _, cv) = load(&format!("out_{depth}_{name}_{border}"));
+    (out.iter().map(|v| v.get()).collect(), cv.iter().map(|&v| v as u32).collect())
+}
+
+/// Linear interpolation, 8 and 16 bit, constant (0 and a third of full scale) and replicate
+/// borders: every pixel equals OpenCV's, inside, across and outside the source's edges.
+#[test]
+fn linear_remap_is_opencvs_bit_for_bit() {
+    for border in ["constant0", "constant", "replicate"] {
+        for (ours, cv) in [
+            case::<u8>("u8", Interpolation::Linear, border),
+            case::<u16>("u16", Interpolation::Linear, border),
+        ] {
+            let differ = ours.iter().zip(&cv).filter(|(a, b)| a != b).count();
+            assert_eq!(differ, 0, "linear, {border}: {differ} of {} pixels differ from OpenCV", ours.len());
+        }
+    }
+}
+
+/// Cubic interpolation, both depths, every border: OpenCV's arithmetic (its `f32` weights and
+/// summation order). OpenCV 5's own cubic output is not one function of its inputs: its
+/// optimised and plain builds differ on sums that fall within a rounding error of a half
+/// (measured: `BENCHMARKS.md`, "Registration"), so here every pixel must be within one level
+/// and at most 0.5 % of them may differ at all.
+#[test]
+fn cubic_remap_matches_opencv_up_to_its_own_rounding_of_ties() {
+    for border in ["constant0", "constant", "replicate"] {
+        for (depth, (ours, cv)) in [
+            ("u8", case::<u8>("u8", Interpolation::Cubic, border)),
+            ("u16", case::<u16>("u16", Interpolation::Cubic, border)),
+        ] {
+            let worst = ours.iter().zip(&cv).map(|(&a, &b)| a.abs_diff(b)).max().unwrap();
+            let differ = ours.iter().zip(&cv).filter(|(a, b)| a != b).count();
+            assert!(worst <= 1, "cubic {depth} {border}: off by {worst}");
+            assert!(differ * 200 <= ours.len(), "cubic {depth} {border}: {differ} of {} differ", ours.len());
+        }
+    }
+}
+
+/// Hand-computed: at the map's integer positions linear and cubic return the source pixel;
+/// half way between two pixels linear gives their mean rounded half up (Q15) or half to even
+/// (16 bit, `f32`); a position entirely outside takes the constant, replicate the edge.
+#[test]
+fn hand_computed_positions() {
+    let src8: Vec<u8> = (0..36).map(|i| (i * 7) as u8).collect();
+    let src16: Vec<u16> = (0..36).map(|i| (i * 1001) as u16 + 1).collect();
+    let run8 = |xy: &[i16], frac: &[u16], interp, border| {
+        let map = FixedMap::new(xy.len() / 2, 1, xy, frac).unwrap();
+        let mut out = vec![0u8; xy.len() / 2];
+        remap(
+            FrameRef::new(&src8, 6, 6).unwrap(),
+            &map,
+            FrameMut::new(&mut out, xy.len() / 2, 1).unwrap(),
+            interp,
+            border,
+        )
+        .unwrap();
+        out
+    };
+    let half_x = (TAB_SIZE / 2) as u16;
+    for interp in [Interpolation::Linear, Interpolation::Cubic] {
+        assert_eq!(run8(&[2, 3, 4, 1], &[0, 0], interp, Border::Replicate), [src8[20], src8[10]]);
+    }
+    // (2.5, 3): the mean of 7·20 = 140 and 7·21 = 147 is 143.5 → 144.
+    assert_eq!(run8(&[2, 3], &[half_x], Interpolation::Linear, Border::Replicate), [144]);
+    // Far outside: the constant; replicate: the corner.
+    assert_eq!(run8(&[-9, -9, 40, 2], &[0, 0], Interpolation::Linear, Border::Constant(77)), [77, 77]);
+    assert_eq!(run8(&[-9, -9], &[0], Interpolation::Cubic, Border::Replicate), [src8[0]]);
+    // A constant above 255 saturates for 8-bit frames.
+    assert_eq!(run8(&[-9, -9], &[0], Interpolation::Linear, Border::Constant(300)), [255]);
+    // 16 bit: (1.5, 0) between 1002 and 2003 → 1502.5 → 1502 (half to even).
+    let (xy, frac) = ([1i16, 0], [half_x]);
+    let map = FixedMap::new(1, 1, &xy, &frac).unwrap();
+    let mut out = [0u16; 1];
+    remap(
+        FrameRef::new(&src16, 6, 6).unwrap(),
+        &map,
+        FrameMut::new(&mut out, 1, 1).unwrap(),
+        Interpolation::Linear,
+        Border::Replicate,
+    )
+    .unwrap();
+    assert_eq!(out, [1502]);
+}
+
+/// Maps of the wrong length or an output of another size are refused, nothing written.
+#[test]
+fn bad_maps_are_refused() {
+    let xy = [0i16; 8];
+    let frac = [0u16; 4];
+    assert!(matches!(FixedMap::new(2, 2, &xy[..6], &frac), Err(Error::BufferTooSmall { .. })));
+    assert!(matches!(FixedMap::new(2, 2, &xy, &frac[..3]), Err(Error::BufferTooSmall { .. })));
+    assert!(matches!(FixedMap::new(0, 2, &xy, &frac), Err(Error::ZeroDimension)));
+    let map = FixedMap::new(2, 2, &xy, &frac).unwrap();
+    let src = [5u8; 4];
+    let mut out = [9u8; 6];
+    let r = remap(
+        FrameRef::new(&src, 2, 2).unwrap(),
+        &map,
+        FrameMut::new(&mut out, 3, 2).unwrap(),
+        Interpolation::Linear,
+        Border::Replicate,
+    );
+    assert!(matches!(r, Err(Error::SizeMismatch { .. })));
+    assert_eq!(out, [9; 6]);
+}

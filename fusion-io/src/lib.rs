@@ -18,6 +18,8 @@
 //! * **Console** ([`console`]): standard output and error without panics, `--quiet`, and the
 //!   macros [`out!`], [`outln!`] and [`note!`].
 //! * **The thermal camera's calibration files** ([`thermal`]): NUC tables and bad-pixel maps.
+//! * **A camera pair's calibration** ([`rig`]): OpenCV's stereo calibration as it writes it
+//!   (`FileStorage` YAML or JSON), for the registration of offset cameras.
 //! * **Folders of pairs** ([`folders`]), **memory estimates and the limit** ([`memory`]),
 //!   **`.npy` arrays** ([`npy`]) and **the repository's test data** ([`testdata`]).
 //!
@@ -63,6 +65,7 @@ pub mod memory;
 pub mod npy;
 pub mod output;
 mod picture;
+pub mod rig;
 pub mod testdata;
 pub mod thermal;
 

@@ -15,9 +15,11 @@
 //! strip's map is a map of the strip's height: [`remap`] takes any output size).
 
 pub mod kernel;
+pub mod rig;
 pub mod tables;
 
 pub use kernel::{Border, RemapSample};
+pub use rig::{Camera, NODE_STEP, Rig, RigMap, node_count};
 pub use tables::{TAB_BITS, TAB_SIZE};
 
 use crate::error::Error;

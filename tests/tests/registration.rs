@@ -153,9 +153,12 @@ fn bad_maps_are_refused() {
     assert_eq!(out, [9; 6]);
 }
 
+/// A visible pixel and OpenCV's thermal position for it.
+type Position = ((usize, usize), (f64, f64));
+
 /// OpenCV's positions on the fixture grid (`tests/data/rig/<name>.npy`, shape (33, 33, 2)): the
 /// grid's visible pixels and the thermal position of each.
-fn opencv_positions(name: &str) -> Vec<((usize, usize), (f64, f64))> {
+fn opencv_positions(name: &str) -> Vec<Position> {
     let path = file(&format!("rig/{name}.npy"));
     let bytes = std::fs::read(&path).unwrap();
     let npy = npyz::NpyFile::new(&bytes[..]).unwrap();
@@ -166,7 +169,7 @@ fn opencv_positions(name: &str) -> Vec<((usize, usize), (f64, f64))> {
 }
 
 /// The largest distance, px, between our positions and OpenCV's.
-fn worst(ours: impl Fn(usize, usize) -> (f32, f32), cv: &[((usize, usize), (f64, f64))]) -> f64 {
+fn worst(ours: impl Fn(usize, usize) -> (f32, f32), cv: &[Position]) -> f64 {
     cv.iter()
         .map(|&((u, v), (x, y))| {
             let (a, b) = ours(u, v);

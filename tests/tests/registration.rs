@@ -253,3 +253,119 @@ fn bad_rigs_are_refused() {
     assert!(fusion_io::rig::from_text("%YAML:1.0\n---\nR: [1, 2]\n").is_err());
     assert!(fusion_io::rig::from_text("{ not json").is_err());
 }
+
+/// `register` strip by strip gives the bytes of one `remap` through the whole frame's map, for
+/// strips of 1, 7 and 64 rows, both depths and interpolations; sizes that do not match the rig
+/// and scratch without a whole row are refused with nothing written.
+#[test]
+fn register_in_strips_is_remap_through_the_whole_map() {
+    use fusion_nostd::registration::{NODE_STEP, RigMap, node_count, register};
+    let mut rig = fusion_io::rig::read(&file("rig/offset_rig.json")).unwrap();
+    // A small pair keeps the test fast: the same lenses and pose, scaled images.
+    rig.vis = fusion_nostd::registration::Camera {
+        fx: rig.vis.fx / 8.0,
+        fy: rig.vis.fy / 8.0,
+        cx: 63.5,
+        cy: 63.5,
+        width: 128,
+        height: 128,
+        ..rig.vis
+    };
+    rig.tir = fusion_nostd::registration::Camera {
+        fx: rig.tir.fx / 8.0,
+        fy: rig.tir.fy / 8.0,
+        cx: 31.5,
+        cy: 31.5,
+        width: 64,
+        height: 64,
+        ..rig.tir
+    };
+    let mut nodes = vec![[0.0f32; 2]; node_count(128, 128, NODE_STEP)];
+    let map = RigMap::new(&rig, 6.0, NODE_STEP, &mut nodes).unwrap();
+    let src8: Vec<u8> = (0..64 * 64).map(|i| ((i * 37 + i / 64 * 11) % 251) as u8).collect();
+    let src16: Vec<u16> =
+        src8.iter().enumerate().map(|(i, &v)| u16::from(v) * 250 + (i % 97) as u16).collect();
+    let (mut xy, mut frac) = (vec![0i16; 2 * 128 * 128], vec![0u16; 128 * 128]);
+    map.rows(0, &mut xy, &mut frac).unwrap();
+    let whole = FixedMap::new(128, 128, &xy, &frac).unwrap();
+    for interp in [Interpolation::Linear, Interpolation::Cubic] {
+        let border = Border::Constant(0);
+        let mut want8 = vec![0u8; 128 * 128];
+        remap(
+            FrameRef::new(&src8, 64, 64).unwrap(),
+            &whole,
+            FrameMut::new(&mut want8, 128, 128).unwrap(),
+            interp,
+            border,
+        )
+        .unwrap();
+        let mut want16 = vec![0u16; 128 * 128];
+        remap(
+            FrameRef::new(&src16, 64, 64).unwrap(),
+            &whole,
+            FrameMut::new(&mut want16, 128, 128).unwrap(),
+            interp,
+            border,
+        )
+        .unwrap();
+        assert!(
+            want8.iter().filter(|&&v| v != 0).count() > 128 * 128 / 2,
+            "the thermal frame covers the grid"
+        );
+        for rows in [1usize, 7, 64] {
+            let (mut sxy, mut sfrac) = (vec![0i16; 2 * rows * 128], vec![0u16; rows * 128]);
+            let mut got8 = vec![0u8; 128 * 128];
+            let src = FrameRef::new(&src8, 64, 64).unwrap();
+            register(
+                src,
+                &map,
+                FrameMut::new(&mut got8, 128, 128).unwrap(),
+                interp,
+                border,
+                &mut sxy,
+                &mut sfrac,
+            )
+            .unwrap();
+            assert_eq!(got8, want8, "{interp:?}, strips of {rows}");
+            let mut got16 = vec![0u16; 128 * 128];
+            let src = FrameRef::new(&src16, 64, 64).unwrap();
+            register(
+                src,
+                &map,
+                FrameMut::new(&mut got16, 128, 128).unwrap(),
+                interp,
+                border,
+                &mut sxy,
+                &mut sfrac,
+            )
+            .unwrap();
+            assert_eq!(got16, want16, "{interp:?} 16-bit, strips of {rows}");
+        }
+    }
+    let mut out = vec![9u8; 128 * 128];
+    let (mut sxy, mut sfrac) = (vec![0i16; 2 * 127], vec![0u16; 127]);
+    let src = FrameRef::new(&src8, 64, 64).unwrap();
+    let r = register(
+        src,
+        &map,
+        FrameMut::new(&mut out, 128, 128).unwrap(),
+        Interpolation::Linear,
+        Border::Replicate,
+        &mut sxy,
+        &mut sfrac,
+    );
+    assert!(r.is_err(), "less than a row of scratch");
+    let wrong = FrameRef::new(&src8[..32 * 64], 64, 32).unwrap();
+    let (mut sxy, mut sfrac) = (vec![0i16; 2 * 128], vec![0u16; 128]);
+    let r = register(
+        wrong,
+        &map,
+        FrameMut::new(&mut out, 128, 128).unwrap(),
+        Interpolation::Linear,
+        Border::Replicate,
+        &mut sxy,
+        &mut sfrac,
+    );
+    assert!(matches!(r, Err(Error::SizeMismatch { .. })));
+    assert!(out.iter().all(|&v| v == 9));
+}

@@ -102,3 +102,45 @@ pub fn remap<T: RemapSample>(
     }
     Ok(())
 }
+
+/// Registers the thermal frame `src` onto the visible grid: `out` (the visible size of
+/// `map`) strip by strip, each strip's fixed-point map filled from `map` ([`RigMap::rows`])
+/// into the scratch `xy`/`frac` (as many whole visible rows as `frac` holds: 6 bytes a pixel,
+/// 96 KiB for 16 rows of 1024), then [`remap`]ped. The same bits for any strip height.
+/// `Err` (nothing written) when `src` is not the thermal camera's size, `out` not the visible
+/// camera's, or the scratch holds no whole row or `xy` is not twice `frac`.
+pub fn register<T: RemapSample>(
+    src: FrameRef<'_, T>,
+    map: &RigMap<'_>,
+    mut out: FrameMut<'_, T>,
+    interpolation: Interpolation,
+    border: Border,
+    xy: &mut [i16],
+    frac: &mut [u16],
+) -> Result<(), Error> {
+    if out.size() != map.size() {
+        return Err(Error::SizeMismatch { expected: map.size(), got: out.size() });
+    }
+    if src.size() != map.tir_size() {
+        return Err(Error::SizeMismatch { expected: map.tir_size(), got: src.size() });
+    }
+    let (w, h) = map.size();
+    let strip = frac.len() / w;
+    if strip == 0 {
+        return Err(Error::BufferTooSmall { needed: w, got: frac.len() });
+    }
+    if xy.len() < 2 * strip * w {
+        return Err(Error::BufferTooSmall { needed: 2 * strip * w, got: xy.len() });
+    }
+    let mut y0 = 0;
+    while y0 < h {
+        let rows = strip.min(h - y0);
+        let (xy, frac) =
+            (xy.get_mut(..2 * rows * w).unwrap_or(&mut []), frac.get_mut(..rows * w).unwrap_or(&mut []));
+        map.rows(y0, xy, frac)?;
+        let strip_map = FixedMap::new(w, rows, xy, frac)?;
+        remap(src, &strip_map, out.sub_rows_mut(y0, y0 + rows)?, interpolation, border)?;
+        y0 += rows;
+    }
+    Ok(())
+}

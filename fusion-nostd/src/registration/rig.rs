@@ -144,6 +144,7 @@ pub struct RigMap<'a> {
     step: usize,
     width: usize,
     height: usize,
+    tir: (usize, usize),
 }
 
 /// Positions behind the thermal camera are sent far outside its image (the remap's border).
@@ -171,12 +172,17 @@ impl<'a> RigMap<'a> {
             let (x, y) = rig.tir_position(u, v, range).unwrap_or((OUTSIDE, OUTSIDE));
             *n = [x, y];
         }
-        Ok(RigMap { nodes, cols, step, width: w, height: h })
+        Ok(RigMap { nodes, cols, step, width: w, height: h, tir: (rig.tir.width, rig.tir.height) })
     }
 
     /// The visible frame's `(width, height)`.
     pub fn size(&self) -> (usize, usize) {
         (self.width, self.height)
+    }
+
+    /// The thermal frame's `(width, height)`.
+    pub fn tir_size(&self) -> (usize, usize) {
+        self.tir
     }
 
     /// The thermal position of visible pixel `(u, v)`, interpolated between the nodes.

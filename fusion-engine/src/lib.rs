@@ -7,6 +7,7 @@
 //!   [`methods::VariantArg`], …), and the two engines every tool fuses through: the core
 //!   pipeline ([`methods::fuse_core`]) and the `f64` references ([`methods::fuse_reference`]).
 //! * [`CoreScratch`]: the core's work planes on the heap; [`strips`]: the 512 KiB strip scratch.
+//! * [`registration`]: a thermal frame of an offset camera pair on the visible grid at a range.
 //! * [`thermal`]: the thermal camera's front end (NUC, shutter, bad pixels, column filter) carried
 //!   from frame to frame; [`agc`]: the thermal gain control on 16-bit frames; [`color`]: colour kept through a grey
 //!   fusion (YCbCr, BT.601).
@@ -33,6 +34,7 @@
 pub mod agc;
 pub mod color;
 pub mod methods;
+pub mod registration;
 pub mod skip;
 pub mod stress;
 pub mod strips;

@@ -197,3 +197,47 @@ pub fn read(path: &Path) -> Result<Rig> {
 pub fn example_json() -> &'static str {
     include_str!("rig_example.json")
 }
+
+/// The rig as OpenCV's `FileStorage` JSON (what [`read`] takes back; the values are the rig's
+/// `f32`s written with every digit they hold).
+pub fn to_json(rig: &Rig) -> String {
+    let matrix = |rows: usize, cols: usize, dt: &str, data: &[f64]| {
+        let data: Vec<String> = data
+            .iter()
+            .map(|v| if dt == "i" { format!("{}", *v as i64) } else { format!("{v:?}") })
+            .collect();
+        format!(
+            "{{ \"type_id\": \"opencv-matrix\", \"rows\": {rows}, \"cols\": {cols}, \"dt\": \"{dt}\", \"data\": [ {} ] }}",
+            data.join(", ")
+        )
+    };
+    let f = |v: f32| f64::from(v);
+    let mut keys = Vec::new();
+    for (band, c) in [("vis", &rig.vis), ("tir", &rig.tir)] {
+        let k = [f(c.fx), 0.0, f(c.cx), 0.0, f(c.fy), f(c.cy), 0.0, 0.0, 1.0];
+        keys.push((format!("camera_matrix_{band}"), matrix(3, 3, "d", &k)));
+        let d: Vec<f64> = c.dist.iter().map(|&v| f(v)).collect();
+        keys.push((format!("dist_coeffs_{band}"), matrix(1, 5, "d", &d)));
+        keys.push((format!("image_size_{band}"), matrix(1, 2, "i", &[c.width as f64, c.height as f64])));
+    }
+    let r: Vec<f64> = rig.r.iter().flatten().map(|&v| f(v)).collect();
+    keys.push(("R".to_string(), matrix(3, 3, "d", &r)));
+    let t: Vec<f64> = rig.t.iter().map(|&v| f(v)).collect();
+    keys.push(("T".to_string(), matrix(3, 1, "d", &t)));
+    let body: Vec<String> = keys.iter().map(|(k, v)| format!("    \"{k}\": {v}")).collect();
+    format!("{{\n{}\n}}\n", body.join(",\n"))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn json_round_trips() {
+        let rig = from_text(example_json()).unwrap();
+        let again = from_text(&to_json(&rig)).unwrap();
+        assert_eq!(rig, again);
+        // Sizes are written as integers, as OpenCV writes them.
+        assert!(to_json(&rig).contains("\"data\": [ 1024, 1024 ]"));
+    }
+}

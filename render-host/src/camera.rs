@@ -5,6 +5,10 @@
 //! the image centre. Pixel `(x, y)` covers `[x, x+1) × [y, y+1)` and its centre is at
 //! `(x + 0.5, y + 0.5)`, so a 512² pixel covers exactly a 2 × 2 block of the 1024² image.
 //! Camera axes: x right, y down, z forward (optical axis).
+//!
+//! A camera of an offset rig ([`Camera::from_rig`], [`crate::rig`]) has its own intrinsics and
+//! OpenCV's radial–tangential lens distortion, undistorted and projected by the same code as
+//! the core's registration (`fusion_nostd::registration::Camera`).
 
 use glam::{Mat3, Quat, Vec3};
 use serde::{Deserialize, Serialize};
@@ -62,6 +66,8 @@ pub struct Camera {
     pub cx: f32,
     /// Principal point y, pixels.
     pub cy: f32,
+    /// Lens distortion `[k1, k2, p1, p2, k3]` in OpenCV's model (zero: an ideal pinhole).
+    pub dist: [f32; 5],
     /// Pose in the target frame.
     pub pose: Pose,
 }
@@ -76,14 +82,54 @@ impl Camera {
             focal_px: (FOCAL_PX_1024 * f64::from(size) / 1024.0) as f32,
             cx: size as f32 / 2.0,
             cy: size as f32 / 2.0,
+            dist: [0.0; 5],
             pose,
+        }
+    }
+
+    /// A camera of a rig (`fusion_nostd::registration::Camera`: OpenCV's intrinsics, pixel
+    /// centres at integers) at `pose`; `Err` unless its pixels are square (`fx = fy`: the
+    /// renderer has one focal length).
+    pub fn from_rig(c: &fusion_nostd::registration::Camera, pose: Pose) -> anyhow::Result<Camera> {
+        anyhow::ensure!(
+            (c.fx - c.fy).abs() <= 1e-4 * c.fx,
+            "the renderer takes square pixels: fx {} and fy {} differ",
+            c.fx,
+            c.fy
+        );
+        Ok(Camera {
+            width: c.width as u32,
+            height: c.height as u32,
+            focal_px: c.fx,
+            cx: c.cx + 0.5,
+            cy: c.cy + 0.5,
+            dist: c.dist,
+            pose,
+        })
+    }
+
+    /// The camera in the core's form (OpenCV's pixel convention), for its lens model.
+    fn lens(&self) -> fusion_nostd::registration::Camera {
+        fusion_nostd::registration::Camera {
+            fx: self.focal_px,
+            fy: self.focal_px,
+            cx: self.cx - 0.5,
+            cy: self.cy - 0.5,
+            dist: self.dist,
+            width: self.width as usize,
+            height: self.height as usize,
         }
     }
 
     /// Unit ray direction (target frame) through continuous image point `(u, v)`.
     pub fn ray_dir(&self, u: f32, v: f32) -> Vec3 {
-        let d = Vec3::new((u - self.cx) / self.focal_px, (v - self.cy) / self.focal_px, 1.0);
-        (self.pose.rotation * d).normalize()
+        let (x, y) = if self.dist == [0.0; 5] {
+            ((u - self.cx) / self.focal_px, (v - self.cy) / self.focal_px)
+        } else {
+            // The core's undistortion (the registration's own lens model), OpenCV's convention.
+            self.lens().undistort(u - 0.5, v - 0.5)
+        };
+        (self.pose.rotation * Vec3::new(x, y, 1.0)).normalize()
     }
 
     /// Unit ray direction through the centre of pixel `(x, y)`.
@@ -109,7 +155,11 @@ impl Camera {
         if c.z <= 0.0 {
             return None;
         }
-        Some((self.cx + self.focal_px * c.x / c.z, self.cy + self.focal_px * c.y / c.z))
+        if self.dist == [0.0; 5] {
+            return Some((self.cx + self.focal_px * c.x / c.z, self.cy + self.focal_px * c.y / c.z));
+        }
+        let (u, v) = self.lens().project(c.x / c.z, c.y / c.z);
+        Some((u + 0.5, v + 0.5))
     }
 
     /// Full field of view in degrees across the width.

@@ -7,6 +7,7 @@ pub mod image;
 pub mod material;
 pub mod noise;
 pub mod render;
+pub mod rig;
 pub mod scene;
 pub mod sequence;
 pub mod surface;

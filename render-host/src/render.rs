@@ -6,7 +6,7 @@ use crate::scene::Material;
 use crate::sequence::{SEQUENCE_SAMPLES, SequenceConfig, SequenceName, render_sequence};
 use crate::tir::{DnMapping, Radiometry};
 use crate::{TirParams, VisParams};
-use anyhow::{Result, bail};
+use anyhow::{Result, bail, ensure};
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -69,6 +69,10 @@ pub struct RenderOptions {
     /// Sub-pixel samples per axis, VIS and TIR (each pixel integrates n × n rays) [default: 1,
     /// the study's datasets; 4 with --sequence, `sequence::SEQUENCE_SAMPLES`].
     pub samples: Option<u32>,
+    /// With a sequence: an offset camera pair instead of the aligned one — `offset` (the
+    /// built-in [`crate::rig::offset_rig`]) or an OpenCV calibration file (`fusion_io::rig`);
+    /// the cameras' sizes are the rig's.
+    pub rig: Option<PathBuf>,
 }
 
 impl Default for RenderOptions {
@@ -97,6 +101,7 @@ impl Default for RenderOptions {
             sheet_frames: 5,
             demo: false,
             samples: None,
+            rig: None,
         }
     }
 }
@@ -168,20 +173,44 @@ pub const MAX_SAMPLES: u32 = 16;
 /// The sequence these options describe (frames 120 unless `--frames`, sub-pixel samples
 /// [`SEQUENCE_SAMPLES`] unless `--samples`; sizes, seed, noise, radiometry and lighting from the
 /// dataset options).
-pub fn sequence_config(name: SequenceName, args: &RenderOptions, cfg: &DatasetConfig) -> SequenceConfig {
-    SequenceConfig {
+pub fn sequence_config(
+    name: SequenceName,
+    args: &RenderOptions,
+    cfg: &DatasetConfig,
+) -> Result<SequenceConfig> {
+    let rig = match args.rig.as_deref() {
+        None => None,
+        Some(p) if p.as_os_str() == "offset" => Some(crate::rig::offset_rig()?),
+        Some(p) => Some(fusion_io::rig::read(p)?),
+    };
+    let (vis_size, tir_size) = match &rig {
+        Some(r) => {
+            ensure!(
+                r.vis.width == r.vis.height && r.tir.width == r.tir.height,
+                "the sequences render square images: the rig's cameras are {}x{} and {}x{}",
+                r.vis.width,
+                r.vis.height,
+                r.tir.width,
+                r.tir.height
+            );
+            (r.vis.width as u32, r.tir.width as u32)
+        }
+        None => (cfg.vis_size, cfg.tir_sizes.first().copied().unwrap_or(512)),
+    };
+    Ok(SequenceConfig {
         frames: args.frames.unwrap_or(120),
         seed: cfg.seed,
         surface_seed: cfg.surface_seed,
-        vis_size: cfg.vis_size,
-        tir_size: cfg.tir_sizes.first().copied().unwrap_or(512),
+        vis_size,
+        tir_size,
+        rig,
         vis: VisParams { samples: args.samples.unwrap_or(SEQUENCE_SAMPLES), ..cfg.vis },
         tir: TirParams { samples: args.samples.unwrap_or(SEQUENCE_SAMPLES), ..cfg.tir },
         noise: cfg.noise,
         write_tir16: args.tir16,
         focal_plane: args.raw_tir.then(crate::focal_plane::FocalPlaneParams::default),
         ..SequenceConfig::new(name)
-    }
+    })
 }
 
 /// Renders the dataset (or the sequence) into `args.out` and returns a one-line summary of what
@@ -197,7 +226,7 @@ pub fn render(args: &RenderOptions) -> Result<String> {
                 "--sequence renders the procedural target with its surface detail; --mesh and --flat do not apply"
             );
         }
-        let seq = sequence_config(name, args, &cfg);
+        let seq = sequence_config(name, args, &cfg)?;
         let m = fusion_io::output::in_new_folder(&args.out, |dir| render_sequence(&seq, dir, !quiet))?;
         let [l, p, e] = m.phase_frames;
         return Ok(format!(
@@ -208,6 +237,11 @@ pub fn render(args: &RenderOptions) -> Result<String> {
             args.out.display(),
             start.elapsed().as_secs_f64()
         ));
+    }
+    if args.rig.is_some() {
+        bail!(
+            "--rig renders a sequence (give --sequence NAME); the study's layout keeps its aligned cameras"
+        );
     }
     let manifest = fusion_io::output::in_new_folder(&args.out, |dir| render_dataset(&cfg, dir, !quiet))?;
     let files: usize = manifest

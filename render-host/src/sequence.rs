@@ -154,6 +154,12 @@ pub struct SequenceConfig {
     /// the field read `None`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub focal_plane: Option<FocalPlaneParams>,
+    /// An offset camera pair instead of today's aligned one: each camera with its own
+    /// intrinsics, distortion and pose on the chaser ([`crate::rig`]); `vis_size` and
+    /// `tir_size` are then the rig's widths. Written beside the frames as
+    /// `calibration/rig.json` (the manifest's `rig`), not in the configuration.
+    #[serde(skip)]
+    pub rig: Option<fusion_nostd::registration::Rig>,
 }
 
 impl SequenceConfig {
@@ -174,6 +180,7 @@ impl SequenceConfig {
             write_clean: true,
             write_tir16: false,
             focal_plane: None,
+            rig: None,
         }
     }
 
@@ -372,9 +379,8 @@ pub struct Intrinsics {
 }
 
 impl Intrinsics {
-    fn of(size: u32) -> Intrinsics {
-        let c = Camera::study(size, Pose::look_at(Vec3::Z, Vec3::ZERO, Vec3::Y));
-        Intrinsics { size, focal_px: c.focal_px, principal_point: [c.cx, c.cy] }
+    fn of(c: &Camera) -> Intrinsics {
+        Intrinsics { size: c.width, focal_px: c.focal_px, principal_point: [c.cx, c.cy] }
     }
 }
 
@@ -387,7 +393,7 @@ pub struct SequenceManifest {
     pub config: SequenceConfig,
     /// VIS camera.
     pub vis_camera: Intrinsics,
-    /// TIR camera (same pose as VIS).
+    /// TIR camera (same pose as VIS, unless `rig`).
     pub tir_camera: Intrinsics,
     /// Frames in each phase: light, penumbra, eclipse.
     pub phase_frames: [usize; 3],
@@ -397,6 +403,10 @@ pub struct SequenceManifest {
     /// The thermal camera's factory bad-pixel map (8-bit PNG, 255 = bad), with `focal_plane`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub bad_pixels: Option<String>,
+    /// An offset rig's calibration (OpenCV `FileStorage` JSON, `fusion_io::rig`): the cameras
+    /// are not aligned; without it they share one pose.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rig: Option<String>,
     /// The frames.
     pub frames: Vec<SequenceFrame>,
 }
@@ -454,6 +464,8 @@ pub fn render_sequence(cfg: &SequenceConfig, out_dir: &Path, progress: bool) -> 
         focal_plane.as_ref().map(|f| f.shutter_frames(cfg.frames, cfg.frame_rate_hz)).unwrap_or_default();
     if focal_plane.is_some() {
         dirs.extend(["tir_raw", "tir_shutter", "calibration"]);
+    } else if cfg.rig.is_some() {
+        dirs.push("calibration");
     }
     for d in &dirs {
         let p = out_dir.join(d);
@@ -481,7 +493,7 @@ pub fn render_sequence(cfg: &SequenceConfig, out_dir: &Path, progress: bool) -> 
                 ..cfg.vis
             };
             let face_t = face_temperatures(&scene, &node_t);
-            let (vis_cam, tir_cam) = (Camera::study(cfg.vis_size, pose), Camera::study(cfg.tir_size, pose));
+            let (vis_cam, tir_cam) = cameras(cfg, pose)?;
             let mut vis = render_vis(&scene, &vis_cam, &vis_params);
             let earth_body = (st.attitude.inverse() * cfg.vis.earth_dir).normalize();
             let tir_params = TirParams { earth_dir: earth_body, ..cfg.tir };
@@ -609,11 +621,21 @@ pub fn render_sequence(cfg: &SequenceConfig, out_dir: &Path, progress: bool) -> 
         .collect();
     let sheet = contact_sheet(&columns, &names, &["VIS".to_string(), "TIR".to_string()]);
     fusion_io::save_gray_u8(&out_dir.join("contact_sheet.png"), &sheet)?;
+    let reference = cameras(cfg, Pose::look_at(Vec3::Z, Vec3::ZERO, Vec3::Y))?;
+    let rig = match &cfg.rig {
+        Some(r) => {
+            let rel = "calibration/rig.json";
+            fusion_io::write_bytes(&out_dir.join(rel), fusion_io::rig::to_json(r).as_bytes())?;
+            Some(rel.to_string())
+        }
+        None => None,
+    };
     let manifest = SequenceManifest {
         generator: format!("render-host {}", env!("CARGO_PKG_VERSION")),
         config: cfg.clone(),
-        vis_camera: Intrinsics::of(cfg.vis_size),
-        tir_camera: Intrinsics::of(cfg.tir_size),
+        vis_camera: Intrinsics::of(&reference.0),
+        tir_camera: Intrinsics::of(&reference.1),
+        rig,
         phase_frames,
         nuc,
         bad_pixels,
@@ -623,7 +645,15 @@ pub fn render_sequence(cfg: &SequenceConfig, out_dir: &Path, progress: bool) -> 
     Ok(manifest)
 }
 
-/// A 16-bit grey image of `w × h` counts.
+/// The sequence's two cameras with the visible one at `pose`: the study's aligned pair, or
+/// the rig's.
+pub fn cameras(cfg: &SequenceConfig, pose: Pose) -> Result<(Camera, Camera)> {
+    match &cfg.rig {
+        Some(rig) => crate::rig::cameras(rig, pose),
+        None => Ok((Camera::study(cfg.vis_size, pose), Camera::study(cfg.tir_size, pose))),
+    }
+}
+
 /// Reads a sequence's `manifest.json`.
 pub fn read_manifest(dir: &Path) -> Result<SequenceManifest> {
     let path = dir.join("manifest.json");

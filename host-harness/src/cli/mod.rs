@@ -8,6 +8,7 @@ pub mod demo;
 pub mod eval;
 pub mod fuse;
 pub mod navbench;
+pub mod register;
 pub mod render;
 pub mod report;
 pub mod rescale;
@@ -41,6 +42,9 @@ pub enum Command {
     /// Rescale a grey image (PNG, JPEG, TIFF, PGM; 8- or 16-bit) with the core's bicubic or area
     /// rescaler.
     Rescale(rescale::RescaleArgs),
+    /// Warp a thermal image of an offset camera pair onto the visible grid at a range (the rig
+    /// from OpenCV's stereo calibration, YAML or JSON): what `fuse --rig --range` fuses.
+    Register(register::RegisterArgs),
     /// Fuse a VIS/TIR pair or two folders of pairs: ADF, TSIFSD, IFEVIP, adaptive (core or f64
     /// reference); GFF, MGFF, TEPGFL, DRIF (the study's host-only methods, f64). PNG, JPEG, TIFF;
     /// colour kept, 14/16-bit thermal through the core's AGC.
@@ -75,6 +79,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Bench(args) => bench::run(&args),
         Command::Report(args) => report::run(&args),
         Command::Rescale(args) => rescale::run(&args),
+        Command::Register(args) => register::run(&args),
         Command::Eval(args) => eval::run(&args),
         Command::Budget(args) => budget::run(&args),
         Command::Stress(args) => stress::run(&args),

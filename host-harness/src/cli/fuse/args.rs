@@ -122,6 +122,15 @@ pub struct FuseArgs {
     /// robust standard deviations of neighbouring pixels' differences in the frame).
     #[arg(long, value_name = "COUNTS|auto")]
     pub column_filter: Option<ColumnArg>,
+    /// An offset camera pair: its calibration (OpenCV `FileStorage` YAML or JSON, as `fusion
+    /// register --rig`); the thermal frame (after the AGC) is warped onto the visible grid for
+    /// a target at --range before the fusion (bilinear, cold space where the thermal camera did
+    /// not see). The visible frame must be the rig's visible size.
+    #[arg(long, value_name = "FILE", requires = "range")]
+    pub rig: Option<PathBuf>,
+    /// With --rig: range of the target plane along the visible optical axis, metres.
+    #[arg(long, value_name = "METRES", requires = "rig")]
+    pub range: Option<f64>,
     /// A colour visible image: keep its colour (fuse the luminance, restore the chroma; RGB
     /// out) or fuse its grey [default: keep].
     #[arg(long, value_enum)]
@@ -221,6 +230,11 @@ pub enum ColorArg {
 
 /// Refuses option combinations that cannot run, before anything is read.
 pub(super) fn check_options(args: &FuseArgs) -> Result<()> {
+    if let Some(range) = args.range
+        && !(range.is_finite() && range > 0.0)
+    {
+        bail!("--range must be a positive number of metres, not {range}");
+    }
     match args.method.split() {
         Ok(_) => {
             let engine = args.engine.unwrap_or(EngineArg::Core);

@@ -223,6 +223,30 @@ pub(super) fn prepare(
             agc_map(args, &mut fusion_engine::agc::fresh(), chain.as_mut(), &counts, tir_path)?
         }
     };
+    let tir = match (&args.rig, args.range) {
+        (Some(rig_path), Some(range)) => {
+            let rig = fusion_io::rig::read(rig_path)?;
+            if (vis.width, vis.height) != (rig.vis.width, rig.vis.height) {
+                bail!(
+                    "visible image: {} is {}x{}, the rig's visible camera {}x{}",
+                    vis_path.display(),
+                    vis.width,
+                    vis.height,
+                    rig.vis.width,
+                    rig.vis.height
+                );
+            }
+            fusion_engine::registration::register(
+                &tir,
+                &rig,
+                range,
+                fusion_nostd::registration::Interpolation::Linear,
+                fusion_nostd::registration::Border::Constant(0),
+            )
+            .with_context(|| format!("thermal image {}", tir_path.display()))?
+        }
+        _ => tir,
+    };
     Ok(Prepared { vis, chroma, tir })
 }
 

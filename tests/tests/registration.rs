@@ -369,3 +369,118 @@ fn register_in_strips_is_remap_through_the_whole_map() {
     assert!(matches!(r, Err(Error::SizeMismatch { .. })));
     assert!(out.iter().all(|&v| v == 9));
 }
+
+/// The default offset rig scaled to 128² / 64² (same lenses, pose and fields of view).
+fn small_offset_rig() -> fusion_nostd::registration::Rig {
+    let rig = render_host::rig::offset_rig().unwrap();
+    let scale = |c: fusion_nostd::registration::Camera, size: usize| {
+        let k = size as f32 / c.width as f32;
+        fusion_nostd::registration::Camera {
+            fx: c.fx * k,
+            fy: c.fy * k,
+            cx: (c.cx + 0.5) * k - 0.5,
+            cy: (c.cy + 0.5) * k - 0.5,
+            width: size,
+            height: size,
+            ..c
+        }
+    };
+    fusion_nostd::registration::Rig { vis: scale(rig.vis, 128), tir: scale(rig.tir, 64), ..rig }
+}
+
+/// Rendered ground truth: a sequence through the (scaled) offset rig, whose thermal target
+/// mask, registered onto the visible grid at the frame's range, lands on the visible mask
+/// (centroid within 0.5 px, overlap ≥ 0.75 at this small size — the mask's edge pixels) while the aligned-camera assumption (a 2× rescale)
+/// misses it by pixels; and the renderer's thermal camera sees each plane point where the
+/// core's rig map says (the two compose the rig's pose independently).
+#[test]
+fn a_rendered_offset_rig_is_registered_onto_the_visible_grid() {
+    use render_host::sequence::{SequenceConfig, SequenceName, render_sequence};
+    let rig = small_offset_rig();
+    let cfg = SequenceConfig {
+        frames: 3,
+        vis_size: 128,
+        tir_size: 64,
+        rig: Some(rig),
+        write_clean: false,
+        vis: render_host::vis::VisParams { samples: 1, ..render_host::vis::VisParams::light() },
+        tir: render_host::tir::TirParams { samples: 1, ..render_host::tir::TirParams::default() },
+        ..SequenceConfig::new(SequenceName::Approach)
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let m = render_sequence(&cfg, dir.path(), false).unwrap();
+    assert_eq!(m.rig.as_deref(), Some("calibration/rig.json"));
+    assert_eq!(fusion_io::rig::read(&dir.path().join("calibration/rig.json")).unwrap(), rig);
+    let mask =
+        |rel: &str| fusion_io::load_gray_u8(&dir.path().join(rel), fusion_io::ColorPolicy::Refuse).unwrap();
+    let centroid = |g: &fusion_io::Gray<u8>| {
+        let (mut sx, mut sy, mut n) = (0.0, 0.0, 0.0);
+        for (i, &v) in g.data.iter().enumerate() {
+            if v > 127 {
+                (sx, sy, n) = (sx + (i % g.width) as f64, sy + (i / g.width) as f64, n + 1.0);
+            }
+        }
+        (sx / n, sy / n, n)
+    };
+    let overlap = |a: &fusion_io::Gray<u8>, b: &fusion_io::Gray<u8>| {
+        let both = a.data.iter().zip(&b.data).filter(|(x, y)| **x > 127 && **y > 127).count();
+        let any = a.data.iter().zip(&b.data).filter(|(x, y)| **x > 127 || **y > 127).count();
+        both as f64 / any.max(1) as f64
+    };
+    for f in m.frames.iter().skip(1) {
+        let vis = mask(&f.files.vis_mask);
+        let tir = mask(&f.files.tir_mask);
+        let registered = fusion_engine::registration::register(
+            &tir,
+            &rig,
+            f64::from(f.range_m),
+            Interpolation::Linear,
+            Border::Constant(0),
+        )
+        .unwrap();
+        let mut rescaled = fusion_io::Gray::<u8>::new(128, 128);
+        fusion_nostd::rescale(tir.view().unwrap(), rescaled.view_mut().unwrap(), fusion_nostd::Filter::Cubic)
+            .unwrap();
+        let (v, r, s) = (centroid(&vis), centroid(&registered), centroid(&rescaled));
+        let off = |a: (f64, f64, f64)| (a.0 - v.0).hypot(a.1 - v.1);
+        assert!(v.2 > 50.0, "frame {}: the target is seen", f.index);
+        let (o_r, o_s) = (overlap(&vis, &registered), overlap(&vis, &rescaled));
+        eprintln!(
+            "frame {}: registered {:.2} px off, overlap {o_r:.3}; rescaled {:.2} px, {o_s:.3}",
+            f.index,
+            off(r),
+            off(s)
+        );
+        assert!(
+            off(r) < 0.5 && o_r >= 0.75,
+            "frame {}: registered {:.2} px off, overlap {o_r:.3}",
+            f.index,
+            off(r)
+        );
+        assert!(
+            off(s) > 3.0 * off(r).max(0.3) && o_s < o_r - 0.2,
+            "frame {}: the rescale {:.2} px off, overlap {o_s:.3}",
+            f.index,
+            off(s)
+        );
+    }
+    // The renderer's cameras against the core's map: a visible pixel's plane point seen by the
+    // thermal camera where the map puts it.
+    let pose = render_host::camera::Pose::look_at(
+        render_host::glam::Vec3::new(0.3, -6.0, 0.2),
+        render_host::glam::Vec3::ZERO,
+        render_host::glam::Vec3::Z,
+    );
+    let (vc, tc) = render_host::rig::cameras(&rig, pose).unwrap();
+    for (u, v) in [(10.0f32, 20.0f32), (64.0, 64.0), (120.0, 5.0)] {
+        let d = vc.ray_dir(u + 0.5, v + 0.5);
+        let depth = 7.0;
+        let p = pose.position + d * (depth / d.dot(pose.forward()));
+        let (x, y) = tc.project(p).unwrap();
+        let (mx, my) = rig.tir_position(u, v, depth).unwrap();
+        assert!(
+            (x - 0.5 - mx).abs() < 2e-3 && (y - 0.5 - my).abs() < 2e-3,
+            "({u}, {v}): {x} {y} vs {mx} {my}"
+        );
+    }
+}

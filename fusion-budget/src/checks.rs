@@ -100,6 +100,10 @@ pub fn budget_table_text(measured: &[Measured], agc: &[TirMeasured], old: &Table
         if table != header {
             let (what, per) = match a.stage {
                 crate::TirStage::Agc(_) => ("The thermal AGC (fusion_nostd::agc)", String::new()),
+                crate::TirStage::Registration(_) => (
+                    "Registration of a 512x512 TIR frame through the default offset rig at 8 m (fusion_nostd::registration)",
+                    " (per visible pixel: the node grid, the strips linear and cubic)".to_string(),
+                ),
                 crate::TirStage::Thermal(_) => (
                     "The thermal front end's stages (fusion_nostd::thermal, then the linear AGC)",
                     format!(

@@ -5,6 +5,7 @@ use super::elf::Elf;
 use anyhow::{Context, Result, bail, ensure};
 use fusion_engine::methods::{MethodArg, RescaleArg, SkipArg, VariantArg};
 use fusion_io::Gray;
+use fusion_nostd::registration::{Interpolation, Rig};
 use std::fmt;
 use std::fs;
 use std::path::{Path, PathBuf};
@@ -232,6 +233,9 @@ pub struct RunSpec {
     pub thermal: bool,
     /// A thermal run whose frame comes with a shutter frame (its flag bit 5).
     pub shutter: bool,
+    /// A registration run instead of a fusion (`fw/src/job.rs`, method 6): the job's thermal
+    /// frame onto its visible grid through [`Job::rig`], with this interpolation.
+    pub registration: Option<Interpolation>,
 }
 
 impl RunSpec {
@@ -248,6 +252,15 @@ impl RunSpec {
             agc: None,
             thermal: false,
             shutter: false,
+            registration: None,
+        }
+    }
+
+    /// A registration run of the job's thermal frame ([`Job::rig`]).
+    pub fn registration(interpolation: Interpolation) -> Self {
+        RunSpec {
+            registration: Some(interpolation),
+            ..RunSpec::plain(MethodArg::Tsifsd, VariantArg::Flight, RescaleArg::None)
         }
     }
 
@@ -287,6 +300,9 @@ impl RunSpec {
         }
         if self.thermal {
             return [5, 1, 2, (u8::from(self.fault) << 1) | (u8::from(self.shutter) << 5)];
+        }
+        if let Some(i) = self.registration {
+            return [6, u8::from(i == Interpolation::Cubic), 2, u8::from(self.fault) << 1];
         }
         let method = match self.method {
             MethodArg::Adf => 0,
@@ -334,6 +350,18 @@ impl RunSpec {
             );
             return Ok(RunSpec { fault: flags & 2 != 0, ..RunSpec::thermal(flags & 0x20 != 0) });
         }
+        if method == 6 {
+            ensure!(
+                policy == 2 && flags & !2 == 0,
+                "a registration run takes policy 2 and no flag but the fault bit"
+            );
+            let interp = match variant {
+                0 => Interpolation::Linear,
+                1 => Interpolation::Cubic,
+                _ => bail!("bad registration interpolation {variant}"),
+            };
+            return Ok(RunSpec { fault: flags & 2 != 0, ..RunSpec::registration(interp) });
+        }
         let method = match method {
             0 => MethodArg::Adf,
             1 => MethodArg::Tsifsd,
@@ -373,6 +401,7 @@ impl RunSpec {
             agc: None,
             thermal: false,
             shutter: false,
+            registration: None,
         })
     }
 }
@@ -403,6 +432,9 @@ pub struct Job {
     pub tir16: Option<Gray<u16>>,
     /// The thermal front-end runs' raw sequence, tables, map and column parameters.
     pub thermal: Option<ThermalInputs>,
+    /// The registration runs' rig (its cameras of the job's sizes) and range, metres, written
+    /// as `rig.bin`.
+    pub rig: Option<(Rig, f32)>,
 }
 
 /// One frame of a thermal sequence.
@@ -454,6 +486,14 @@ impl Job {
                 }),
             "thermal runs need a raw frame each (with a shutter frame where the run has its bit), NUC tables and a bad-pixel map, of the TIR size"
         );
+        ensure!(
+            self.runs.iter().all(|r| r.registration.is_none())
+                || self.rig.as_ref().is_some_and(|(rig, _)| {
+                    (rig.vis.width, rig.vis.height) == (self.vis.width, self.vis.height)
+                        && (rig.tir.width, rig.tir.height) == tir_size
+                }),
+            "registration runs need a rig whose cameras are the job's sizes"
+        );
         let mut b = b"FWJ1".to_vec();
         for v in [self.vis.width, self.vis.height, self.tir.width, self.tir.height, self.runs.len()] {
             b.extend_from_slice(&u32::try_from(v)?.to_le_bytes());
@@ -463,6 +503,20 @@ impl Job {
         }
         Ok(b)
     }
+}
+
+/// `rig.bin`: 32 little-endian `f32` — per camera `fx, fy, cx, cy, k1, k2, p1, p2, k3`, then
+/// `R` row-major, `T`, the range and a zero (`fw/src/job.rs`).
+pub fn rig_bytes(rig: &Rig, range: f32) -> Vec<u8> {
+    let cam = |c: &fusion_nostd::registration::Camera| {
+        let [k1, k2, p1, p2, k3] = c.dist;
+        [c.fx, c.fy, c.cx, c.cy, k1, k2, p1, p2, k3]
+    };
+    let mut v: Vec<f32> = cam(&rig.vis).into_iter().chain(cam(&rig.tir)).collect();
+    v.extend(rig.r.iter().flatten());
+    v.extend(rig.t);
+    v.extend([range, 0.0]);
+    v.iter().flat_map(|x| x.to_le_bytes()).collect()
 }
 
 /// What one run reported.
@@ -684,6 +738,9 @@ fn emulate(
             .collect();
         files.add_bytes(&dir.join("column.bin"), &cfg)?;
     }
+    if let Some((rig, range)) = &job.rig {
+        files.add_bytes(&dir.join("rig.bin"), &rig_bytes(rig, *range))?;
+    }
     files.commit()?;
     let (qemu, machine) = target.qemu();
     let mut cmd = Command::new(qemu);
@@ -769,8 +826,14 @@ pub fn check_fault_exit(
 ) -> Result<()> {
     let spec =
         RunSpec { fault: true, ..RunSpec::plain(MethodArg::Tsifsd, VariantArg::Flight, RescaleArg::None) };
-    let job =
-        Job { vis: Gray::new(8, 8), tir: Gray::new(8, 8), runs: vec![spec], tir16: None, thermal: None };
+    let job = Job {
+        vis: Gray::new(8, 8),
+        tir: Gray::new(8, 8),
+        runs: vec![spec],
+        tir16: None,
+        thermal: None,
+        rig: None,
+    };
     let done = emulate(target, image, plugin, &job, dir, timeout)?;
     ensure!(
         !done.status.success(),
@@ -857,6 +920,7 @@ mod tests {
                 agc: None,
                 thermal: false,
                 shutter: false,
+                registration: None,
             }],
             tir16: None,
             thermal: None,

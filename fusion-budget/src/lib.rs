@@ -44,6 +44,7 @@ use fusion_engine::methods::{MethodArg, RescaleArg, SkipArg, VariantArg, fuse_co
 use fusion_io::note;
 use fusion_io::{ColorPolicy, Gray, load_gray_u8};
 use fusion_nostd::pipeline::FuseConfig;
+use fusion_nostd::registration::Interpolation;
 use fw::{FwReport, Grid, Job, RunOut, RunSpec, Target};
 use std::fmt::Write as _;
 use std::path::PathBuf;
@@ -105,6 +106,9 @@ pub enum TirStage {
     Agc(fw::AgcKind),
     /// One stage of the thermal front end's run (`shutter`, `nuc`, `bad_pixels`, `column`, `agc`).
     Thermal(&'static str),
+    /// Registration onto the visible grid, per visible pixel: the rig's node grid (`rig_map`)
+    /// or the strips (`linear`, `cubic`).
+    Registration(&'static str),
 }
 
 impl TirStage {
@@ -116,6 +120,7 @@ impl TirStage {
         match self {
             TirStage::Agc(_) => "agc",
             TirStage::Thermal(_) => "thermal",
+            TirStage::Registration(_) => "registration",
         }
     }
 
@@ -123,12 +128,16 @@ impl TirStage {
     pub fn name(self) -> &'static str {
         match self {
             TirStage::Agc(k) => k.name(),
-            TirStage::Thermal(s) => s,
+            TirStage::Thermal(s) | TirStage::Registration(s) => s,
         }
     }
 }
 
-/// One thermal-band region's count: an AGC run, or a stage of a thermal front-end run.
+/// The range of the budget job's registration runs, metres.
+pub const REGISTRATION_RANGE_M: f32 = 8.0;
+
+/// One thermal-band region's count: an AGC run, a stage of a thermal front-end run, or a
+/// registration's (per visible pixel: `size` is then the visible frame's).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct TirMeasured {
     /// Target.
@@ -186,6 +195,24 @@ fn compare_with_host(job: &Job, report: &FwReport, diffs: &mut Vec<String>, what
             } else {
                 let differ = host.data.iter().zip(&fw.data).filter(|(a, b)| a != b).count();
                 diffs.push(format!("{what}: thermal front end, frame {k}: {differ} pixels differ"));
+            }
+            continue;
+        }
+        if let Some(interp) = spec.registration {
+            let (rig, range) = job.rig.as_ref().context("a registration run without its rig")?;
+            let host = fusion_engine::registration::register(
+                &job.tir,
+                rig,
+                f64::from(*range),
+                interp,
+                fusion_nostd::registration::Border::Constant(0),
+            )?;
+            let fw = run.image.as_ref().context("no image")?;
+            if host == *fw {
+                same += 1;
+            } else {
+                let differ = host.data.iter().zip(&fw.data).filter(|(a, b)| a != b).count();
+                diffs.push(format!("{what}: registration {interp:?}: {differ} pixels differ"));
             }
             continue;
         }
@@ -260,17 +287,25 @@ fn exactness_jobs(opts: &Options, pair: &(Gray<u8>, Gray<u8>)) -> Result<Vec<(St
             runs: all(&[RescaleArg::TirUp, RescaleArg::VisDown]),
             tir16: None,
             thermal: None,
+            rig: None,
         },
     )];
     let (vis, tir) = synthetic_pair(301, 233);
     jobs.push((
         format!("synthetic {}x{}/{}x{}", vis.width, vis.height, tir.width, tir.height),
-        Job { vis, tir, runs: all(&[RescaleArg::TirUp, RescaleArg::VisDown]), tir16: None, thermal: None },
+        Job {
+            vis,
+            tir,
+            runs: all(&[RescaleArg::TirUp, RescaleArg::VisDown]),
+            tir16: None,
+            thermal: None,
+            rig: None,
+        },
     ));
     for (name, vis, tir) in fusion_io::vifb_pairs(&opts.vifb)? {
         jobs.push((
             format!("VIFB {name} {}x{}", vis.width, vis.height),
-            Job { vis, tir, runs: all(&[RescaleArg::None]), tir16: None, thermal: None },
+            Job { vis, tir, runs: all(&[RescaleArg::None]), tir16: None, thermal: None, rig: None },
         ));
     }
     Ok(jobs)
@@ -365,12 +400,29 @@ pub fn run(opts: &Options) -> Result<Outcome> {
             // 512² job (its tables need that image's RAM).
             let raw = (grid == Grid::G512).then(|| inputs::raw_thermal(&pair.1)).transpose()?;
             let thermal: Vec<RunSpec> = raw.iter().flat_map(inputs::thermal_runs).collect();
+            // Registration of the pair's TIR frame onto its 1024² VIS grid through the default
+            // offset rig at 8 m, linear and cubic, in the 1024² job (its output is 1024²).
+            let rig = (grid == Grid::G1024)
+                .then(|| render_host::rig::offset_rig().map(|r| (r, REGISTRATION_RANGE_M)))
+                .transpose()?;
+            let registration = [Interpolation::Linear, Interpolation::Cubic]
+                .into_iter()
+                .filter(|_| rig.is_some())
+                .map(RunSpec::registration);
             let job = Job {
                 vis: pair.0.clone(),
                 tir: pair.1.clone(),
-                runs: staged.chain(strips).chain(skipping).chain(classic).chain(agc).chain(thermal).collect(),
+                runs: staged
+                    .chain(strips)
+                    .chain(skipping)
+                    .chain(classic)
+                    .chain(agc)
+                    .chain(thermal)
+                    .chain(registration)
+                    .collect(),
                 tir16: (grid == Grid::G512).then(|| counts_of(&pair.1)),
                 thermal: raw,
+                rig,
             };
             let reps = opts.repeat.max(1);
             progress(&format!("{target} {}²: budget runs 1–{reps} (in parallel, one per core)", grid.side()));
@@ -414,7 +466,13 @@ pub fn run(opts: &Options) -> Result<Outcome> {
                 format!(
                     "{target}: budget pair, {}² grid, flight (whole frame, strips, skipping), TSIFSD classic (whole frame and strips){}",
                     grid.side(),
-                    if job.tir16.is_some() { ", thermal AGC (plateau, linear), thermal front end" } else { "" }
+                    if job.tir16.is_some() {
+                        ", thermal AGC (plateau, linear), thermal front end"
+                    } else if job.rig.is_some() {
+                        ", registration (linear, cubic)"
+                    } else {
+                        ""
+                    }
                 ),
                 job.runs.len(),
                 same,
@@ -432,6 +490,28 @@ pub fn run(opts: &Options) -> Result<Outcome> {
                 }
                 if spec.thermal {
                     thermal_runs.push(run);
+                    continue;
+                }
+                if let Some(interp) = spec.registration {
+                    let vis_size = (job.vis.width, job.vis.height);
+                    if interp == Interpolation::Linear {
+                        let count =
+                            run.region("rig_map").context("no rig_map region in a registration run")?;
+                        out.agc.push(TirMeasured {
+                            target,
+                            stage: TirStage::Registration("rig_map"),
+                            count,
+                            size: vis_size,
+                        });
+                    }
+                    let count = run.region("register").context("no register region in a registration run")?;
+                    let name = if interp == Interpolation::Cubic { "cubic" } else { "linear" };
+                    out.agc.push(TirMeasured {
+                        target,
+                        stage: TirStage::Registration(name),
+                        count,
+                        size: vis_size,
+                    });
                     continue;
                 }
                 if spec.variant == VariantArg::Classic {

@@ -47,7 +47,7 @@ pub fn report(out: &Outcome, budgets: &Table, chk: &Check) -> String {
     }
     if !out.agc.is_empty() {
         s.push_str(
-            "\n### Thermal band: the AGC alone (`fusion_nostd::agc_frame`) and the front end's stages (`fusion_nostd::thermal`, then the linear AGC), on the budget pair's TIR as 14-bit counts\n\n\
+            "\n### Thermal band: the AGC alone (`fusion_nostd::agc_frame`) and the front end's stages (`fusion_nostd::thermal`, then the linear AGC), on the budget pair's TIR as 14-bit counts; its registration onto the visible grid (`fusion_nostd::registration`, per visible pixel)\n\n\
              | target | stage | TIR | instructions | instr/px | budget | time at the target's clock (CPI range) | |\n\
              |---|---|---|---:|---:|---:|---|---|\n",
         );

@@ -400,7 +400,14 @@ pub fn run(opts: &StudyOptions) -> Result<Vec<Row>> {
                 let report = if runs.is_empty() {
                     None
                 } else {
-                    let job = Job { vis: vis.clone(), tir: tir.clone(), runs, tir16: None, thermal: None };
+                    let job = Job {
+                        vis: vis.clone(),
+                        tir: tir.clone(),
+                        runs,
+                        tir16: None,
+                        thermal: None,
+                        rig: None,
+                    };
                     let dir = opts.work.join(format!("{target}-skip-{set}-{}-{frame}", version(noisy)));
                     Some(fw::run_job(target, &image, plugin.as_deref(), &job, &dir, opts.timeout)?)
                 };

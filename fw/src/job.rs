@@ -7,7 +7,7 @@
 //! 12      TIR width, TIR height
 //! 20      number of runs n (1..=MAX_RUNS)
 //! 24      n × 4 bytes: method (0 ADF, 1 TSIFSD, 2 IFEVIP, 3 adaptive; 4 the thermal AGC;
-//!         5 the thermal front end),
+//!         5 the thermal front end; 6 registration),
 //!         variant (0 classic, 1 flight; AGC: 0 plateau, 1 linear),
 //!         rescale policy (0 TIR up, 1 VIS down, 2 none), flags (bit 0: measure the stages;
 //!         bit 1: raise a fault instead, to test that a fault ends the emulation with status 1;
@@ -30,6 +30,12 @@
 //! the filter's state on, as a camera's video does. Stage by stage in the regions `nuc`,
 //! `bad_pixels`, `column` (`fusion_nostd::thermal`, the filter's temporal estimate) and `agc`
 //! (`AgcParams::linear()`, a fresh state each frame); each run writes its 8-bit frame.
+//! A registration run (method 6, variant 0 linear or 1 cubic, policy 2, flags 0 or the fault
+//! bit) warps `tir.gray` onto the visible grid (`fusion_nostd::registration`): `rig.bin` holds
+//! 32 `f32` — per camera (VIS, then TIR) `fx, fy, cx, cy, k1, k2, p1, p2, k3`, then `R`
+//! (row-major), `T` and the range in metres — the cameras' sizes are the job's VIS and TIR
+//! sizes; the node grid every 16 px in region `rig_map`, the strips (16 rows of map, then the
+//! remap; constant 0 outside) in region `register`; it writes the VIS-size frame.
 //! Method parameters are the core's defaults for the variant, the scene analysis thresholds
 //! `SceneParams::default()` (the host builds the same [`FuseConfig`] for its comparison run).
 
@@ -103,8 +109,11 @@ impl Job {
                 2 => RescalePolicy::None,
                 _ => return Err("job.bin: bad rescale policy"),
             };
-            if method > 5 {
+            if method > 6 {
                 return Err("job.bin: bad method");
+            }
+            if method == 6 && (policy != RescalePolicy::None || flags & !2 != 0) {
+                return Err("job.bin: a registration run takes policy 2 and no flag but the fault bit");
             }
             if method == 5
                 && (policy != RescalePolicy::None || flags & !0x22 != 0 || variant != Variant::Flight)
@@ -180,6 +189,11 @@ impl Run {
     /// A thermal front-end run.
     pub fn thermal(&self) -> bool {
         self.method == 5
+    }
+
+    /// A registration run: `Some(true)` cubic, `Some(false)` linear.
+    pub fn registration(&self) -> Option<bool> {
+        (self.method == 6).then_some(self.variant == Variant::Flight)
     }
 
     /// Skip level as printed.

@@ -89,6 +89,21 @@ pub(crate) mod thermal_buffers {
     pub static mut COLUMN_PARAMS: fusion_nostd::thermal::ColumnParams =
         fusion_nostd::thermal::ColumnParams { threshold: 0, radius: 0, smoothing: 0 };
 }
+/// A registration run's node grid and strip map (`fusion_nostd::registration`): 33 KiB of
+/// nodes for a 1024² visible grid, 16 rows of map (96 KiB).
+#[cfg(not(feature = "rescale-only"))]
+pub(crate) mod registration_buffers {
+    use fusion_nostd::registration::{NODE_STEP, node_count};
+    /// Visible rows per strip.
+    pub const STRIP_ROWS: usize = 16;
+    /// Widest visible frame.
+    pub const WIDTH: usize = 1024;
+    /// Nodes of the largest visible frame.
+    pub const NODES: usize = node_count(WIDTH, WIDTH, NODE_STEP);
+    pub static mut NODE_GRID: [[f32; 2]; NODES] = [[0.0; 2]; NODES];
+    pub static mut XY: [i16; 2 * STRIP_ROWS * WIDTH] = [0; 2 * STRIP_ROWS * WIDTH];
+    pub static mut FRAC: [u16; STRIP_ROWS * WIDTH] = [0; STRIP_ROWS * WIDTH];
+}
 #[unsafe(link_section = ".bigram")]
 static mut SCRATCH: sizes::Scratch = sizes::Scratch::new();
 /// The strip pipeline's whole working set (512 KiB), in the processor's RAM (`.bss`), not in
@@ -368,6 +383,62 @@ fn exercise_entry_points() {
         let _ = black_box(filter.update(&p));
         let _ = black_box(filter.apply(r1, d.get_mut(..sw).unwrap_or(&mut [])));
         filter.reset();
+    }
+    // Registration: the rig map, the strip registration and the remap, both depths, both
+    // interpolations and borders, rig and sizes unseen.
+    #[cfg(not(feature = "rescale-only"))]
+    {
+        use fusion_nostd::registration::{
+            Border, Camera, FixedMap, Interpolation, Rig, RigMap, register, remap,
+        };
+        static mut NODES: [[f32; 2]; 64] = [[0.0; 2]; 64];
+        static mut XY: [i16; 512] = [0; 512];
+        static mut FRAC: [u16; 256] = [0; 256];
+        // SAFETY: single-threaded; the only references to these statics while this runs.
+        let (nodes, xy, frac) = unsafe {
+            (
+                &mut *core::ptr::addr_of_mut!(NODES),
+                &mut *core::ptr::addr_of_mut!(XY),
+                &mut *core::ptr::addr_of_mut!(FRAC),
+            )
+        };
+        let cam = |w: usize, h: usize| Camera {
+            fx: black_box(20.0),
+            fy: black_box(21.0),
+            cx: black_box(3.5),
+            cy: black_box(4.0),
+            dist: black_box([-0.1, 0.01, 0.001, 0.0, 0.0]),
+            width: w,
+            height: h,
+        };
+        let rig = black_box(Rig {
+            vis: cam(dw, dh),
+            tir: cam(sw, sh),
+            r: black_box([[1.0, 0.0, 0.0]; 3]),
+            t: [0.1; 3],
+        });
+        for interp in [Interpolation::Linear, Interpolation::Cubic] {
+            let interp = black_box(interp);
+            for border in [Border::Constant(black_box(9)), Border::Replicate] {
+                let border = black_box(border);
+                if let Ok(map) = RigMap::new(&rig, black_box(5.0), black_box(4), &mut *nodes) {
+                    if let (Ok(s), Ok(o)) = (FrameRef::new(a, sw, sh), FrameMut::new(&mut *b, dw, dh)) {
+                        let _ = black_box(register(s, &map, o, interp, border, &mut *xy, &mut *frac));
+                    }
+                    if let (Ok(s), Ok(o)) = (FrameRef::new(c, sw, sh), FrameMut::new(&mut *d, dw, dh)) {
+                        let _ = black_box(register(s, &map, o, interp, border, &mut *xy, &mut *frac));
+                    }
+                }
+                let n = dw * dh;
+                if let Ok(map) =
+                    FixedMap::new(dw, dh, xy.get(..2 * n).unwrap_or(&[]), frac.get(..n).unwrap_or(&[]))
+                {
+                    if let (Ok(s), Ok(o)) = (FrameRef::new(a, sw, sh), FrameMut::new(&mut *b, dw, dh)) {
+                        let _ = black_box(remap(s, &map, o, interp, border));
+                    }
+                }
+            }
+        }
     }
     // The pipeline entry (and the pre-cast entry) with every method and rescale policy.
     #[cfg(not(feature = "rescale-only"))]

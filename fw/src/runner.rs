@@ -161,6 +161,28 @@ pub fn run_job(m: &mut Meter) -> Result<(), FwError> {
             say!(m.con, "@fw result {} guards 0x00 rescaled 0 fnv1a {:08x} file {}", i, sum, file);
             continue;
         }
+        if let Some(cubic) = run.registration() {
+            let (vw, vh) = job.vis;
+            let out = out_buf.get_mut(..vw * vh).ok_or(FwError::Job("output too large for the image"))?;
+            say!(
+                m.con,
+                "@fw run {} register {} none {}x{}",
+                i,
+                if cubic { "cubic" } else { "linear" },
+                vw,
+                vh
+            );
+            if run.fault {
+                crate::arch::undefined_instruction();
+            }
+            registration_run(m, (vw, vh), tir, cubic, out)?;
+            let sum = fnv1a(out);
+            let mut file_name = [0u8; 16];
+            let file = job::out_name(i, &mut file_name);
+            semihosting::write_file(file, out).map_err(|e| FwError::Io(e, "out<i>.gray"))?;
+            say!(m.con, "@fw result {} guards 0x00 rescaled 0 fnv1a {:08x} file {}", i, sum, file);
+            continue;
+        }
         if let Some(linear) = run.agc() {
             let out = out_buf.get_mut(..tir_px).ok_or(FwError::Job("output too large for the image"))?;
             let name = if linear { "linear" } else { "plateau" };
@@ -308,6 +330,65 @@ pub fn self_test(m: &mut Meter) -> Result<(), FwError> {
             fnv1a(out)
         );
     }
+    Ok(())
+}
+
+/// A registration run (`job.rs`): the rig of `rig.bin` at its range, the node grid in region
+/// `rig_map`, then the thermal frame onto the visible grid strip by strip in region `register`.
+#[cfg(not(feature = "rescale-only"))]
+fn registration_run(
+    m: &mut Meter,
+    (vw, vh): (usize, usize),
+    tir: FrameRef<'_, u8>,
+    cubic: bool,
+    out: &mut [u8],
+) -> Result<(), FwError> {
+    use crate::registration_buffers as rb;
+    use fusion_nostd::registration::{Border, Camera, Interpolation, NODE_STEP, Rig, RigMap, register};
+    let mut bytes = [0u8; 128];
+    if semihosting::read_file("rig.bin", &mut bytes).map_err(|e| FwError::Io(e, "rig.bin"))? != 128 {
+        return Err(FwError::Job("rig.bin has the wrong length"));
+    }
+    let mut v = [0.0f32; 32];
+    for (o, w) in v.iter_mut().zip(bytes.chunks_exact(4)) {
+        if let [a, b, c, d] = *w {
+            *o = f32::from_le_bytes([a, b, c, d]);
+        }
+    }
+    let camera = |k: usize, (width, height): (usize, usize)| Camera {
+        fx: v.get(k).copied().unwrap_or(0.0),
+        fy: v.get(k + 1).copied().unwrap_or(0.0),
+        cx: v.get(k + 2).copied().unwrap_or(0.0),
+        cy: v.get(k + 3).copied().unwrap_or(0.0),
+        dist: [4, 5, 6, 7, 8].map(|j| v.get(k + j).copied().unwrap_or(0.0)),
+        width,
+        height,
+    };
+    let at = |k: usize| v.get(k).copied().unwrap_or(0.0);
+    let rig = Rig {
+        vis: camera(0, (vw, vh)),
+        tir: camera(9, tir.size()),
+        r: [[at(18), at(19), at(20)], [at(21), at(22), at(23)], [at(24), at(25), at(26)]],
+        t: [at(27), at(28), at(29)],
+    };
+    let range = at(30);
+    // SAFETY: single-threaded; the only references to these statics.
+    let (nodes, xy, frac) = unsafe {
+        (
+            &mut *core::ptr::addr_of_mut!(rb::NODE_GRID),
+            &mut *core::ptr::addr_of_mut!(rb::XY),
+            &mut *core::ptr::addr_of_mut!(rb::FRAC),
+        )
+    };
+    if vw > rb::WIDTH {
+        return Err(FwError::Job("a registration run takes a visible frame up to 1024 wide"));
+    }
+    let map = m.region("rig_map", move || RigMap::new(&rig, range, NODE_STEP, &mut nodes[..]))?;
+    let xy = xy.get_mut(..2 * rb::STRIP_ROWS * vw).ok_or(FwError::Job("strip map"))?;
+    let frac = frac.get_mut(..rb::STRIP_ROWS * vw).ok_or(FwError::Job("strip map"))?;
+    let interp = if cubic { Interpolation::Cubic } else { Interpolation::Linear };
+    let o = FrameMut::new(out, vw, vh)?;
+    m.region("register", || register(tir, &map, o, interp, Border::Constant(0), xy, frac))?;
     Ok(())
 }
 

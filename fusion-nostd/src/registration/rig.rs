@@ -125,7 +125,7 @@ impl Rig {
 }
 
 /// Nodes a [`RigMap`] of a `width × height` visible frame needs at `step` pixels.
-pub fn node_count(width: usize, height: usize, step: usize) -> usize {
+pub const fn node_count(width: usize, height: usize, step: usize) -> usize {
     match step {
         0 => 0,
         s => (width.div_ceil(s) + 1) * (height.div_ceil(s) + 1),

@@ -98,25 +98,25 @@ pub fn budget_table_text(measured: &[Measured], agc: &[TirMeasured], old: &Table
     for a in agc {
         let table = format!("{}.{}.{}", a.target, a.size.0, a.stage.table());
         if table != header {
-            let (what, per) = match a.stage {
-                crate::TirStage::Agc(_) => ("The thermal AGC (fusion_nostd::agc)", String::new()),
-                crate::TirStage::Registration(_) => (
-                    "Registration of a 512x512 TIR frame through the default offset rig at 8 m (fusion_nostd::registration)",
-                    " (per visible pixel: the node grid, the strips linear and cubic)".to_string(),
+            let line = match a.stage {
+                crate::TirStage::Agc(_) => format!(
+                    "The thermal AGC (fusion_nostd::agc) on a {}x{} 14-bit TIR frame, per TIR pixel.",
+                    a.size.0, a.size.1
                 ),
-                crate::TirStage::Thermal(_) => (
-                    "The thermal front end's stages (fusion_nostd::thermal, then the linear AGC)",
-                    format!(
-                        " (the most any frame of the budget job's {}-frame raw sequence took)",
-                        crate::inputs::THERMAL_FRAMES
-                    ),
+                crate::TirStage::Thermal(_) => format!(
+                    "The thermal front end's stages (fusion_nostd::thermal, then the linear AGC) on a {}x{} 14-bit TIR frame, per TIR pixel (the most any frame of the budget job's {}-frame raw sequence took).",
+                    a.size.0,
+                    a.size.1,
+                    crate::inputs::THERMAL_FRAMES
+                ),
+                crate::TirStage::Registration(_) => format!(
+                    "Registration of the budget pair's TIR frame onto its {}x{} visible grid through the default offset rig at {} m (fusion_nostd::registration), per visible pixel: the node grid, the strips linear and cubic.",
+                    a.size.0,
+                    a.size.1,
+                    crate::REGISTRATION_RANGE_M
                 ),
             };
-            let _ = writeln!(
-                s,
-                "\n# {what} on a {}x{} 14-bit TIR frame, per TIR pixel{per}.\n[{table}]",
-                a.size.0, a.size.1
-            );
+            let _ = writeln!(s, "\n# {line}\n[{table}]");
             header = table;
         }
         let _ = writeln!(s, "{} = {}", a.stage.name(), table::budget_for(a.per_px(), 0.02, 0.1));

@@ -924,6 +924,7 @@ mod tests {
             }],
             tir16: None,
             thermal: None,
+            rig: None,
         };
         let b = job.encode()?;
         assert_eq!(&b[..4], b"FWJ1");
@@ -956,7 +957,7 @@ mod tests {
         for s in [spec, RunSpec::thermal(true), RunSpec { fault: true, ..RunSpec::thermal(true) }] {
             assert_eq!(RunSpec::decode(s.encode())?, s);
         }
-        for bad in [[5, 0, 2, 0], [5, 1, 0, 0], [5, 1, 2, 1], [5, 1, 2, 0x40], [6, 1, 2, 0], [1, 1, 2, 0x20]]
+        for bad in [[5, 0, 2, 0], [5, 1, 0, 0], [5, 1, 2, 1], [5, 1, 2, 0x40], [7, 1, 2, 0], [1, 1, 2, 0x20]]
         {
             assert!(RunSpec::decode(bad).is_err(), "{bad:?}");
         }
@@ -988,6 +989,22 @@ mod tests {
         );
         let short = ThermalInputs { frames: vec![frame(false)], ..inputs.clone() };
         assert!(Job { thermal: Some(short), ..thermal.clone() }.encode().is_err(), "a run without its frame");
+        // Registration: method 6, variant 0 linear / 1 cubic, policy 2; a rig of the job's sizes.
+        for (i, v) in [(Interpolation::Linear, 0u8), (Interpolation::Cubic, 1)] {
+            let spec = RunSpec::registration(i);
+            assert_eq!(spec.encode(), [6, v, 2, 0]);
+            assert_eq!(RunSpec::decode(spec.encode())?, spec);
+        }
+        assert!(RunSpec::decode([6, 2, 2, 0]).is_err() && RunSpec::decode([6, 0, 1, 0]).is_err());
+        let reg = Job { runs: vec![RunSpec::registration(Interpolation::Linear)], ..job.clone() };
+        assert!(reg.encode().is_err(), "no rig");
+        let mut rig = render_host::rig::offset_rig()?;
+        (rig.vis.width, rig.vis.height, rig.tir.width, rig.tir.height) =
+            (job.vis.width, job.vis.height, w, h);
+        assert!(Job { rig: Some((rig, 8.0)), ..reg }.encode().is_ok());
+        let bytes = rig_bytes(&rig, 8.0);
+        assert_eq!(bytes.len(), 128);
+        assert_eq!(f32::from_le_bytes(bytes[120..124].try_into()?), 8.0);
         assert_eq!(&Job { thermal: Some(inputs), ..thermal }.encode()?[24..], &[5, 1, 2, 0, 5, 1, 2, 0x20]);
         Ok(())
     }

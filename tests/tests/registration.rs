@@ -183,7 +183,7 @@ fn worst(ours: impl Fn(usize, usize) -> (f32, f32), cv: &[Position]) -> f64 {
 /// `projectPoints` within 0.001 px exactly evaluated and 0.005 px through the node grid (16-px
 /// cells; measured 7·10⁻⁵ and 6.5·10⁻⁴ px, `--nocapture` prints them); with an ideal visible
 /// lens, with `initUndistortRectifyMap` and the plane homography likewise; the fixed-point map
-/// is the grid's position rounded to 1/32 px.
+/// is the grid's position in 1/32 px within 1/64 + 2·10⁻⁴ px (its integer steps across a cell).
 #[test]
 fn the_rig_map_agrees_with_opencv() {
     use fusion_nostd::registration::{NODE_STEP, RigMap, node_count};
@@ -211,7 +211,10 @@ fn the_rig_map_agrees_with_opencv() {
                 let (x, y) = map.position(i % 1024, 511 + i / 1024);
                 let fx = f32::from(p[0]) + f32::from(f % 32) / 32.0;
                 let fy = f32::from(p[1]) + f32::from(f / 32) / 32.0;
-                assert!((fx - x).abs() <= 1.0 / 64.0 + 1e-4 && (fy - y).abs() <= 1.0 / 64.0 + 1e-4);
+                assert!(
+                    (fx - x).abs() <= 1.0 / 64.0 + 2e-4 && (fy - y).abs() <= 1.0 / 64.0 + 2e-4,
+                    "{fx} {x} {fy} {y}"
+                );
             }
         }
     }

@@ -132,7 +132,9 @@ pub(crate) fn linear_at<T: RemapSample>(
     let at = |x: usize, y: usize| src.row(y).get(x).map_or(0, |v| v.get());
     if sx >= 0 && sy >= 0 && (sx as usize) + 1 < w && (sy as usize) + 1 < h {
         let (x, y) = (sx as usize, sy as usize);
-        return T::linear([at(x, y), at(x + 1, y), at(x, y + 1), at(x + 1, y + 1)], frac);
+        if let (Some(&[a, b]), Some(&[c, d])) = (src.row(y).get(x..x + 2), src.row(y + 1).get(x..x + 2)) {
+            return T::linear([a.get(), b.get(), c.get(), d.get()], frac);
+        }
     }
     let cval = match border {
         Border::Constant(v) => T::put(u32::from(v)).get(),

@@ -69,6 +69,32 @@ def rescale(
     """Rescales a grey image with the core's rescalers (cv2.INTER_CUBIC / cv2.INTER_AREA
     semantics, bit-exact with OpenCV at factor 2); returns (height, width) of the same dtype."""
 
+def correct_thermal(
+    raw: Gray16,
+    *,
+    nuc: Optional[Path] = None,
+    bad_pixels: Optional[Path] = None,
+    shutter: Optional[Gray16] = None,
+    column_filter: Union[None, int, Literal["auto"]] = None,
+) -> Gray16:
+    """Corrects raw 14/16-bit thermal counts with the core's front end (`fusion fuse --nuc
+    --bad-pixels --shutter --column-filter` before its AGC): the NUC tables and bad-pixel map
+    files, a flat-field shutter frame re-levelling the offsets, the column filter's threshold in
+    counts or "auto"; returns uint16 (H, W), ready for `fuse`."""
+
+def register(
+    img: Union[Gray8, Gray16],
+    *,
+    rig: Path,
+    range: float,
+    interp: Literal["linear", "cubic"] = "linear",
+    border: Literal["constant", "replicate"] = "constant",
+    border_value: int = 0,
+) -> Union[Gray8, Gray16]:
+    """Warps a thermal image of an offset camera pair onto the visible grid for a target at
+    `range` metres (`fusion register`): `rig` is the pair's OpenCV stereo calibration (YAML or
+    JSON; camera 1 = VIS, X_tir = R X_vis + T). Returns the visible camera's size, same dtype."""
+
 def eval(
     vis: Union[Gray8, Rgb8],
     tir: Union[Gray8, Rgb8],

@@ -540,6 +540,55 @@ fn correct_thermal<'py>(
     Ok(numpy::PyArray2::from_owned_array(py, arr).into_any().unbind())
 }
 
+/// Warps a thermal image of an offset camera pair onto the visible grid for a target at
+/// `range` metres, as `fusion register` does (the core's `fusion_nostd::registration`);
+/// returns the visible camera's size, same dtype.
+///
+/// img: uint8 or uint16 (H, W), the rig's thermal size. rig: path of the pair's calibration
+///   (OpenCV `FileStorage` YAML or JSON: camera_matrix_vis, dist_coeffs_vis, image_size_vis,
+///   the same with _tir, R, T; `X_tir = R·X_vis + T`, metres). interp: "linear" or "cubic".
+///   border: "constant" (border_value, 0 by default) or "replicate".
+#[pyfunction]
+#[pyo3(signature = (img, *, rig, range, interp="linear", border="constant", border_value=0))]
+fn register<'py>(
+    py: Python<'py>,
+    img: &Bound<'py, PyAny>,
+    rig: PathBuf,
+    range: f64,
+    interp: &str,
+    border: &str,
+    border_value: u16,
+) -> PyResult<Py<PyAny>> {
+    use fusion_engine::registration::{BorderArg, InterpolationArg};
+    let interp: fusion_nostd::registration::Interpolation =
+        named::<InterpolationArg>("interp", interp)?.into();
+    let border = named::<BorderArg>("border", border)?.with_value(border_value);
+    let rig = fusion_io::rig::read(&rig).map_err(py_err)?;
+    fn run<'py, T: fusion_nostd::registration::RemapSample + numpy::Element + Default + Send + Sync>(
+        py: Python<'py>,
+        src: &PyReadonlyArray2<'py, T>,
+        rig: &fusion_nostd::registration::Rig,
+        range: f64,
+        interp: fusion_nostd::registration::Interpolation,
+        border: fusion_nostd::registration::Border,
+    ) -> PyResult<Py<PyAny>> {
+        let tir = Plane::of(src.as_array()).to_gray().map_err(py_err)?;
+        let out = py
+            .detach(|| fusion_engine::registration::register(&tir, rig, range, interp, border))
+            .map_err(py_err)?;
+        let arr = numpy::ndarray::Array2::from_shape_vec((out.height, out.width), out.data)
+            .map_err(|e| PyValueError::new_err(e.to_string()))?;
+        Ok(numpy::PyArray2::from_owned_array(py, arr).into_any().unbind())
+    }
+    match Image::of("img", img)? {
+        Image::Gray8(a) => run(py, &a, &rig, range, interp, border),
+        Image::Gray16(a) => run(py, &a, &rig, range, interp, border),
+        Image::Rgb8(_) => {
+            Err(PyTypeError::new_err("img: register takes a grey (H, W) uint8 or uint16 array"))
+        }
+    }
+}
+
 /// VIS/TIR image fusion for spacecraft navigation: the flight core, the metrics and the
 /// renderer from Python.
 #[pymodule]
@@ -548,6 +597,7 @@ fn vistir(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(fuse, m)?)?;
     m.add_function(wrap_pyfunction!(rescale, m)?)?;
     m.add_function(wrap_pyfunction!(correct_thermal, m)?)?;
+    m.add_function(wrap_pyfunction!(register, m)?)?;
     m.add_function(wrap_pyfunction!(eval_metrics, m)?)?;
     m.add_function(wrap_pyfunction!(load, m)?)?;
     m.add_function(wrap_pyfunction!(save, m)?)?;

@@ -328,3 +328,37 @@ def test_correct_thermal_refuses_bad_calibration(tmp_path, raw_sequence):
         vistir.correct_thermal(raw, column_filter="often")
     with pytest.raises(ValueError, match="64x64"):
         vistir.correct_thermal(raw[:32], nuc=raw_sequence / "calibration" / "tir.nuc")
+
+
+RIG = REPO / "tests" / "data" / "rig" / "offset_rig.json"
+
+
+@pytest.mark.parametrize("interp", ["linear", "cubic"])
+@pytest.mark.parametrize("bits", [8, 16])
+def test_register_gives_the_cli_bytes(tmp_path, interp, bits):
+    tir = thermal_counts(512, 512)
+    if bits == 8:
+        tir = (tir >> 6).astype(np.uint8)
+    src, out = tmp_path / "tir.png", tmp_path / "reg.png"
+    vistir.save(src, tir)
+    fusion("register", "--rig", RIG, "--range", "8", "--interp", interp, src, out)
+    got = vistir.register(tir, rig=RIG, range=8.0, interp=interp)
+    assert got.dtype == tir.dtype and got.shape == (1024, 1024)
+    np.testing.assert_array_equal(got, vistir.load(out))
+    # The thermal camera's wider field covers the visible grid; the rig moves the frame.
+    assert np.count_nonzero(got) > 1024 * 1024 // 2
+    assert not np.array_equal(got, vistir.rescale(tir, 1024, 1024))
+
+
+def test_register_refuses_bad_input(tmp_path):
+    tir = np.zeros((512, 512), np.uint8)
+    with pytest.raises(ValueError, match="512x512"):
+        vistir.register(tir[:100], rig=RIG, range=8.0)
+    with pytest.raises(ValueError, match="range"):
+        vistir.register(tir, rig=RIG, range=-1.0)
+    with pytest.raises(ValueError, match="interp"):
+        vistir.register(tir, rig=RIG, range=8.0, interp="lanczos")
+    bad = tmp_path / "rig.json"
+    bad.write_text('{"R": 1}')
+    with pytest.raises(ValueError, match="camera_matrix_vis"):
+        vistir.register(tir, rig=bad, range=8.0)

@@ -302,6 +302,47 @@ typedef struct FusionImageMut16 {
   size_t stride;
 } FusionImageMut16;
 
+// One camera (OpenCV's camera matrix and distortion; pixel centres at integers).
+typedef struct FusionCamera {
+  // Focal length along x, px.
+  float fx;
+  // Focal length along y, px.
+  float fy;
+  // Principal point x, px.
+  float cx;
+  // Principal point y, px.
+  float cy;
+  // `k1, k2, p1, p2, k3` (OpenCV's order).
+  float dist[5];
+  // Image width, px.
+  size_t width;
+  // Image height, px.
+  size_t height;
+} FusionCamera;
+
+// A VIS/TIR pair in `stereoCalibrate`'s convention: `X_tir = R·X_vis + T` (metres).
+typedef struct FusionRig {
+  // The visible camera (camera 1).
+  struct FusionCamera vis;
+  // The thermal camera (camera 2).
+  struct FusionCamera tir;
+  // Rotation, row-major.
+  float r[9];
+  // Translation, metres.
+  float t[3];
+} FusionRig;
+
+// Interpolation: `FUSION_REGISTER_LINEAR` (0) or `FUSION_REGISTER_CUBIC` (1); where the thermal
+// camera did not see: `border_replicate` 0 (the constant `border_value`) or 1 (the edge).
+typedef struct FusionRegisterParams {
+  // 0 linear, 1 cubic.
+  uint32_t interpolation;
+  // 0: the constant `border_value`; 1: the nearest edge pixel.
+  uint32_t border_replicate;
+  // The constant (saturated to the image's depth).
+  uint16_t border_value;
+} FusionRegisterParams;
+
 // One camera's calibration (`fusion_nostd::thermal`): per pixel a Q2.14 gain and an offset in
 // counts (row-major, `width·height` each; both NULL: no correction), and the one-bit bad-pixel
 // map (`⌈width/8⌉` bytes a row, pixel x in bit x mod 8 of byte x/8, 1 = bad; NULL: none).
@@ -460,6 +501,44 @@ enum FusionStatus fusion_rescale_u16(const struct FusionImage16 *src,
                                      const struct FusionImageMut16 *dst,
                                      uint32_t filter_code,
                                      struct FusionError *error);
+
+// Bytes of scratch [`fusion_register_u8`] and [`fusion_register_u16`] need for `rig`: the node
+// grid (8 bytes a node every 16 visible pixels) and 16 rows of map (6 bytes a visible pixel);
+// 0 for a rig without a visible size.
+//
+// # Safety
+// `rig` is NULL or points to a `FusionRig`.
+size_t fusion_register_scratch_bytes(const struct FusionRig *rig);
+
+// Warps an 8-bit thermal frame (the rig's thermal size) onto the visible grid (`output`, the
+// rig's visible size) for a target at `range_m` metres along the visible optical axis:
+// `fusion register`'s bytes. Nothing is written to `output` on an error.
+//
+// # Safety
+// `rig`, `params`, `input`, `output` point to valid values; `scratch` to `scratch_bytes`
+// writable, 4-aligned bytes (at least [`fusion_register_scratch_bytes`]) not overlapping the
+// images; `error` is NULL or writable.
+enum FusionStatus fusion_register_u8(const struct FusionRig *rig,
+                                     float range_m,
+                                     const struct FusionRegisterParams *params,
+                                     const struct FusionImage *input,
+                                     const struct FusionImageMut *output,
+                                     uint8_t *scratch,
+                                     size_t scratch_bytes,
+                                     struct FusionError *error);
+
+// As [`fusion_register_u8`] for 16-bit frames.
+//
+// # Safety
+// As [`fusion_register_u8`].
+enum FusionStatus fusion_register_u16(const struct FusionRig *rig,
+                                      float range_m,
+                                      const struct FusionRegisterParams *params,
+                                      const struct FusionImage16 *input,
+                                      const struct FusionImageMut16 *output,
+                                      uint8_t *scratch,
+                                      size_t scratch_bytes,
+                                      struct FusionError *error);
 
 // One line of English for a status value, NUL-terminated, static (never freed); a value
 // that is no status gives `"unknown error"`.

@@ -15,6 +15,7 @@
 //! | [`fusion_fuse_strips`] | the same bytes strip by strip in a fixed working set ([`FUSION_STRIP_SCRATCH_BYTES`], 512 KiB) |
 //! | [`fusion_rescale_u8`], [`fusion_rescale_u16`] | the OpenCV-exact bicubic and area rescalers |
 //! | [`fusion_agc_state_bytes`], [`fusion_agc_init`], [`fusion_agc_frame`] | 14/16-bit thermal counts to 8 bits |
+//! | [`fusion_register_scratch_bytes`], [`fusion_register_u8`], [`fusion_register_u16`] | an offset camera pair's thermal frame onto the visible grid at a range |
 //! | [`fusion_status_text`], [`FusionError`] | what went wrong, in one line |
 //!
 //! ## Rules (also in the header)
@@ -45,6 +46,7 @@ extern crate std;
 mod agc;
 mod fuse;
 mod image;
+mod registration;
 mod status;
 #[cfg(test)]
 mod tests;
@@ -62,6 +64,10 @@ pub use fuse::{
 pub use image::{
     FusionFilter, FusionImage, FusionImage16, FusionImageMut, FusionImageMut16, fusion_rescale_u8,
     fusion_rescale_u16,
+};
+pub use registration::{
+    FusionCamera, FusionRegisterParams, FusionRig, fusion_register_scratch_bytes, fusion_register_u8,
+    fusion_register_u16,
 };
 pub use status::{FusionError, FusionStatus, fusion_status_text, fusion_version};
 pub use thermal::{

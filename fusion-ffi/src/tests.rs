@@ -615,3 +615,120 @@ fn thermal_front_end_follows_the_core() {
     );
     assert_eq!(off, offset);
 }
+
+/// A small offset pair: VIS 96², TIR 48², 0.1 m baseline, mild distortion.
+fn small_rig() -> FusionRig {
+    let cam = |size: usize, f: f32, k1: f32| FusionCamera {
+        fx: f,
+        fy: f,
+        cx: size as f32 / 2.0 - 0.5,
+        cy: size as f32 / 2.0 - 0.5,
+        dist: [k1, 0.01, 0.0005, -0.0003, 0.0],
+        width: size,
+        height: size,
+    };
+    FusionRig {
+        vis: cam(96, 180.0, -0.05),
+        tir: cam(48, 75.0, -0.12),
+        r: [1.0, 0.0, 0.003, 0.0, 1.0, 0.0, -0.003, 0.0, 1.0],
+        t: [-0.1, 0.0, 0.0],
+    }
+}
+
+/// `fusion_register_u8`/`_u16` give the core's `register` bytes (scratch of the size asked
+/// for, 8 and 16 bit, linear and cubic, both borders); a short or misaligned scratch, an
+/// unknown interpolation, an overlap and a wrong size are refused with the output untouched.
+#[test]
+fn register_gives_the_core_bytes_and_refuses_bad_calls() {
+    use fusion_nostd::registration::{Border, Interpolation, NODE_STEP, RigMap, node_count, register};
+    let r = small_rig();
+    let bytes = unsafe { fusion_register_scratch_bytes(&r) };
+    assert_eq!(bytes, 8 * node_count(96, 96, NODE_STEP) + 6 * 16 * 96);
+    let mut scratch = vec![0u32; bytes.div_ceil(4)];
+    let tir8 = frame(48, 48, 5);
+    let tir16: Vec<u16> = tir8.iter().map(|&v| u16::from(v) * 251).collect();
+    let core_rig = super::registration::tests_rig(&r);
+    let mut nodes = vec![[0.0f32; 2]; node_count(96, 96, NODE_STEP)];
+    let map = RigMap::new(&core_rig, 6.0, NODE_STEP, &mut nodes).unwrap();
+    for (interpolation, interp) in [(0u32, Interpolation::Linear), (1, Interpolation::Cubic)] {
+        for (border_replicate, border) in [(0u32, Border::Constant(17)), (1, Border::Replicate)] {
+            let params = FusionRegisterParams { interpolation, border_replicate, border_value: 17 };
+            let (mut xy, mut frac) = (vec![0i16; 2 * 96 * 8], vec![0u16; 96 * 8]);
+            let mut want8 = vec![0u8; 96 * 96];
+            register(
+                FrameRef::new(&tir8, 48, 48).unwrap(),
+                &map,
+                FrameMut::new(&mut want8, 96, 96).unwrap(),
+                interp,
+                border,
+                &mut xy,
+                &mut frac,
+            )
+            .unwrap();
+            let mut got8 = vec![0u8; 96 * 96];
+            let input = FusionImage { data: tir8.as_ptr(), width: 48, height: 48, stride: 48 };
+            let output = FusionImageMut { data: got8.as_mut_ptr(), width: 96, height: 96, stride: 96 };
+            let st = unsafe {
+                fusion_register_u8(
+                    &r,
+                    6.0,
+                    &params,
+                    &input,
+                    &output,
+                    scratch.as_mut_ptr().cast(),
+                    bytes,
+                    core::ptr::null_mut(),
+                )
+            };
+            assert_eq!(st, FusionStatus::Ok);
+            assert_eq!(got8, want8);
+            let mut want16 = vec![0u16; 96 * 96];
+            register(
+                FrameRef::new(&tir16, 48, 48).unwrap(),
+                &map,
+                FrameMut::new(&mut want16, 96, 96).unwrap(),
+                interp,
+                border,
+                &mut xy,
+                &mut frac,
+            )
+            .unwrap();
+            let mut got16 = vec![0u16; 96 * 96];
+            let input = FusionImage16 { data: tir16.as_ptr(), width: 48, height: 48, stride: 48 };
+            let output = FusionImageMut16 { data: got16.as_mut_ptr(), width: 96, height: 96, stride: 96 };
+            let st = unsafe {
+                fusion_register_u16(
+                    &r,
+                    6.0,
+                    &params,
+                    &input,
+                    &output,
+                    scratch.as_mut_ptr().cast(),
+                    bytes,
+                    core::ptr::null_mut(),
+                )
+            };
+            assert_eq!(st, FusionStatus::Ok);
+            assert_eq!(got16, want16);
+        }
+    }
+    let ok = FusionRegisterParams { interpolation: 0, border_replicate: 0, border_value: 0 };
+    let mut out = vec![9u8; 96 * 96];
+    let input = FusionImage { data: tir8.as_ptr(), width: 48, height: 48, stride: 48 };
+    let output = FusionImageMut { data: out.as_mut_ptr(), width: 96, height: 96, stride: 96 };
+    let call = |params: &FusionRegisterParams, scratch: *mut u8, n: usize, output: &FusionImageMut| unsafe {
+        fusion_register_u8(&r, 6.0, params, &input, output, scratch, n, core::ptr::null_mut())
+    };
+    let sp = scratch.as_mut_ptr().cast::<u8>();
+    assert_ne!(call(&ok, sp, bytes - 1, &output), FusionStatus::Ok);
+    assert_eq!(call(&ok, unsafe { sp.add(1) }, bytes - 4, &output), FusionStatus::Misaligned);
+    assert_ne!(call(&FusionRegisterParams { interpolation: 2, ..ok }, sp, bytes, &output), FusionStatus::Ok);
+    let small = FusionImageMut { data: out.as_mut_ptr(), width: 95, height: 96, stride: 96 };
+    assert_ne!(call(&ok, sp, bytes, &small), FusionStatus::Ok);
+    let overlap = FusionImageMut { data: sp, width: 96, height: 96, stride: 96 };
+    assert_eq!(call(&ok, sp, bytes, &overlap), FusionStatus::Overlap);
+    assert!(out.iter().all(|&v| v == 9));
+    let st = unsafe { fusion_register_u8(&r, -1.0, &ok, &input, &output, sp, bytes, core::ptr::null_mut()) };
+    assert_ne!(st, FusionStatus::Ok);
+    assert!(out.iter().all(|&v| v == 9));
+}

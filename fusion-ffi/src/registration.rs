@@ -144,10 +144,7 @@ fn register_any<'a, T: fusion_nostd::registration::RemapSample + 'a>(
     range_m: f32,
     params: *const FusionRegisterParams,
     input: Result<(fusion_nostd::FrameRef<'a, T>, Span), FusionError>,
-    output: (
-        Result<Span, FusionError>,
-        impl FnOnce() -> Result<fusion_nostd::FrameMut<'a, T>, FusionError>,
-    ),
+    output: (Result<Span, FusionError>, impl FnOnce() -> Result<fusion_nostd::FrameMut<'a, T>, FusionError>),
     scratch: *mut u8,
     scratch_bytes: usize,
 ) -> Result<(), FusionError> {

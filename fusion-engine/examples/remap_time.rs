@@ -46,7 +46,8 @@ fn main() -> Result<()> {
         data: (0..512 * 512)
             .map(|i| {
                 let (x, y) = ((i % 512) as f64, (i / 512) as f64);
-                let v = 128.0 + 80.0 * (x / 17.0).sin() * (y / 23.0).cos() + if x > 300.0 { 30.0 } else { 0.0 };
+                let v =
+                    128.0 + 80.0 * (x / 17.0).sin() * (y / 23.0).cos() + if x > 300.0 { 30.0 } else { 0.0 };
                 v.clamp(0.0, 255.0) as u8
             })
             .collect(),

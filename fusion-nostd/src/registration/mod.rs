@@ -125,7 +125,7 @@ pub fn register<T: RemapSample>(
         return Err(Error::SizeMismatch { expected: map.tir_size(), got: src.size() });
     }
     let (w, h) = map.size();
-    let strip = frac.len() / w;
+    let strip = frac.len().checked_div(w).unwrap_or(0);
     if strip == 0 {
         return Err(Error::BufferTooSmall { needed: w, got: frac.len() });
     }

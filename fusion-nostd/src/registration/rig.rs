@@ -21,6 +21,7 @@
 
 use super::tables::{TAB_BITS, TAB_SIZE};
 use crate::error::Error;
+use core::num::NonZeroUsize;
 
 /// One camera: pinhole intrinsics in pixels (OpenCV's camera matrix), distortion
 /// `[k1, k2, p1, p2, k3]` in OpenCV's order, and its image size.
@@ -140,8 +141,8 @@ pub const NODE_STEP: usize = 16;
 #[derive(Debug)]
 pub struct RigMap<'a> {
     nodes: &'a [[f32; 2]],
-    cols: usize,
-    step: usize,
+    cols: NonZeroUsize,
+    step: NonZeroUsize,
     width: usize,
     height: usize,
     tir: (usize, usize),
@@ -165,16 +166,16 @@ impl<'a> RigMap<'a> {
         if !(range.is_finite() && range > 0.0) {
             return Err(Error::InvalidParameter { name: "range" });
         }
-        if step == 0 {
+        let Some(step) = NonZeroUsize::new(step) else {
             return Err(Error::InvalidParameter { name: "node step" });
-        }
+        };
         let (w, h) = (rig.vis.width, rig.vis.height);
-        let needed = node_count(w, h, step);
+        let needed = node_count(w, h, step.get());
         let got = nodes.len();
         let nodes = nodes.get_mut(..needed).ok_or(Error::BufferTooSmall { needed, got })?;
-        let cols = w.div_ceil(step) + 1;
+        let cols = NonZeroUsize::new(w.div_ceil(step.get()) + 1).unwrap_or(NonZeroUsize::MIN);
         for (i, n) in nodes.iter_mut().enumerate() {
-            let (u, v) = (((i % cols) * step) as f32, ((i / cols) * step) as f32);
+            let (u, v) = (((i % cols) * step.get()) as f32, ((i / cols) * step.get()) as f32);
             let (x, y) = rig.tir_position(u, v, range).unwrap_or((OUTSIDE, OUTSIDE));
             *n = [x, y];
         }
@@ -196,16 +197,16 @@ impl<'a> RigMap<'a> {
     pub fn position(&self, u: usize, v: usize) -> (f32, f32) {
         let s = self.step;
         let (left, right) = self.row_ends(u / s, v);
-        lerp(left, right, (u % s) as f32 / s as f32)
+        lerp(left, right, (u % s) as f32 / s.get() as f32)
     }
 
     /// The positions at visible row `v` of node columns `cu` and `cu + 1`.
     #[inline]
     fn row_ends(&self, cu: usize, v: usize) -> ((f32, f32), (f32, f32)) {
         let s = self.step;
-        let (cv, fv) = (v / s, (v % s) as f32 / s as f32);
+        let (cv, fv) = (v / s, (v % s) as f32 / s.get() as f32);
         let at = |c: usize, r: usize| {
-            let [x, y] = self.nodes.get(r * self.cols + c).copied().unwrap_or([OUTSIDE; 2]);
+            let [x, y] = self.nodes.get(r * self.cols.get() + c).copied().unwrap_or([OUTSIDE; 2]);
             (x, y)
         };
         (lerp(at(cu, cv), at(cu, cv + 1), fv), lerp(at(cu + 1, cv), at(cu + 1, cv + 1), fv))
@@ -224,7 +225,7 @@ impl<'a> RigMap<'a> {
         if xy.len() != 2 * frac.len() || !frac.len().is_multiple_of(w) {
             return Err(Error::InvalidParameter { name: "map rows (xy must be twice frac, whole rows)" });
         }
-        let rows = frac.len() / w;
+        let rows = frac.len().checked_div(w).unwrap_or(0);
         if y0 + rows > self.height {
             return Err(Error::InvalidParameter { name: "map rows past the frame" });
         }
@@ -237,14 +238,22 @@ impl<'a> RigMap<'a> {
             let p32 = (q + (1 << (Q - 1))) >> Q;
             ((p32 >> TAB_BITS) as i16, (p32 & (TAB_SIZE as i32 - 1)) as u16)
         };
-        let s = self.step;
-        for (r, (row_xy, row_frac)) in xy.chunks_exact_mut(2 * w).zip(frac.chunks_exact_mut(w)).enumerate() {
+        // Chunk sizes provably non-zero (the width is, but not to the compiler: no panic path).
+        let (s, row) = (self.step.get(), w.max(1));
+        for (r, (row_xy, row_frac)) in
+            xy.chunks_exact_mut((2 * row).max(1)).zip(frac.chunks_exact_mut(row)).enumerate()
+        {
             let v = y0 + r;
-            for (cu, (cell_xy, cell_frac)) in row_xy.chunks_mut(2 * s).zip(row_frac.chunks_mut(s)).enumerate()
+            for (cu, (cell_xy, cell_frac)) in
+                row_xy.chunks_mut((2 * s).max(1)).zip(row_frac.chunks_mut(s)).enumerate()
             {
                 let (left, right) = self.row_ends(cu, v);
                 let (lx, ly) = (to_q(left.0), to_q(left.1));
-                let (dx, dy) = ((to_q(right.0) - lx) / s as i32, (to_q(right.1) - ly) / s as i32);
+                let step = s as i32;
+                let (dx, dy) = (
+                    (to_q(right.0) - lx).checked_div(step).unwrap_or(0),
+                    (to_q(right.1) - ly).checked_div(step).unwrap_or(0),
+                );
                 let (mut qx, mut qy) = (lx, ly);
                 for (p, f) in cell_xy.chunks_exact_mut(2).zip(cell_frac.iter_mut()) {
                     let ((ix, fx), (iy, fy)) = (split(qx), split(qy));

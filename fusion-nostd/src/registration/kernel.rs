@@ -105,6 +105,16 @@ pub enum Border {
     Replicate,
 }
 
+/// The constant a border reads outside the source, saturated to `T` (0 for `Replicate`, whose
+/// neighbours are never outside).
+#[inline]
+fn constant_of<T: RemapSample>(border: Border) -> u32 {
+    match border {
+        Border::Constant(v) => T::put(u32::from(v)).get(),
+        Border::Replicate => 0,
+    }
+}
+
 /// `p` mapped into `0..n` by the border rule: `None` for a constant border's outside pixel.
 #[inline]
 fn border_index(p: isize, n: usize, border: Border) -> Option<usize> {
@@ -136,10 +146,7 @@ pub(crate) fn linear_at<T: RemapSample>(
             return T::linear([a.get(), b.get(), c.get(), d.get()], frac);
         }
     }
-    let cval = match border {
-        Border::Constant(v) => T::put(u32::from(v)).get(),
-        Border::Replicate => 0,
-    };
+    let cval = constant_of::<T>(border);
     if matches!(border, Border::Constant(_))
         && (sx >= w as isize || sx + 1 < 0 || sy >= h as isize || sy + 1 < 0)
     {
@@ -178,10 +185,7 @@ pub(crate) fn cubic_at<T: RemapSample>(
         }
         return T::put(cast_f32(sum, T::MAX));
     }
-    let cval = match border {
-        Border::Constant(v) => T::put(u32::from(v)).get(),
-        Border::Replicate => 0,
-    };
+    let cval = constant_of::<T>(border);
     if matches!(border, Border::Constant(_))
         && (x0 >= w as isize || x0 + 4 <= 0 || y0 >= h as isize || y0 + 4 <= 0)
     {

@@ -15,7 +15,12 @@
 //!   (k − 1, k) the **rotation error** and **translation-direction error** of the relative
 //!   pose between its two measured poses against the truth, **lost** when either frame has no
 //!   pose.
-//! * the **navigation filter** ([`crate::filter`]) fed by those poses: attitude error (°),
+//! * the **navigation filter** ([`crate::filter`]) fed by the absolute cues — the model's
+//!   edges fitted at the prediction ([`crate::edges`]) where the target is predicted at least
+//!   [`crate::edges::MIN_TARGET_PX`] wide, its outline's position ([`crate::silhouette`])
+//!   where it is smaller or the edges fail — not by the tracks' pose (their 3D points come
+//!   from the model at the estimate: they measure motion, and fed as a pose they drag the
+//!   filter along their drift): attitude error (°),
 //!   position error (% of range), their 3σ bounds, NEES, and **available** when the attitude
 //!   error is ≤ [`AVAILABLE_ATT_DEG`] and the position error ≤ [`AVAILABLE_POS_PCT`] of the
 //!   range.
@@ -33,6 +38,7 @@ use super::features::{detect, grow_mask};
 use super::filter::{FilterParams, PoseFilter, PoseMeasurement, rotation_vector};
 use super::model::{TargetModel, camera_at, normalised};
 use super::pose::{MIN_INLIERS, RelativePose, estimate, pnp_ransac};
+use super::registration::{Registration, misregistration, on_vis_grid};
 use super::silhouette::{position_measurement, segment};
 use super::track::{Feature, describe, match_features, test_pairs};
 use super::tracker::{ModelTracker, TrackerParams, smooth};
@@ -40,8 +46,9 @@ use anyhow::{Context, Result};
 use fusion_engine::CoreScratch;
 use fusion_io::{ColorPolicy, Gray, load_gray_u8};
 use fusion_nostd::pipeline::{SkipPolicy, Skips};
+use fusion_nostd::registration::Rig;
 use fusion_nostd::scene::Rect;
-use fusion_nostd::{AdaptiveParams, Filter, FuseConfig, Method, RescalePolicy};
+use fusion_nostd::{AdaptiveParams, FuseConfig, Method, RescalePolicy};
 use image::GrayImage;
 use rayon::prelude::*;
 use render_host::glam::{DQuat, DVec2, DVec3};
@@ -65,14 +72,6 @@ pub const INIT_POS_ERR_FRAC: f64 = 0.01;
 pub const INIT_RATE_ERR_DEG_S: f64 = 0.2;
 /// … and its velocity off by this share of the range per second.
 pub const INIT_VEL_ERR_FRAC_S: f64 = 0.005;
-/// The image front end's pose covariance (Levenberg–Marquardt's `σ² (JᵀJ)⁻¹`) is multiplied by
-/// this before the filter takes it. Its errors are not white: the tracks of one face share
-/// their errors (at the true pose, on the supersampled fly-around, their residuals grow from
-/// ≈ 0.37 px one frame after anchoring to ≈ 0.7 px after seven, together), so a measurement
-/// that claims 0.1° (1σ) is 0.3–0.5° off. Measured with
-/// `cargo run --release -p fusion-navbench --example tracker_probe -- DIR vis`.
-/// 25 (5× in σ) brings the claim to the errors seen; the oracle's white noise needs none.
-pub const FRONT_END_COVARIANCE_INFLATION: f64 = 25.0;
 
 /// One source judged by the benchmark: an image stream or a baseline.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -136,8 +135,8 @@ pub const LOOP_MARGIN_PX: f64 = 24.0;
 /// (which holds the target whatever its attitude), grown on each side by 3σ of the filter's
 /// attitude and position in pixels (`f·(σ_θ + σ_p/range)`, the root of each block's trace) and
 /// [`LOOP_MARGIN_PX`]. Empty when the sphere is predicted behind the camera or off the image.
-pub fn predicted_box(model: &TargetModel<'_>, filter: &PoseFilter, width: u32) -> Rect {
-    let predicted = camera_at(width, filter.attitude, filter.position);
+pub fn predicted_box(model: &TargetModel<'_>, filter: &PoseFilter, intrinsics: &Camera) -> Rect {
+    let predicted = camera_at(intrinsics, filter.attitude, filter.position);
     let Some((x0, y0, x1, y1)) = model.image_box(&predicted, 0.0) else { return Rect::default() };
     let c = filter.pose_covariance();
     let sigma_att = (c[(0, 0)] + c[(1, 1)] + c[(2, 2)]).max(0.0).sqrt();
@@ -287,6 +286,12 @@ pub struct FrameResult {
     pub target_coverage: f64,
     /// Skip streams: the computed window's share of the frame (1 for the others).
     pub window_frac: f64,
+    /// Offset rigs, streams using the thermal frame: the median distance over the VIS target
+    /// pixels between where their surface point is in the thermal frame and where the
+    /// registration read it, VIS px ([`crate::registration::misregistration`]; NaN otherwise).
+    pub misregistration_px: f64,
+    /// The same, 95th percentile over the target pixels.
+    pub misregistration_p95_px: f64,
 }
 
 impl FrameResult {
@@ -318,6 +323,8 @@ impl FrameResult {
             pairwise_lost: false,
             target_coverage: 1.0,
             window_frac: 1.0,
+            misregistration_px: f64::NAN,
+            misregistration_p95_px: f64::NAN,
         }
     }
 }
@@ -361,6 +368,12 @@ pub struct PhaseSummary {
     pub pairwise_trans_dir_err_deg_median: Option<f64>,
     /// Pairwise front end: fraction of the pairs lost.
     pub pairwise_lost_frac: f64,
+    /// Offset rigs: the median over the frames of each frame's median misregistration, VIS
+    /// px (`null` on aligned rigs and for VIS).
+    pub misregistration_px_median: Option<f64>,
+    /// Offset rigs: the 95th percentile over the frames of each frame's 95th-percentile
+    /// misregistration, VIS px.
+    pub misregistration_px_p95: Option<f64>,
     /// Frames in the phase (pairs are one fewer where the sequence starts in it).
     pub frames: usize,
 }
@@ -373,6 +386,16 @@ fn median(mut v: Vec<f64>) -> Option<f64> {
     v.sort_by(f64::total_cmp);
     let n = v.len();
     Some(if n % 2 == 1 { v[n / 2] } else { 0.5 * (v[n / 2 - 1] + v[n / 2]) })
+}
+
+/// The `q` quantile (nearest rank) of the finite values; `None` without one.
+fn quantile(mut v: Vec<f64>, q: f64) -> Option<f64> {
+    v.retain(|x| x.is_finite());
+    if v.is_empty() {
+        return None;
+    }
+    v.sort_by(f64::total_cmp);
+    Some(v[((v.len() - 1) as f64 * q).round() as usize])
 }
 
 fn mean_finite(v: impl Iterator<Item = f64>) -> Option<f64> {
@@ -419,6 +442,8 @@ pub fn summarise(rows: &[&FrameResult]) -> PhaseSummary {
             pairs.iter().filter(|r| !r.pairwise_lost).map(|r| r.pairwise_trans_dir_err_deg).collect(),
         ),
         pairwise_lost_frac: pairs.iter().filter(|r| r.pairwise_lost).count() as f64 / np,
+        misregistration_px_median: median(rows.iter().map(|r| r.misregistration_px).collect()),
+        misregistration_px_p95: quantile(rows.iter().map(|r| r.misregistration_p95_px).collect(), 0.95),
         frames: rows.len(),
     }
 }
@@ -470,6 +495,9 @@ struct FrameData {
     /// Target pixels of either camera (TIR mask mapped to the VIS grid): the skip coverage.
     either_mask: Vec<bool>,
     camera: Camera,
+    /// The thermal camera (the VIS camera's pose and the study's intrinsics on an aligned pair;
+    /// the rig's otherwise).
+    tir_camera: Camera,
     phase: Phase,
     /// Time of the frame, s.
     time_s: f64,
@@ -510,7 +538,13 @@ fn load_sized(path: &Path, size: u32) -> Result<Gray<u8>> {
     Ok(img)
 }
 
-fn load_frame(dir: &Path, m: &SequenceManifest, i: usize, clean: bool) -> Result<FrameData> {
+fn load_frame(
+    dir: &Path,
+    m: &SequenceManifest,
+    i: usize,
+    clean: bool,
+    rig: Option<&Rig>,
+) -> Result<FrameData> {
     let f = &m.frames[i];
     let pick = |noisy: &String, clean_file: &Option<String>| -> Result<std::path::PathBuf> {
         if !clean {
@@ -525,16 +559,31 @@ fn load_frame(dir: &Path, m: &SequenceManifest, i: usize, clean: bool) -> Result
     let vis_mask: Vec<bool> =
         load_sized(&dir.join(&f.files.vis_mask), vs)?.data.iter().map(|&v| v > 127).collect();
     let tir_mask = load_sized(&dir.join(&f.files.tir_mask), ts)?;
+    let (camera, tir_camera) = match rig {
+        Some(rig) => render_host::rig::cameras(rig, f.pose())?,
+        None => (Camera::study(vs, f.pose()), Camera::study(ts, f.pose())),
+    };
     let (w, h) = (vis.width, vis.height);
-    let (sx, sy) = (tir_mask.width as f64 / w as f64, tir_mask.height as f64 / h as f64);
-    let either_mask = (0..w * h)
-        .map(|k| {
-            let (x, y) = ((k % w) as f64 * sx, (k / w) as f64 * sy);
-            vis_mask[k]
-                || tir_mask.at((x as usize).min(tir_mask.width - 1), (y as usize).min(tir_mask.height - 1))
-                    > 127
-        })
-        .collect();
+    let either_mask = match rig {
+        // The thermal mask registered at the target centre's true depth.
+        Some(rig) => {
+            let depth = f64::from(camera.pose.rotation.transpose().mul_vec3(-camera.pose.position).z);
+            let reg = on_vis_grid(&tir_mask, w, h, Some((rig, depth)))?;
+            vis_mask.iter().zip(&reg.data).map(|(&v, &t)| v || t > 127).collect()
+        }
+        None => {
+            let (sx, sy) = (tir_mask.width as f64 / w as f64, tir_mask.height as f64 / h as f64);
+            (0..w * h)
+                .map(|k| {
+                    let (x, y) = ((k % w) as f64 * sx, (k / w) as f64 * sy);
+                    vis_mask[k]
+                        || tir_mask
+                            .at((x as usize).min(tir_mask.width - 1), (y as usize).min(tir_mask.height - 1))
+                            > 127
+                })
+                .collect()
+        }
+    };
     Ok(FrameData {
         feature_mask: grow_mask(&vis_mask, w, h, 3),
         ring_mask: ring(&vis_mask, w, h, 8, 24),
@@ -543,7 +592,8 @@ fn load_frame(dir: &Path, m: &SequenceManifest, i: usize, clean: bool) -> Result
         tir,
         sensor: None,
         vis_mask,
-        camera: Camera::study(m.vis_camera.size, f.pose()),
+        camera,
+        tir_camera,
         phase: f.phase,
         time_s: f.time_s,
         range_m: f64::from(f.range_m),
@@ -599,22 +649,22 @@ pub fn sensor_frames(dir: &Path, m: &SequenceManifest, n: usize) -> Result<Vec<[
 }
 
 /// The stream's image of one frame (VIS grid) and, for skip streams, (coverage, window share);
-/// `window`: a closed-loop stream's predicted box.
-fn stream_image(stream: &Stream, fd: &FrameData, window: Rect) -> Result<(Gray<u8>, f64, f64)> {
+/// `window`: a closed-loop stream's predicted box; `through`: an offset rig's thermal frame is
+/// registered through it at that range before it is used (`None`: rescaled, as for aligned
+/// cameras).
+fn stream_image(
+    stream: &Stream,
+    fd: &FrameData,
+    window: Rect,
+    through: Option<(&Rig, f64)>,
+) -> Result<(Gray<u8>, f64, f64)> {
     let (w, h) = (fd.vis.width, fd.vis.height);
     let p = &match *stream {
         Stream::ZeroMotion | Stream::Oracle => anyhow::bail!("a baseline has no image"),
         Stream::Vis => return Ok((fd.vis.clone(), 1.0, 1.0)),
-        Stream::Tir => {
-            let mut up = Gray::<u8>::new(w, h);
-            fusion_nostd::rescale(fd.tir.view()?, up.view_mut()?, Filter::Cubic)?;
-            return Ok((up, 1.0, 1.0));
-        }
+        Stream::Tir => return Ok((on_vis_grid(&fd.tir, w, h, through)?, 1.0, 1.0)),
         Stream::Sensor(stage) => {
-            let tir = sensor_frame(fd, stage)?;
-            let mut up = Gray::<u8>::new(w, h);
-            fusion_nostd::rescale(tir.view()?, up.view_mut()?, Filter::Cubic)?;
-            return Ok((up, 1.0, 1.0));
+            return Ok((on_vis_grid(sensor_frame(fd, stage)?, w, h, through)?, 1.0, 1.0));
         }
         Stream::Fused(p) | Stream::SensorFused(p) => p,
         Stream::Loop(p) => FuseConfig { skip: SkipPolicy::Window(window), ..p },
@@ -623,6 +673,10 @@ fn stream_image(stream: &Stream, fd: &FrameData, window: Rect) -> Result<(Gray<u
         Stream::SensorFused(_) => sensor_frame(fd, SensorStage::Chain)?,
         _ => &fd.tir,
     };
+    // An offset rig's frame registered onto the visible grid; an aligned one as it is (the
+    // core rescales it).
+    let registered = through.map(|_| on_vis_grid(tir, w, h, through)).transpose()?;
+    let tir = registered.as_ref().unwrap_or(tir);
     let mut out = Gray::<u8>::new(w, h);
     let mut scratch = CoreScratch::new(p.scratch_pixels((w, h), (tir.width, tir.height))?);
     let report =
@@ -757,6 +811,11 @@ struct SequenceRun<'a> {
     data: &'a [FrameData],
     depths: &'a [Vec<Option<f32>>],
     model: TargetModel<'a>,
+    edges: &'a crate::edges::ModelEdges,
+    /// The offset rig the sequence was rendered through, if any.
+    rig: Option<&'a Rig>,
+    /// How its thermal frames reach the visible grid.
+    registration: Registration,
 }
 
 impl SequenceRun<'_> {
@@ -855,10 +914,27 @@ impl SequenceRun<'_> {
         let cam = &fd.camera;
         // Closed loop: the box this frame's prediction puts the target in.
         let window = match stream {
-            Stream::Loop(_) => predicted_box(&self.model, &st.filter, cam.width),
+            Stream::Loop(_) => predicted_box(&self.model, &st.filter, cam),
             _ => Rect::default(),
         };
-        let (img, target_coverage, window_frac) = stream_image(stream, fd, window)?;
+        // An offset rig: the thermal frame registered at the range this frame's prediction
+        // (or the truth) puts the target centre at, along the VIS axis.
+        let through = match (self.rig, self.registration) {
+            (Some(rig), Registration::Filter) => {
+                let predicted = camera_at(cam, st.filter.attitude, st.filter.position);
+                Some((rig, self.model.centre_in_camera(&predicted).z))
+            }
+            (Some(rig), Registration::Truth) => Some((rig, self.model.centre_in_camera(cam).z)),
+            _ => None,
+        };
+        if self.rig.is_some()
+            && !matches!(stream, Stream::Vis)
+            && let Some((median, p95)) = misregistration(cam, &fd.tir_camera, &self.depths[i], through)
+        {
+            row.misregistration_px = median;
+            row.misregistration_p95_px = p95;
+        }
+        let (img, target_coverage, window_frac) = stream_image(stream, fd, window, through)?;
         row.target_coverage = target_coverage;
         row.window_frac = window_frac;
         row.cnr = cnr(&img.data, &fd.vis_mask, &fd.ring_mask);
@@ -866,38 +942,70 @@ impl SequenceRun<'_> {
             GrayImage::from_raw(img.width as u32, img.height as u32, img.data).context("image size")?;
         st.prev_pairwise = Some(self.pairwise(row, &gray, &st.pairs, st.prev_pairwise.as_ref(), i));
         let smoothed = smooth(&gray);
-        let predicted = camera_at(cam.width, st.filter.attitude, st.filter.position);
+        let predicted = camera_at(cam, st.filter.attitude, st.filter.position);
         let fe = st.tracker.track(&smoothed, &predicted, &self.model, i as u64);
         row.tracks = fe.tracked;
         row.inliers = fe.inliers;
-        let m = fe.pose.map(|r| {
-            let mut m = r.measurement();
-            m.covariance = m.covariance * FRONT_END_COVARIANCE_INFLATION + fe.anchor_covariance;
-            m
-        });
-        if let Some(m) = &m {
-            st.filter.update(m);
+        // The tracks' pose is scored frame to frame, not fed to the filter: its 3D points come
+        // from the model at the estimate, so it measures motion, not pose, and as a pose it
+        // pulls the filter along its drift (BENCHMARKS.md, "The model's edges").
+        let m = fe.pose.map(|r| r.measurement());
+        // The absolute cues: the model's edges where the target is large enough to fit them,
+        // its outline where it is not.
+        let estimate = camera_at(cam, st.filter.attitude, st.filter.position);
+        let edges_used = self.edge_update(&smoothed, &estimate, &mut st.filter);
+        if !edges_used {
+            self.outline_update(&smoothed, &estimate, &mut st.filter);
         }
-        // The outline against the model's at the estimate: a position independent of the
-        // anchored points.
-        let estimate = camera_at(cam.width, st.filter.attitude, st.filter.position);
-        if let Some(bbox) = self.model.image_box(&estimate, 0.3)
-            && let Some(seen) = segment(&smoothed, bbox)
-        {
-            let step = ((bbox.2 - bbox.0).max(bbox.3 - bbox.1) / 96).max(1);
-            if let Some(at) = self.model.silhouette(&estimate, bbox, step)
-                && let Some((p, r)) = position_measurement(&seen, &at, &estimate, &self.model)
-            {
-                st.filter.update_position(p, &r);
-            }
-        }
-        let estimate = camera_at(cam.width, st.filter.attitude, st.filter.position);
+        let estimate = camera_at(cam, st.filter.attitude, st.filter.position);
         st.tracker.replenish(&smoothed, &estimate, &st.filter.pose_covariance(), &self.model);
         if i > 0 {
             score_pair(row, st.prev_measurement.as_ref(), m.as_ref(), &self.truth_pair(i));
         }
         st.prev_measurement = m;
         Ok(())
+    }
+
+    /// The model's edges fitted around the prediction `estimate` ([`crate::edges::fit`]) into
+    /// the filter, when the target is predicted at least [`crate::edges::MIN_TARGET_PX`] wide
+    /// and the fit lies inside the filter's gate. Whether the filter took it.
+    fn edge_update(&self, smoothed: &GrayImage, estimate: &Camera, filter: &mut PoseFilter) -> bool {
+        let big_enough = self
+            .model
+            .image_box(estimate, 0.0)
+            .is_some_and(|(x0, y0, x1, y1)| (x1 - x0).max(y1 - y0) >= crate::edges::MIN_TARGET_PX);
+        if !big_enough {
+            return false;
+        }
+        let c = filter.pose_covariance();
+        let range = filter.position.length().max(1e-3);
+        let sigma_att = (c[(0, 0)] + c[(1, 1)] + c[(2, 2)]).max(0.0).sqrt();
+        let sigma_pos = (c[(3, 3)] + c[(4, 4)] + c[(5, 5)]).max(0.0).sqrt();
+        let sigma_px = f64::from(estimate.focal_px) * (sigma_att + sigma_pos / range);
+        crate::edges::fit(
+            smoothed,
+            estimate,
+            &self.model,
+            self.edges,
+            filter.attitude,
+            filter.position,
+            sigma_px,
+        )
+        .is_some_and(|fit| filter.update_if_consistent(&fit.measurement))
+    }
+
+    /// The outline against the model's at the estimate ([`crate::silhouette`]): a position.
+    fn outline_update(&self, smoothed: &GrayImage, estimate: &Camera, filter: &mut PoseFilter) {
+        if let Some(bbox) = self.model.image_box(estimate, 0.3)
+            && let Some(seen) = segment(smoothed, bbox)
+        {
+            let step = ((bbox.2 - bbox.0).max(bbox.3 - bbox.1) / 96).max(1);
+            if let Some(at) = self.model.silhouette(estimate, bbox, step)
+                && let Some((p, r)) = position_measurement(&seen, &at, estimate, &self.model)
+            {
+                filter.update_position(p, &r);
+            }
+        }
     }
 
     /// Today's pairwise front end on one frame: FAST-9 + BRIEF, matched against the previous
@@ -957,14 +1065,19 @@ impl SequenceRun<'_> {
 /// oracle's noise.
 ///
 /// `only`: the stream names to run (all when `None`; an unknown name is an error; the
-/// baselines always run); `clean`: the noiseless renders instead of the noisy ones.
+/// baselines always run); `clean`: the noiseless renders instead of the noisy ones;
+/// `registration`: how a sequence rendered through an offset rig (`fusion render --rig`) puts
+/// its thermal frames on the visible grid (ignored on an aligned pair). The cameras are the
+/// rig's, lens distortion included.
 pub fn run_sequence(
     dir: &Path,
     frames: Option<usize>,
     only: Option<&[String]>,
     clean: bool,
+    registration: Registration,
 ) -> Result<Vec<FrameResult>> {
     let m = read_manifest(dir)?;
+    let rig = m.rig.as_ref().map(|r| fusion_io::rig::read(&dir.join(r))).transpose()?;
     let n = frames.unwrap_or(m.frames.len()).min(m.frames.len());
     if n < 2 {
         anyhow::bail!("{}: a sequence needs at least 2 frames, it has {n}", dir.display());
@@ -985,7 +1098,7 @@ pub fn run_sequence(
     }
     // Depth per frame, shared by the sources.
     let mut data: Vec<FrameData> =
-        (0..n).into_par_iter().map(|i| load_frame(dir, &m, i, clean)).collect::<Result<_>>()?;
+        (0..n).into_par_iter().map(|i| load_frame(dir, &m, i, clean, rig.as_ref())).collect::<Result<_>>()?;
     if has_raw && all.iter().any(|(_, s)| s.needs_raw()) {
         for (fd, frames) in data.iter_mut().zip(sensor_frames(dir, &m, n)?) {
             fd.sensor = Some(frames);
@@ -993,12 +1106,16 @@ pub fn run_sequence(
     }
     let depths: Vec<Vec<Option<f32>>> =
         data.par_iter().map(|fd| render_host::truth::depth(&scene, &fd.camera)).collect();
+    let edges = crate::edges::ModelEdges::new(&scene);
     let run = SequenceRun {
         name: &name,
         seed: m.config.seed,
         data: &data,
         depths: &depths,
         model: TargetModel::new(&scene),
+        edges: &edges,
+        rig: rig.as_ref(),
+        registration,
     };
     let results: Vec<Result<Vec<FrameResult>>> =
         all.par_iter().map(|(source, stream)| run.source(source, stream)).collect();

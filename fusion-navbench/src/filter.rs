@@ -1,5 +1,6 @@
 //! The navigation filter over a sequence: a multiplicative extended Kalman filter (MEKF) on the
-//! chaser camera's pose in the target frame, fed by the front end's PnP poses.
+//! chaser camera's pose in the target frame, fed by pose measurements (the model edges' fit,
+//! the oracle's PnP poses) and position measurements (the outline).
 //!
 //! **State.** The camera attitude `q` (camera → target, a unit quaternion), its angular rate
 //! `ω` in the camera frame, its position `p` in the target frame and the velocity `v` of that
@@ -217,6 +218,23 @@ impl PoseFilter {
         s.try_inverse().map_or(f64::INFINITY, |si| (y.transpose() * si * y)[(0, 0)])
     }
 
+    /// Uses a measurement when it lies inside the gate ([`FilterParams::gate`]), without the
+    /// restart bookkeeping of [`Self::update`]: for a cue that may fail on its own (e.g.
+    /// [`crate::edges::fit`]) and must never restart the filter. Whether it was used.
+    pub fn update_if_consistent(&mut self, m: &PoseMeasurement) -> bool {
+        let d2 = self.mahalanobis2(m);
+        if d2.is_nan() || d2 > self.params.gate {
+            return false;
+        }
+        let (y, s) = self.innovation(m);
+        let Some(si) = s.try_inverse() else { return false };
+        let mut h = SMatrix::<f64, 6, 12>::zeros();
+        h.fixed_view_mut::<3, 3>(0, 0).copy_from(&Matrix3::identity());
+        h.fixed_view_mut::<3, 3>(3, 6).copy_from(&Matrix3::identity());
+        self.correct(&h, &y, &m.covariance, &si);
+        true
+    }
+
     /// Uses a measurement (after [`Self::predict`] to its time).
     pub fn update(&mut self, m: &PoseMeasurement) -> UpdateOutcome {
         let previous = self.last_offered.replace((self.time, *m));
@@ -423,6 +441,29 @@ mod tests {
         f.predict(1.0);
         assert_eq!(f.update(&wrong), UpdateOutcome::Restarted);
         assert!(f.error(wrong.attitude, p0).0.length() < 1e-12);
+    }
+
+    /// A cue that may fail on its own never restarts the filter: any number of wrong poses are
+    /// refused and the estimate stays; a pose inside the gate is used, exactly as by `update`.
+    #[test]
+    fn update_if_consistent_refuses_without_restarting() {
+        let (q0, p0) = truth(0.0);
+        let params = FilterParams { initial_rate_sd: 0.1f64.to_radians(), ..FilterParams::default() };
+        let mut f = PoseFilter::new(q0, p0, 0.5f64.to_radians(), 0.05, params);
+        let cov = Matrix6::identity() * 1e-6;
+        let wrong =
+            PoseMeasurement { attitude: q0 * DQuat::from_rotation_x(0.5), position: p0, covariance: cov };
+        for _ in 0..10 {
+            f.predict(1.0);
+            assert!(!f.update_if_consistent(&wrong));
+        }
+        assert!(f.error(q0, p0).0.length() < 0.1, "the wrong pose moved the estimate");
+        let (q1, p1) = truth(10.0);
+        let near = PoseMeasurement { attitude: f.attitude, position: f.position, covariance: cov * 1e4 };
+        let mut g = f.clone();
+        assert!(f.update_if_consistent(&near));
+        assert_eq!(g.update(&near), UpdateOutcome::Accepted);
+        assert!(f.error(q1, p1) == g.error(q1, p1), "the same update as `update`");
     }
 
     #[test]

@@ -13,7 +13,11 @@
 //!   pose and matched there (Gauss–Newton on position, gain and bias): the exact position.
 //! * [`pose`] — PnP-RANSAC (`sqpnp_simple`) and Levenberg–Marquardt refinement
 //!   (`levenberg-marquardt`) with its covariance; relative poses and their errors.
+//! * [`edges`] — the model's creases found in the image along their normals around the
+//!   prediction and the pose fitted to them (Gauss–Newton, Tukey weights): the absolute cue.
 //! * [`silhouette`] — the target's outline against the model's: a position measurement.
+//! * [`registration`] — an offset rig's thermal frame on the visible grid at the filter's
+//!   range, and the misregistration it leaves (from the rendered depth).
 //! * [`filter`] — the navigation filter: an MEKF on the relative attitude and position.
 //! * [`baseline`] — `zero-motion` and `oracle` (ground-truth correspondences).
 //! * [`bench`](mod@bench) — `fusion navbench`'s engine: every source of a sequence through the
@@ -23,7 +27,7 @@
 //!   PnP against the rendered depth), kept beside the new one as `pairwise_*`.
 //!
 //! Written here only what no maintained crate does: the RANSAC loop, the MEKF, the model
-//! back-projection, the model-warped template match, the outline cue, the matching window and
+//! back-projection, the model-warped template match, the model-edge fit, the outline cue, the matching window and
 //! the measures.
 
 //! ```
@@ -41,10 +45,12 @@
 
 pub mod baseline;
 pub mod bench;
+pub mod edges;
 pub mod features;
 pub mod filter;
 pub mod model;
 pub mod pose;
+pub mod registration;
 pub mod seeds;
 pub mod silhouette;
 pub mod track;

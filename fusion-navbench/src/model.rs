@@ -17,17 +17,21 @@ pub const EDGE_PROBE_PX: f64 = 3.0;
 /// and its 3D position is ambiguous.
 pub const EDGE_DEPTH_TOLERANCE: f64 = 0.03;
 
-/// The camera (the study's intrinsics for `size`²) at an estimated pose: camera → target
-/// attitude and position in the target frame.
-pub fn camera_at(size: u32, attitude: DQuat, position: DVec3) -> Camera {
+/// The camera `intrinsics` (size, focal length, principal point, distortion) at an estimated
+/// pose: camera → target attitude and position in the target frame.
+pub fn camera_at(intrinsics: &Camera, attitude: DQuat, position: DVec3) -> Camera {
     let m = DMat3::from_quat(attitude.normalize());
     let rotation = Mat3::from_cols(m.x_axis.as_vec3(), m.y_axis.as_vec3(), m.z_axis.as_vec3());
-    Camera::study(size, Pose { position: position.as_vec3(), rotation })
+    Camera { pose: Pose { position: position.as_vec3(), rotation }, ..*intrinsics }
 }
 
 /// Normalised image coordinates `((u − cx)/f, (v − cy)/f)` of the continuous image position
-/// `(u, v)` (pixel centres at `x + 0.5`): what PnP takes.
+/// `(u, v)` (pixel centres at `x + 0.5`), the lens's distortion removed: what PnP takes.
 pub fn normalised(cam: &Camera, u: f64, v: f64) -> DVec2 {
+    if cam.dist != [0.0; 5] {
+        let (x, y) = cam.normalised(u as f32, v as f32);
+        return DVec2::new(f64::from(x), f64::from(y));
+    }
     let f = f64::from(cam.focal_px);
     DVec2::new((u - f64::from(cam.cx)) / f, (v - f64::from(cam.cy)) / f)
 }
@@ -177,7 +181,7 @@ mod tests {
         let pose = camera_pose(&state(&cfg, 5), &scene);
         let cam = Camera::study(256, pose);
         let q = DQuat::from_mat3(&pose.rotation.as_dmat3());
-        let est = camera_at(256, q, pose.position.as_dvec3());
+        let est = camera_at(&cam, q, pose.position.as_dvec3());
         let model = TargetModel::new(&scene);
         let depth = render_host::truth::depth(&scene, &cam);
         let (mut inner, mut edges) = (0, 0);

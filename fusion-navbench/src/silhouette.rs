@@ -127,7 +127,7 @@ mod tests {
         let p = pose.position.as_dvec3();
         let c = model.centre();
         let wrong = c + (p - c) * 1.05 + DVec3::new(0.0, 0.0, 0.1);
-        let est = camera_at(size, q, wrong);
+        let est = camera_at(&truth, q, wrong);
         let bbox = model.image_box(&est, 0.3).unwrap();
         let seen = segment(&img, bbox).expect("segmented");
         let at_est = model.silhouette(&est, bbox, 1).expect("model silhouette");

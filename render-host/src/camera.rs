@@ -121,14 +121,20 @@ impl Camera {
         }
     }
 
-    /// Unit ray direction (target frame) through continuous image point `(u, v)`.
-    pub fn ray_dir(&self, u: f32, v: f32) -> Vec3 {
-        let (x, y) = if self.dist == [0.0; 5] {
+    /// The ideal (undistorted) normalised image coordinates `(x/z, y/z)` of the ray through
+    /// continuous image point `(u, v)`.
+    pub fn normalised(&self, u: f32, v: f32) -> (f32, f32) {
+        if self.dist == [0.0; 5] {
             ((u - self.cx) / self.focal_px, (v - self.cy) / self.focal_px)
         } else {
             // The core's undistortion (the registration's own lens model), OpenCV's convention.
             self.lens().undistort(u - 0.5, v - 0.5)
-        };
+        }
+    }
+
+    /// Unit ray direction (target frame) through continuous image point `(u, v)`.
+    pub fn ray_dir(&self, u: f32, v: f32) -> Vec3 {
+        let (x, y) = self.normalised(u, v);
         (self.pose.rotation * Vec3::new(x, y, 1.0)).normalize()
     }
 

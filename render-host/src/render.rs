@@ -178,11 +178,7 @@ pub fn sequence_config(
     args: &RenderOptions,
     cfg: &DatasetConfig,
 ) -> Result<SequenceConfig> {
-    let rig = match args.rig.as_deref() {
-        None => None,
-        Some(p) if p.as_os_str() == "offset" => Some(crate::rig::offset_rig()?),
-        Some(p) => Some(fusion_io::rig::read(p)?),
-    };
+    let rig = args.rig.as_deref().map(crate::rig::from_arg).transpose()?;
     let (vis_size, tir_size) = match &rig {
         Some(r) => {
             ensure!(

@@ -17,6 +17,12 @@ pub fn offset_rig() -> Result<Rig> {
     fusion_io::rig::from_text(fusion_io::rig::example_json())
 }
 
+/// The rig a command line names: `offset` ([`offset_rig`]) or an OpenCV stereo calibration
+/// file (`fusion_io::rig::read`).
+pub fn from_arg(arg: &std::path::Path) -> Result<Rig> {
+    if arg.as_os_str() == "offset" { offset_rig() } else { fusion_io::rig::read(arg) }
+}
+
 /// The rig's two cameras with the visible one at `vis_pose`.
 pub fn cameras(rig: &Rig, vis_pose: Pose) -> Result<(Camera, Camera)> {
     // `rig.r` is row-major: read as columns it is Rᵀ.

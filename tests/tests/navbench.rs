@@ -3,6 +3,7 @@
 //! renders, and the benchmark's measures where physics fixes their order.
 
 use fusion_navbench::bench::{run_sequence, streams, summary};
+use fusion_navbench::registration::Registration;
 use render_host::sequence::{Phase, SequenceConfig, SequenceName, read_manifest, render_sequence};
 use render_host::{Camera, Scene};
 
@@ -69,7 +70,7 @@ fn flyaround_crosses_an_eclipse_and_fusion_is_judged_per_phase() {
 
     let read = read_manifest(dir.path()).unwrap();
     assert_eq!(read.frames.len(), 48);
-    let rows = run_sequence(dir.path(), None, None, false).unwrap();
+    let rows = run_sequence(dir.path(), None, None, false, Registration::Filter).unwrap();
     // Every source but the raw-sensor ones (the sequence has no raw thermal counts).
     let image_streams = streams().iter().filter(|(_, s)| !s.needs_raw()).count();
     assert!(image_streams < streams().len());
@@ -190,7 +191,7 @@ fn the_predicted_box_holds_the_target_and_grows_with_the_uncertainty() {
         let q = DQuat::from_mat3(&cam.pose.rotation.as_dmat3()).normalize();
         let p = cam.pose.position.as_dvec3();
         let tight = PoseFilter::new(q, p, 1e-6, 1e-6, FilterParams::default());
-        let b = predicted_box(&model, &tight, 160);
+        let b = predicted_box(&model, &tight, &cam);
         let mask =
             fusion_io::load_gray_u8(&dir.path().join(&f.files.vis_mask), fusion_io::ColorPolicy::Refuse)
                 .unwrap();
@@ -199,11 +200,11 @@ fn the_predicted_box_holds_the_target_and_grows_with_the_uncertainty() {
             assert!(b.contains(k % 160, k / 160), "frame {}: target pixel {k} outside {b:?}", f.index);
         }
         let loose = PoseFilter::new(q, p, 0.2, 0.2 * f64::from(f.range_m), FilterParams::default());
-        let big = predicted_box(&model, &loose, 160);
+        let big = predicted_box(&model, &loose, &cam);
         assert!(big.covers(&b) && big.area() > b.area(), "frame {}: {big:?} vs {b:?}", f.index);
         assert_eq!(big.area(), 160 * 160, "frame {}: 0.2 rad and 20 % of the range cover the frame", f.index);
         let behind = PoseFilter::new(q, -p, 1e-6, 1e-6, FilterParams::default());
-        assert!(predicted_box(&model, &behind, 160).is_empty(), "frame {}", f.index);
+        assert!(predicted_box(&model, &behind, &cam).is_empty(), "frame {}", f.index);
     }
 }
 
@@ -235,7 +236,7 @@ fn the_raw_thermal_sources_judge_the_front_end() {
         assert!(m.frames[i].files.tir_shutter.is_some());
     }
     let only: Vec<String> = ["tir", "tir-raw", "tir-nuc", "tir-chain"].map(String::from).to_vec();
-    let rows = run_sequence(dir.path(), None, Some(&only), false).unwrap();
+    let rows = run_sequence(dir.path(), None, Some(&only), false, Registration::Filter).unwrap();
     let s = summary(&rows);
     let cnr = |src: &str| s.sources[src]["all"].cnr.unwrap();
     assert!(
@@ -248,6 +249,6 @@ fn the_raw_thermal_sources_judge_the_front_end() {
     // Without raw counts: refused when asked for, left out otherwise.
     let plain = tempfile::tempdir().unwrap();
     render_sequence(&SequenceConfig { focal_plane: None, ..cfg.clone() }, plain.path(), false).unwrap();
-    let e = run_sequence(plain.path(), Some(2), Some(&only), false).unwrap_err();
+    let e = run_sequence(plain.path(), Some(2), Some(&only), false, Registration::Filter).unwrap_err();
     assert!(format!("{e:#}").contains("--raw-tir"), "{e:#}");
 }

@@ -206,7 +206,8 @@ fn navigation(out: &std::path::Path) -> Result<Navigation> {
     }
     let only = ["vis".to_string(), "tir".to_string(), "adaptive".to_string()];
     outln!("navigating it with VIS, TIR and the adaptive fusion (and the two baselines) …")?;
-    let rows = run_sequence(&dir, None, Some(&only), false)?;
+    let rows =
+        run_sequence(&dir, None, Some(&only), false, fusion_navbench::registration::Registration::Filter)?;
     let seq: Vec<&fusion_navbench::bench::FrameResult> = rows.iter().collect();
     let chart = super::navbench::error_chart(
         &out.join("navigation_attitude_error"),

@@ -6,6 +6,7 @@ use anyhow::{Context, Result, bail};
 use clap::Args;
 use fusion_io::write_bytes;
 use fusion_navbench::bench::{FrameResult, PHASE_ALL, run_sequence, selected, summary};
+use fusion_navbench::registration::Registration;
 use fusion_navbench::seeds::{Figures, SeedSummary, Stat, Verdict, aggregate, verdict};
 use fusion_report::plot::{Labels, Series, Style, chart_bounded, chart_shaded};
 use render_host::sequence::{Phase, SequenceConfig, SequenceName, read_manifest, render_sequence};
@@ -46,6 +47,19 @@ pub struct NavbenchArgs {
     /// `adaptive-chain` (run on every sequence that has them).
     #[arg(long)]
     pub raw_tir: bool,
+    /// Render missing sequences through an offset camera pair (`fusion render --rig`): `offset`
+    /// (the built-in rig) or an OpenCV stereo calibration file. Sequences already rendered
+    /// through a rig are judged through theirs whatever this says.
+    #[arg(long, value_name = "offset|FILE")]
+    pub rig: Option<PathBuf>,
+    /// How the thermal frames of a sequence rendered through an offset rig reach the visible
+    /// grid: `filter` (registered at the range the stream's own filter predicts, as on board),
+    /// `truth` (at the true range) or `none` (rescaled as if the cameras were aligned).
+    #[arg(long, default_value = "filter", value_name = "filter|truth|none", value_parser = Registration::parse)]
+    pub registration: Registration,
+    /// Only these sequences, comma-separated (`approach`, `flyaround`) [default: both].
+    #[arg(long, value_delimiter = ',', value_enum)]
+    pub sequences: Option<Vec<SequenceName>>,
 }
 
 /// The phases in table order, then the whole sequence.
@@ -75,6 +89,12 @@ pub fn run(args: &NavbenchArgs) -> Result<()> {
     if seeds.is_empty() {
         bail!("--seeds needs at least one seed");
     }
+    let rig = args.rig.as_deref().map(render_host::rig::from_arg).transpose()?;
+    if let Some(r) = &rig
+        && (r.vis.width != r.vis.height || r.tir.width != r.tir.height)
+    {
+        bail!("--rig: the sequences render square images, the rig's cameras are not square");
+    }
     let only = args.sources.as_deref();
     let streams = selected(only)?.len();
     let start = Instant::now();
@@ -84,7 +104,7 @@ pub fn run(args: &NavbenchArgs) -> Result<()> {
     let mut per_seed = Vec::new();
     for &seed in &seeds {
         let mut seed_rows = Vec::new();
-        for name in SequenceName::ALL {
+        for &name in args.sequences.as_deref().unwrap_or(&SequenceName::ALL) {
             let dir = data.join(format!("seed-{seed}")).join(name.as_str());
             if dir.join("manifest.json").is_file() {
                 let m = read_manifest(&dir)?;
@@ -113,12 +133,17 @@ pub fn run(args: &NavbenchArgs) -> Result<()> {
                     );
                 }
             } else {
+                let (vis_size, tir_size) = match &rig {
+                    Some(r) => (r.vis.width as u32, r.tir.width as u32),
+                    None => (args.vis_size, args.vis_size / 2),
+                };
                 let cfg = SequenceConfig {
                     frames: args.frames.unwrap_or(120),
-                    vis_size: args.vis_size,
-                    tir_size: args.vis_size / 2,
+                    vis_size,
+                    tir_size,
                     seed,
                     focal_plane: args.raw_tir.then(render_host::focal_plane::FocalPlaneParams::default),
+                    rig,
                     ..SequenceConfig::new(name)
                 };
                 note!(
@@ -129,7 +154,7 @@ pub fn run(args: &NavbenchArgs) -> Result<()> {
                 );
                 render_sequence(&cfg, &dir, false)?;
             }
-            let seq = run_sequence(&dir, args.frames, only, args.clean)?;
+            let seq = run_sequence(&dir, args.frames, only, args.clean, args.registration)?;
             note!(
                 "navbench: {} seed {seed} ({} frames, {streams} sources, {:.0} s so far)",
                 name.as_str(),
@@ -355,8 +380,12 @@ navbench` in {seconds:.0} s.\n\n\
 a forward–backward check (`optical-flow-lk`), their 3D points from the target model at the \
 estimated pose, PnP-RANSAC (SQPnP) + Levenberg–Marquardt. *f2f rot*: the rotation error of the \
 relative pose between two consecutive measured poses; *lost*: pairs without it.\n\
+* **Absolute cues**: the model's creases searched along their normals around the prediction and \
+the pose fitted to them (Gauss–Newton, Tukey weights) where the target is predicted ≥ 96 px wide; \
+the outline's position elsewhere.\n\
 * **Filter**: an MEKF on the relative attitude (constant rate) and position (constant velocity), \
-started on the first frame's truth perturbed by 1° and 1 % of the range. *available*: share of \
+fed by the absolute cues (not by the tracks' pose, which drifts with the estimate its points come \
+from), started on the first frame's truth perturbed by 1° and 1 % of the range. *available*: share of \
 frames with attitude error ≤ 2° and position error ≤ 2 % of range; *NEES*: 6 when consistent; \
 *re-acq.*: mean frames from a loss to the next available frame.\n\
 * **Baselines**: `zero-motion` (no motion; its filter never gets a measurement), `oracle` \

@@ -23,6 +23,24 @@ pub fn from_arg(arg: &std::path::Path) -> Result<Rig> {
     if arg.as_os_str() == "offset" { offset_rig() } else { fusion_io::rig::read(arg) }
 }
 
+/// The rig with its images scaled to `vis_size` and `tir_size` wide (the same lenses, fields
+/// of view and pose; pixel centres kept): small rigs for tests and quick runs.
+pub fn scaled(rig: &Rig, vis_size: usize, tir_size: usize) -> Rig {
+    let scale = |c: fusion_nostd::registration::Camera, size: usize| {
+        let k = size as f32 / c.width as f32;
+        fusion_nostd::registration::Camera {
+            fx: c.fx * k,
+            fy: c.fy * k,
+            cx: (c.cx + 0.5) * k - 0.5,
+            cy: (c.cy + 0.5) * k - 0.5,
+            width: size,
+            height: (c.height as f32 * k).round() as usize,
+            ..c
+        }
+    };
+    Rig { vis: scale(rig.vis, vis_size), tir: scale(rig.tir, tir_size), ..*rig }
+}
+
 /// The rig's two cameras with the visible one at `vis_pose`.
 pub fn cameras(rig: &Rig, vis_pose: Pose) -> Result<(Camera, Camera)> {
     // `rig.r` is row-major: read as columns it is Rᵀ.

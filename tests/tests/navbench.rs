@@ -252,3 +252,33 @@ fn the_raw_thermal_sources_judge_the_front_end() {
     let e = run_sequence(plain.path(), Some(2), Some(&only), false, Registration::Filter).unwrap_err();
     assert!(format!("{e:#}").contains("--raw-tir"), "{e:#}");
 }
+
+/// An offset rig in the judge (issue 41): a small fly-around rendered through the scaled
+/// offset rig; the thermal stream registered at the true range leaves the target's two images
+/// within a pixel of each other (median over the target pixels, from the rendered depth),
+/// taken as aligned it leaves them several pixels apart; the VIS stream has no such measure,
+/// nor does a sequence from an aligned pair.
+#[test]
+fn an_offset_rig_is_judged_with_its_registration() {
+    let rig = render_host::rig::scaled(&render_host::rig::offset_rig().unwrap(), 192, 96);
+    let cfg = SequenceConfig { rig: Some(rig), ..small(SequenceName::Flyaround, 3) };
+    let cfg = SequenceConfig { vis_size: 192, tir_size: 96, ..cfg };
+    let dir = tempfile::tempdir().unwrap();
+    render_sequence(&cfg, dir.path(), false).unwrap();
+    let only = ["vis".to_string(), "tir".to_string()];
+    let median = |reg| {
+        let rows = run_sequence(dir.path(), None, Some(&only), false, reg).unwrap();
+        assert!(rows.iter().filter(|r| r.source == "vis").all(|r| r.misregistration_px.is_nan()));
+        let tir: Vec<f64> = rows.iter().filter(|r| r.source == "tir").map(|r| r.misregistration_px).collect();
+        assert_eq!(tir.len(), 3);
+        assert!(tir.iter().all(|v| v.is_finite()), "{tir:?}");
+        tir.iter().sum::<f64>() / 3.0
+    };
+    let (registered, aligned) = (median(Registration::Truth), median(Registration::None));
+    assert!(registered < 1.0, "registered at the true range: {registered} px");
+    assert!(aligned > 3.0 * registered.max(0.5), "as if aligned: {aligned} px against {registered}");
+    let plain = tempfile::tempdir().unwrap();
+    render_sequence(&small(SequenceName::Flyaround, 2), plain.path(), false).unwrap();
+    let rows = run_sequence(plain.path(), None, Some(&only), false, Registration::Filter).unwrap();
+    assert!(rows.iter().all(|r| r.misregistration_px.is_nan()));
+}

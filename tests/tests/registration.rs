@@ -375,20 +375,7 @@ fn register_in_strips_is_remap_through_the_whole_map() {
 
 /// The default offset rig scaled to 128² / 64² (same lenses, pose and fields of view).
 fn small_offset_rig() -> fusion_nostd::registration::Rig {
-    let rig = render_host::rig::offset_rig().unwrap();
-    let scale = |c: fusion_nostd::registration::Camera, size: usize| {
-        let k = size as f32 / c.width as f32;
-        fusion_nostd::registration::Camera {
-            fx: c.fx * k,
-            fy: c.fy * k,
-            cx: (c.cx + 0.5) * k - 0.5,
-            cy: (c.cy + 0.5) * k - 0.5,
-            width: size,
-            height: size,
-            ..c
-        }
-    };
-    fusion_nostd::registration::Rig { vis: scale(rig.vis, 128), tir: scale(rig.tir, 64), ..rig }
+    render_host::rig::scaled(&render_host::rig::offset_rig().unwrap(), 128, 64)
 }
 
 /// Rendered ground truth: a sequence through the (scaled) offset rig, whose thermal target

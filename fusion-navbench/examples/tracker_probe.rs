@@ -107,7 +107,7 @@ fn main() -> anyhow::Result<()> {
                 f.range_m
             );
         }
-        let added = tracker.replenish(&s, &cam, &nalgebra::Matrix6::zeros(), &model);
+        let added = tracker.replenish(&s, &cam, &model);
         println!(
             "{i:3} {:?} tracked {:4} inliers {:4} added {:4} err {:?} box {:?}",
             f.phase,

@@ -917,13 +917,11 @@ impl SequenceRun<'_> {
             Stream::Loop(_) => predicted_box(&self.model, &st.filter, cam),
             _ => Rect::default(),
         };
+        let predicted = camera_at(cam, st.filter.attitude, st.filter.position);
         // An offset rig: the thermal frame registered at the range this frame's prediction
         // (or the truth) puts the target centre at, along the VIS axis.
         let through = match (self.rig, self.registration) {
-            (Some(rig), Registration::Filter) => {
-                let predicted = camera_at(cam, st.filter.attitude, st.filter.position);
-                Some((rig, self.model.centre_in_camera(&predicted).z))
-            }
+            (Some(rig), Registration::Filter) => Some((rig, self.model.centre_in_camera(&predicted).z)),
             (Some(rig), Registration::Truth) => Some((rig, self.model.centre_in_camera(cam).z)),
             _ => None,
         };
@@ -942,7 +940,6 @@ impl SequenceRun<'_> {
             GrayImage::from_raw(img.width as u32, img.height as u32, img.data).context("image size")?;
         st.prev_pairwise = Some(self.pairwise(row, &gray, &st.pairs, st.prev_pairwise.as_ref(), i));
         let smoothed = smooth(&gray);
-        let predicted = camera_at(cam, st.filter.attitude, st.filter.position);
         let fe = st.tracker.track(&smoothed, &predicted, &self.model, i as u64);
         row.tracks = fe.tracked;
         row.inliers = fe.inliers;
@@ -952,13 +949,12 @@ impl SequenceRun<'_> {
         let m = fe.pose.map(|r| r.measurement());
         // The absolute cues: the model's edges where the target is large enough to fit them,
         // its outline where it is not.
-        let estimate = camera_at(cam, st.filter.attitude, st.filter.position);
-        let edges_used = self.edge_update(&smoothed, &estimate, &mut st.filter);
-        if !edges_used {
-            self.outline_update(&smoothed, &estimate, &mut st.filter);
+        // (Nothing has updated the filter since `predicted`.)
+        if !self.edge_update(&smoothed, &predicted, &mut st.filter) {
+            self.outline_update(&smoothed, &predicted, &mut st.filter);
         }
         let estimate = camera_at(cam, st.filter.attitude, st.filter.position);
-        st.tracker.replenish(&smoothed, &estimate, &st.filter.pose_covariance(), &self.model);
+        st.tracker.replenish(&smoothed, &estimate, &self.model);
         if i > 0 {
             score_pair(row, st.prev_measurement.as_ref(), m.as_ref(), &self.truth_pair(i));
         }

@@ -31,7 +31,6 @@ use crate::pose::{INLIER_THRESHOLD_PX, RefinedPose, estimate};
 use crate::warp::{GradientImage, Template};
 use image::GrayImage;
 use imageproc::filter::gaussian_blur_f32;
-use nalgebra::Matrix6;
 use optical_flow_lk::{DetectorContext, Grid, TrackParams, TrackStatus, build_pyramid, calc_optical_flow_fb};
 use render_host::Camera;
 use render_host::glam::{DVec2, DVec3};
@@ -88,9 +87,6 @@ pub struct Track {
     pub point: DVec3,
     /// Frames it has been followed since it was anchored.
     pub age: usize,
-    /// The covariance of the pose estimate its point was back-projected from (the filter's
-    /// `(δθ, δp)`): the point carries that error into every pose measured from it.
-    pub anchor_covariance: Matrix6<f64>,
     /// Its window in the anchor frame on its model face, warped into each later frame.
     pub template: Template,
 }
@@ -104,10 +100,6 @@ pub struct FrontEndFrame {
     pub inliers: usize,
     /// The refined pose (target → camera) and covariance, when there were enough inliers.
     pub pose: Option<RefinedPose>,
-    /// The mean anchor covariance of the tracks the pose was measured from: the error of the
-    /// estimates their points were taken at, which the measurement shares with the filter's
-    /// own past (a consider covariance: add it to the measurement's).
-    pub anchor_covariance: Matrix6<f64>,
 }
 
 /// The front end's state over a sequence.
@@ -188,15 +180,10 @@ impl ModelTracker {
         let f = f64::from(predicted.focal_px);
         let Some((found, pose)) = estimate(&points, &image, f, self.seed ^ index.wrapping_mul(0x9E37_79B9))
         else {
-            return FrontEndFrame { tracked, inliers: 0, pose: None, anchor_covariance: Matrix6::zeros() };
+            return FrontEndFrame { tracked, inliers: 0, pose: None };
         };
         if pose.is_none() {
-            return FrontEndFrame {
-                tracked,
-                inliers: found.inliers,
-                pose: None,
-                anchor_covariance: Matrix6::zeros(),
-            };
+            return FrontEndFrame { tracked, inliers: found.inliers, pose: None };
         }
         // Keep the features the final pose explains.
         let final_pose = pose.map_or(found.pose, |r| r.pose);
@@ -208,22 +195,14 @@ impl ModelTracker {
             .collect();
         let mut k = keep.iter();
         self.tracks.retain(|_| *k.next().unwrap_or(&false));
-        let n = self.tracks.len().max(1) as f64;
-        let anchor_covariance = self.tracks.iter().map(|t| t.anchor_covariance).sum::<Matrix6<f64>>() / n;
-        FrontEndFrame { tracked, inliers: found.inliers, pose, anchor_covariance }
+        FrontEndFrame { tracked, inliers: found.inliers, pose }
     }
 
     /// Tops the tracks up from `frame` (the one just tracked) when fewer than
     /// [`TrackerParams::min_tracks`] remain: corners inside the model's box at the estimate
-    /// `estimate` (whose pose covariance is `covariance`), back-projected onto the model there.
+    /// `estimate`, back-projected onto the model there.
     /// Returns how many were added.
-    pub fn replenish(
-        &mut self,
-        frame: &GrayImage,
-        estimate: &Camera,
-        covariance: &Matrix6<f64>,
-        model: &TargetModel,
-    ) -> usize {
+    pub fn replenish(&mut self, frame: &GrayImage, estimate: &Camera, model: &TargetModel) -> usize {
         let p = self.params;
         if self.tracks.len() >= p.min_tracks {
             return 0;
@@ -258,13 +237,7 @@ impl ModelTracker {
             else {
                 continue;
             };
-            self.tracks.push(Track {
-                pos,
-                point: hit.point,
-                template,
-                age: 0,
-                anchor_covariance: *covariance,
-            });
+            self.tracks.push(Track { pos, point: hit.point, template, age: 0 });
             added += 1;
         }
         added

@@ -802,7 +802,14 @@ struct StreamState {
     prev_pairwise: Option<Tracked>,
     /// The previous frame's measured pose (the frame-to-frame measures).
     prev_measurement: Option<PoseMeasurement>,
+    /// Offset rigs: the range the registration last used — the filter's, held while the
+    /// filter predicts the target behind the camera or closer than [`MIN_REGISTRATION_RANGE_M`].
+    registration_range: f64,
 }
+
+/// The registration keeps its last range when the filter predicts the target nearer than this,
+/// m (behind the camera when it has diverged).
+pub const MIN_REGISTRATION_RANGE_M: f64 = 0.5;
 
 /// Everything a source's run over a sequence reads.
 struct SequenceRun<'a> {
@@ -833,7 +840,11 @@ impl SequenceRun<'_> {
             pairs: test_pairs(),
             prev_pairwise: None,
             prev_measurement: None,
+            registration_range: 0.0,
         };
+        // The registration's first range: the initial filter's.
+        let first = camera_at(&self.data[0].camera, st.filter.attitude, st.filter.position);
+        st.registration_range = self.model.centre_in_camera(&first).z;
         if matches!(stream, Stream::ZeroMotion) {
             // No motion: the estimate stays where it started.
             st.filter.rate = DVec3::ZERO;
@@ -921,7 +932,13 @@ impl SequenceRun<'_> {
         // An offset rig: the thermal frame registered at the range this frame's prediction
         // (or the truth) puts the target centre at, along the VIS axis.
         let through = match (self.rig, self.registration) {
-            (Some(rig), Registration::Filter) => Some((rig, self.model.centre_in_camera(&predicted).z)),
+            (Some(rig), Registration::Filter) => {
+                let range = self.model.centre_in_camera(&predicted).z;
+                if range.is_finite() && range >= MIN_REGISTRATION_RANGE_M {
+                    st.registration_range = range;
+                }
+                Some((rig, st.registration_range))
+            }
             (Some(rig), Registration::Truth) => Some((rig, self.model.centre_in_camera(cam).z)),
             _ => None,
         };

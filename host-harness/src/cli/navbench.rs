@@ -190,12 +190,13 @@ fn csv(rows: &[FrameResult]) -> String {
     let mut s = String::from(
         "sequence,seed,frame,phase,source,cnr,target_features,tracks,inliers,rot_err_deg,trans_dir_err_deg,lost,\
 att_err_deg,pos_err_pct,att_3sigma_deg,pos_3sigma_pct,nees,available,reacquire_frames,\
-pairwise_tracks,pairwise_inliers,pairwise_rot_err_deg,pairwise_trans_dir_err_deg,pairwise_lost,target_coverage,window_frac\n",
+pairwise_tracks,pairwise_inliers,pairwise_rot_err_deg,pairwise_trans_dir_err_deg,pairwise_lost,target_coverage,window_frac,\
+misregistration_px,misregistration_p95_px\n",
     );
     for r in rows {
         let _ = writeln!(
             s,
-            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
             r.sequence,
             r.seed,
             r.frame,
@@ -221,7 +222,9 @@ pairwise_tracks,pairwise_inliers,pairwise_rot_err_deg,pairwise_trans_dir_err_deg
             r.pairwise_trans_dir_err_deg,
             r.pairwise_lost,
             r.target_coverage,
-            r.window_frac
+            r.window_frac,
+            r.misregistration_px,
+            r.misregistration_p95_px
         );
     }
     s

@@ -66,7 +66,7 @@ pub struct NavbenchArgs {
 const PHASES: [&str; 4] = ["light", "penumbra", "eclipse", PHASE_ALL];
 
 /// The sources the charts and the answer show, when run.
-const SHOWN: [&str; 5] = ["zero-motion", "oracle", "vis", "tir", "adaptive"];
+const SHOWN: [&str; 6] = ["zero-motion", "oracle", "vis", "tir", "adaptive", "adf-flight"];
 
 /// Runs `fusion navbench`.
 pub fn run(args: &NavbenchArgs) -> Result<()> {
@@ -232,7 +232,7 @@ misregistration_px,misregistration_p95_px\n",
 
 /// Per sequence (the first seed): the filter's attitude and position errors against the frame
 /// with their 3σ bounds (thin lines), penumbra and eclipse shaded, for the baselines, the two
-/// cameras and the adaptive fusion; and the features on the target.
+/// cameras, the adaptive fusion and ADF (flight); and the features on the target.
 fn charts(out: &Path, rows: &[FrameResult], seed: u64) -> Result<Vec<PathBuf>> {
     let mut written = Vec::new();
     for name in SequenceName::ALL {

@@ -389,7 +389,7 @@ fn median(mut v: Vec<f64>) -> Option<f64> {
 }
 
 /// The `q` quantile (nearest rank) of the finite values; `None` without one.
-fn quantile(mut v: Vec<f64>, q: f64) -> Option<f64> {
+pub(crate) fn quantile(mut v: Vec<f64>, q: f64) -> Option<f64> {
     v.retain(|x| x.is_finite());
     if v.is_empty() {
         return None;

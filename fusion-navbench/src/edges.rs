@@ -6,8 +6,8 @@
 //! measurement. The model's sharp edges tie the image to the model itself. At the predicted
 //! pose each visible crease of the model (two faces meeting at more than
 //! [`MIN_CREASE_DEG`], or a mesh boundary) is sampled every [`SAMPLE_SPACING_PX`]; from each
-//! sample the image is searched along the edge's normal for the strongest intensity step near
-//! the prediction; the pose that puts the samples on their steps is found by Gauss–Newton over
+//! sample the image is searched along the edge's normal for the nearest strong intensity step
+//! ([`search`]); the pose that puts the samples on their steps is found by Gauss–Newton over
 //! six degrees of freedom with Tukey weights, searched again and refitted as the pose
 //! converges, and handed to the filter as a pose measurement with its covariance.
 //!

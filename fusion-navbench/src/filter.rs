@@ -226,13 +226,7 @@ impl PoseFilter {
         if d2.is_nan() || d2 > self.params.gate {
             return false;
         }
-        let (y, s) = self.innovation(m);
-        let Some(si) = s.try_inverse() else { return false };
-        let mut h = SMatrix::<f64, 6, 12>::zeros();
-        h.fixed_view_mut::<3, 3>(0, 0).copy_from(&Matrix3::identity());
-        h.fixed_view_mut::<3, 3>(3, 6).copy_from(&Matrix3::identity());
-        self.correct(&h, &y, &m.covariance, &si);
-        true
+        self.apply(m)
     }
 
     /// Uses a measurement (after [`Self::predict`] to its time).
@@ -249,13 +243,19 @@ impl PoseFilter {
             return UpdateOutcome::Refused;
         }
         self.refused_in_a_row = 0;
+        if self.apply(m) { UpdateOutcome::Accepted } else { UpdateOutcome::Refused }
+    }
+
+    /// The Kalman correction by a pose measurement already past the gate; `false` (nothing
+    /// changed) when the innovation covariance is singular.
+    fn apply(&mut self, m: &PoseMeasurement) -> bool {
         let (y, s) = self.innovation(m);
-        let Some(si) = s.try_inverse() else { return UpdateOutcome::Refused };
+        let Some(si) = s.try_inverse() else { return false };
         let mut h = SMatrix::<f64, 6, 12>::zeros();
         h.fixed_view_mut::<3, 3>(0, 0).copy_from(&Matrix3::identity());
         h.fixed_view_mut::<3, 3>(3, 6).copy_from(&Matrix3::identity());
         self.correct(&h, &y, &m.covariance, &si);
-        UpdateOutcome::Accepted
+        true
     }
 
     /// The Kalman correction for a measurement `y = H δx + v` (`r` its noise covariance, `si`

@@ -8,6 +8,7 @@
 //! target pixel's surface point projected into the thermal camera, against where the map sends
 //! the pixel ([`misregistration`]).
 
+use crate::bench::quantile;
 use anyhow::Result;
 use fusion_io::Gray;
 use fusion_nostd::registration::{Border, Interpolation, Rig};
@@ -90,10 +91,5 @@ pub fn misregistration(
             d.push((f64::from(tu) - mu).hypot(f64::from(tv) - mv) * scale);
         }
     }
-    if d.is_empty() {
-        return None;
-    }
-    d.sort_by(f64::total_cmp);
-    let at = |q: f64| d[((d.len() - 1) as f64 * q).round() as usize];
-    Some((at(0.5), at(0.95)))
+    Some((quantile(d.clone(), 0.5)?, quantile(d, 0.95)?))
 }

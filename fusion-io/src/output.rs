@@ -2,54 +2,113 @@
 //! through [`write_atomic`] or, when a run writes several files that belong together, a
 //! [`Batch`].
 //!
-//! Guarantees (README, "Robustness"):
+//! Guarantees (README, "What the CLI guarantees"):
 //! * **Nothing partial, nothing redirected.** The data goes to a temporary file created
 //!   exclusively (`O_CREAT | O_EXCL`, so a prepared symbolic link at that name makes the
 //!   creation fail instead of being followed) under an unpredictable name in the destination's
 //!   folder, with owner-only permissions (0600, the final file keeps them); it is flushed and
 //!   synced, then renamed over the destination. A failure at any step removes the temporary.
+//! * **Atomic for readers.** The rename replaces the destination in one step: a reader opening
+//!   it at any moment gets the old bytes or the new ones, never "no such file". The old file is
+//!   never moved aside.
 //! * **Names as long as the file system allows**: the temporary's name does not grow with the
 //!   destination's.
 //! * **Only regular files are replaced**: a destination that exists and is a folder, device,
 //!   FIFO or socket is refused with one line before anything is written.
 //! * **All or nothing** for a [`Batch`]: every file is staged first; the renames then replace
-//!   the destinations, and if one fails the ones already replaced are put back.
+//!   the destinations, and if one fails the ones already replaced get their previous bytes back
+//!   (kept under a second name, a hard link to the old file made before the rename, so the
+//!   destination itself is never missing).
 //! * **New folders whole**: a verb that fills a folder that does not exist yet builds it under a
 //!   temporary name beside it and renames it into place at the end ([`in_new_folder`]), so an
 //!   interrupted or failed run leaves no half-filled folder. An existing folder is filled file
-//!   by file (each file atomic).
-//! * **Interrupts**: with [`remove_in_flight_on_signal`] installed, SIGINT and SIGTERM remove
-//!   every temporary in flight before the process exits (status 130).
+//!   by file (each file atomic); a folder made by [`create_folder`] is removed again if the run
+//!   leaves it empty.
+//! * **Interrupts**: with [`remove_in_flight_on_signal`] installed, SIGINT, SIGTERM and SIGHUP
+//!   remove every temporary of this process (files, folders, kept old bytes) and every empty
+//!   folder it made, then exit with status 128 + the signal's number (130, 143, 129). Creating
+//!   a temporary, renaming it into place and removing it all happen under one lock that the
+//!   handler takes and keeps until the process ends, so no temporary can be made or renamed
+//!   behind its back: every output that existed before the run is either as it was or replaced
+//!   whole.
 
 use anyhow::{Context, Result, bail};
 use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
-use std::sync::Mutex;
+use std::sync::{Mutex, MutexGuard};
 
-/// Temporaries currently being written (removed by the signal handler).
-static IN_FLIGHT: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
-
-fn in_flight() -> std::sync::MutexGuard<'static, Vec<PathBuf>> {
-    // A panic while holding the lock leaves the list usable: it is only paths.
-    IN_FLIGHT.lock().unwrap_or_else(|e| e.into_inner())
+/// What the signal handler removes.
+enum Pending {
+    /// A temporary file: a staged output or the old bytes kept for a batch's rollback.
+    File(PathBuf),
+    /// A temporary folder being filled ([`in_new_folder`]).
+    Folder(PathBuf),
+    /// A folder this run made ([`create_folder`]): removed only if still empty.
+    Made(PathBuf),
 }
 
-/// Installs the SIGINT/SIGTERM handler (the `ctrlc` crate) that removes every temporary in
-/// flight and exits with status 130. Call once, early in `main`; a second call is refused by
-/// `ctrlc` and ignored here.
-pub fn remove_in_flight_on_signal() {
-    let _ = ctrlc::set_handler(|| {
-        for path in in_flight().drain(..) {
-            if path.is_dir() {
-                let _ = std::fs::remove_dir_all(path);
-            } else {
-                let _ = std::fs::remove_file(path);
+impl Pending {
+    fn path(&self) -> &Path {
+        match self {
+            Pending::File(p) | Pending::Folder(p) | Pending::Made(p) => p,
+        }
+    }
+
+    fn remove(&self) {
+        match self {
+            Pending::File(p) => {
+                let _ = std::fs::remove_file(p);
+            }
+            Pending::Folder(p) => {
+                // A worker may still be creating an entry inside it: try again while it stands.
+                for _ in 0..10 {
+                    if std::fs::remove_dir_all(p).is_ok() || std::fs::symlink_metadata(p).is_err() {
+                        break;
+                    }
+                }
+            }
+            Pending::Made(p) => {
+                let _ = std::fs::remove_dir(p);
             }
         }
-        crate::console::stderr_note(format_args!("interrupted: outputs in progress removed"));
-        std::process::exit(130);
+    }
+}
+
+/// The temporaries and made folders of this process. Every step that creates, renames or
+/// removes one holds this lock, and so does the signal handler until the process exits.
+static PENDING: Mutex<Vec<Pending>> = Mutex::new(Vec::new());
+
+fn pending() -> MutexGuard<'static, Vec<Pending>> {
+    // A panic while holding the lock leaves the list usable: it is only paths.
+    PENDING.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+fn forget(list: &mut Vec<Pending>, path: &Path) {
+    if let Some(i) = list.iter().rposition(|q| q.path() == path) {
+        list.remove(i);
+    }
+}
+
+/// Installs the SIGINT/SIGTERM/SIGHUP handler (a thread of the `signal-hook` crate) that
+/// removes every temporary of this process and every empty folder it made, says so on
+/// standard error and exits with status 128 + the signal's number. Call once, early in
+/// `main`; if the handler cannot be installed the signals keep their default action.
+pub fn remove_in_flight_on_signal() {
+    use signal_hook::consts::{SIGHUP, SIGINT, SIGTERM};
+    let Ok(mut signals) = signal_hook::iterator::Signals::new([SIGINT, SIGTERM, SIGHUP]) else { return };
+    let spawned = std::thread::Builder::new().name("signals".into()).spawn(move || {
+        if let Some(signal) = signals.forever().next() {
+            // Held until the process ends: no temporary is made or renamed after this point.
+            let list = pending();
+            for p in list.iter().rev() {
+                p.remove();
+            }
+            crate::console::stderr_note(format_args!("interrupted: outputs in progress removed"));
+            std::process::exit(128 + signal);
+        }
     });
+    drop(spawned);
 }
 
 /// The folder a path's file lives in (`.` for a bare name).
@@ -77,31 +136,52 @@ fn without_path(e: std::io::Error) -> std::io::Error {
     e.raw_os_error().map_or(e, std::io::Error::from_raw_os_error)
 }
 
-/// A file written under a temporary name, not yet in place.
+/// A file written under a temporary name, not yet in place. Dropping it removes the temporary.
 struct Staged {
-    temp: tempfile::TempPath,
+    temp: Option<PathBuf>,
     dest: PathBuf,
 }
 
 impl Drop for Staged {
     fn drop(&mut self) {
-        let p: &Path = &self.temp;
-        in_flight().retain(|q| q != p);
+        if let Some(temp) = self.temp.take() {
+            let mut list = pending();
+            let _ = std::fs::remove_file(&temp);
+            forget(&mut list, &temp);
+        }
     }
+}
+
+/// Creates an exclusive temporary file named `.fusion-*SUFFIX` in `dir` through `make`
+/// (which gets the free name) and registers it, both under the lock.
+fn new_temporary<R>(
+    dir: &Path,
+    suffix: &str,
+    make: impl FnMut(&Path) -> std::io::Result<R>,
+) -> std::io::Result<(R, PathBuf)> {
+    let mut list = pending();
+    let made = tempfile::Builder::new().prefix(".fusion-").suffix(suffix).make_in(dir, make)?;
+    // Kept: from here on the list, not `tempfile`, removes it.
+    let path = made.path().to_path_buf();
+    let (inner, temp_path) = made.into_parts();
+    let _ = temp_path.keep();
+    list.push(Pending::File(path.clone()));
+    Ok((inner, path))
 }
 
 /// Writes a temporary next to `dest` through `write`, flushed and synced.
 fn stage(dest: &Path, write: impl FnOnce(&mut BufWriter<File>) -> Result<()>) -> Result<Staged> {
     check_destination(dest)?;
     let dir = folder_of(dest);
-    let temp = tempfile::Builder::new()
-        .prefix(".fusion-")
-        .suffix(".tmp")
-        .tempfile_in(dir)
-        .map_err(|e| anyhow::anyhow!("cannot write {}: {}", dest.display(), without_path(e)))?;
-    let (file, temp) = temp.into_parts();
-    in_flight().push(temp.to_path_buf());
-    let staged = Staged { temp, dest: dest.to_path_buf() };
+    let (file, temp) = new_temporary(dir, ".tmp", |p| {
+        let mut options = std::fs::OpenOptions::new();
+        options.write(true).create_new(true);
+        #[cfg(unix)]
+        std::os::unix::fs::OpenOptionsExt::mode(&mut options, 0o600);
+        options.open(p)
+    })
+    .map_err(|e| anyhow::anyhow!("cannot write {}: {}", dest.display(), without_path(e)))?;
+    let staged = Staged { temp: Some(temp), dest: dest.to_path_buf() };
     let mut w = BufWriter::new(file);
     write(&mut w).with_context(|| format!("cannot write {}", dest.display()))?;
     let file = w
@@ -130,6 +210,32 @@ pub struct Batch {
     staged: Vec<Staged>,
 }
 
+/// A destination replaced by a batch, and its old bytes (a second name of the old file) when
+/// it existed.
+struct Replaced {
+    dest: PathBuf,
+    old: Option<PathBuf>,
+}
+
+/// Keeps `dest`'s current bytes under a temporary name beside it (a hard link to the same
+/// file, or a copy where the file system has no hard links); `None` when `dest` does not exist.
+fn keep_old(dest: &Path) -> std::io::Result<Option<PathBuf>> {
+    if std::fs::symlink_metadata(dest).is_err() {
+        return Ok(None);
+    }
+    let dir = folder_of(dest);
+    let linked = new_temporary(dir, ".old", |p| std::fs::hard_link(dest, p));
+    let (_, path) = match linked {
+        Ok(made) => made,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
+        Err(_) => new_temporary(dir, ".old", |p| {
+            std::fs::OpenOptions::new().write(true).create_new(true).open(p)?;
+            std::fs::copy(dest, p).map(|_| ())
+        })?,
+    };
+    Ok(Some(path))
+}
+
 impl Batch {
     /// Stages `path` written by `write`; nothing is visible under `path` until [`Self::commit`].
     /// The same destination twice is refused (one would silently lose the other).
@@ -146,61 +252,108 @@ impl Batch {
         self.add(path, |w| Ok(w.write_all(bytes)?))
     }
 
-    /// Puts every staged file in place. If a rename fails, the destinations already replaced
-    /// get their previous content back (or are removed if they did not exist) and the error is
-    /// returned; the staged temporaries are removed either way.
-    pub fn commit(self) -> Result<()> {
-        // The previous content of each destination, moved aside under a temporary name first,
-        // so that a failure half way can restore it.
-        let mut done: Vec<(PathBuf, Option<tempfile::TempPath>)> = Vec::new();
+    /// Puts every staged file in place, each by one rename over its destination. If a rename
+    /// fails, the destinations already replaced get their previous bytes back (or are removed
+    /// if they did not exist) and the error is returned; the staged temporaries are removed
+    /// either way.
+    pub fn commit(mut self) -> Result<()> {
+        let n = self.staged.len();
+        let mut done: Vec<Replaced> = Vec::new();
         let mut result = Ok(());
-        for s in &self.staged {
-            let step = (|| -> Result<Option<tempfile::TempPath>> {
+        for (k, s) in self.staged.iter_mut().enumerate() {
+            let step = (|| -> Result<Replaced> {
                 check_destination(&s.dest)?;
-                let backup = if std::fs::symlink_metadata(&s.dest).is_ok() {
-                    let dir = folder_of(&s.dest);
-                    let b = tempfile::Builder::new()
-                        .prefix(".fusion-")
-                        .suffix(".old")
-                        .tempfile_in(dir)?
-                        .into_temp_path();
-                    std::fs::rename(&s.dest, &b)?;
-                    Some(b)
-                } else {
-                    None
-                };
-                if let Err(e) = std::fs::rename(&s.temp, &s.dest) {
-                    if let Some(b) = &backup {
-                        let _ = std::fs::rename(b, &s.dest);
+                // The last file needs no way back: nothing after it can fail.
+                let old = if k + 1 < n { keep_old(&s.dest)? } else { None };
+                let mut list = pending();
+                let temp = s.temp.as_deref().context("staged twice")?;
+                if let Err(e) = std::fs::rename(temp, &s.dest) {
+                    drop(list);
+                    if let Some(o) = &old {
+                        remove_pending(o);
                     }
                     return Err(e.into());
                 }
-                Ok(backup)
+                forget(&mut list, temp);
+                s.temp = None;
+                Ok(Replaced { dest: s.dest.clone(), old })
             })();
             match step {
-                Ok(backup) => done.push((s.dest.clone(), backup)),
+                Ok(r) => done.push(r),
                 Err(e) => {
                     result = Err(e).with_context(|| format!("cannot write {}", s.dest.display()));
                     break;
                 }
             }
         }
-        if result.is_err() {
-            for (dest, backup) in done.iter().rev() {
-                match backup {
-                    Some(b) => {
-                        let _ = std::fs::rename(b, dest);
-                    }
-                    None => {
-                        let _ = std::fs::remove_file(dest);
-                    }
+        for r in done.iter().rev() {
+            let mut list = pending();
+            match (&r.old, result.is_err()) {
+                (Some(old), true) => {
+                    let _ = std::fs::rename(old, &r.dest);
+                    forget(&mut list, old);
                 }
+                (Some(old), false) => {
+                    let _ = std::fs::remove_file(old);
+                    forget(&mut list, old);
+                }
+                (None, true) => {
+                    let _ = std::fs::remove_file(&r.dest);
+                }
+                (None, false) => {}
             }
         }
-        // Dropping the backups' TempPaths removes the previous contents (or nothing, when they
-        // were renamed back); dropping `self` removes any temporary not renamed.
+        // Dropping `self` removes any temporary not renamed.
         result
     }
+}
+
+/// Removes a registered temporary file now.
+fn remove_pending(path: &Path) {
+    let mut list = pending();
+    let _ = std::fs::remove_file(path);
+    forget(&mut list, path);
+}
+
+/// A folder [`create_folder`] made for this run's outputs.
+#[must_use = "an output folder left empty is removed only through `finish`"]
+pub struct OutputFolder {
+    made: Option<PathBuf>,
+}
+
+impl OutputFolder {
+    /// Ends the run's use of the folder: a folder this run made and left empty is removed
+    /// (a run whose every output failed leaves nothing behind); one that existed stays.
+    pub fn finish(mut self) {
+        self.release();
+    }
+
+    fn release(&mut self) {
+        if let Some(p) = self.made.take() {
+            let mut list = pending();
+            let _ = std::fs::remove_dir(&p);
+            list.retain(|q| !matches!(q, Pending::Made(m) if *m == p));
+        }
+    }
+}
+
+impl Drop for OutputFolder {
+    fn drop(&mut self) {
+        self.release();
+    }
+}
+
+/// Makes the folder `out` (and its parents) when it is missing, for outputs written file by
+/// file. Dropped or [`finished`](OutputFolder::finish), and on an interrupt, the folder is
+/// removed again if this run made it and it is still empty.
+pub fn create_folder(out: &Path) -> Result<OutputFolder> {
+    let mut list = pending();
+    if std::fs::symlink_metadata(out).is_ok() {
+        return Ok(OutputFolder { made: None });
+    }
+    std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
+    list.push(Pending::Made(out.to_path_buf()));
+    Ok(OutputFolder { made: Some(out.to_path_buf()) })
 }
 
 /// Runs `fill` on the folder `out`. When `out` does not exist, `fill` gets a temporary folder
@@ -213,20 +366,28 @@ pub fn in_new_folder<T>(out: &Path, fill: impl FnOnce(&Path) -> Result<T>) -> Re
     }
     let parent = folder_of(out);
     std::fs::create_dir_all(parent).with_context(|| format!("cannot create {}", parent.display()))?;
-    let temp = tempfile::Builder::new()
-        .prefix(".fusion-")
-        .suffix(".tmp")
-        .tempdir_in(parent)
-        .map_err(|e| anyhow::anyhow!("cannot create {}: {}", out.display(), without_path(e)))?;
-    in_flight().push(temp.path().to_path_buf());
-    let result = fill(temp.path()).and_then(|value| {
-        std::fs::rename(temp.path(), out).with_context(|| format!("cannot create {}", out.display()))?;
+    let temp = {
+        let mut list = pending();
+        let temp = tempfile::Builder::new()
+            .prefix(".fusion-")
+            .suffix(".tmp")
+            .tempdir_in(parent)
+            .map_err(|e| anyhow::anyhow!("cannot create {}: {}", out.display(), without_path(e)))?
+            .keep();
+        list.push(Pending::Folder(temp.clone()));
+        temp
+    };
+    let result = fill(&temp).and_then(|value| {
+        let mut list = pending();
+        std::fs::rename(&temp, out).with_context(|| format!("cannot create {}", out.display()))?;
+        forget(&mut list, &temp);
         Ok(value)
     });
-    let p = temp.path().to_path_buf();
-    in_flight().retain(|q| q != &p);
-    // On success the temporary name is gone (renamed); on failure dropping `temp` removes it.
-    drop(temp);
+    if result.is_err() {
+        let mut list = pending();
+        let _ = std::fs::remove_dir_all(&temp);
+        forget(&mut list, &temp);
+    }
     result
 }
 

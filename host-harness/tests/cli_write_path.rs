@@ -1,5 +1,6 @@
 //! The one write path (`render_host::output`): outputs are all or nothing, never redirected,
 //! only regular files are replaced, long names work, a failing standard output is an error.
+//! Interruptions: `cli_interrupt.rs`.
 
 use fusion_io::{Gray, save_gray_u8};
 use std::path::Path;
@@ -152,43 +153,4 @@ fn a_full_standard_output_is_an_error_not_a_panic() {
     let out =
         Command::new(env!("CARGO_BIN_EXE_fusion")).args(["eval", &v, &t, &t]).stdout(full).output().unwrap();
     assert!(one_line_error(&out).contains("standard output"));
-}
-
-#[cfg(unix)]
-#[test]
-fn an_interrupt_leaves_no_temporary_behind() {
-    // A render writes a PNG every few milliseconds into a folder it creates; interrupted in the
-    // middle, the handler removes what was in flight (the whole new folder) and the process
-    // ends with status 130.
-    let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().join("data");
-    for delay_ms in [300u64, 700, 1100] {
-        let mut child = Command::new(env!("CARGO_BIN_EXE_fusion"))
-            .args(["render", "--out", out.to_str().unwrap(), "--frames", "200", "--seed", "3"])
-            .stdout(std::process::Stdio::null())
-            .stderr(std::process::Stdio::piped())
-            .spawn()
-            .unwrap();
-        std::thread::sleep(std::time::Duration::from_millis(delay_ms));
-        let signal = if delay_ms == 700 { "-TERM" } else { "-INT" };
-        assert!(Command::new("kill").args([signal, &child.id().to_string()]).status().unwrap().success());
-        let status = child.wait().unwrap();
-        if status.success() {
-            continue; // finished before the signal: nothing to check
-        }
-        assert_eq!(status.code(), Some(130), "{signal} after {delay_ms} ms");
-        // A folder the run was creating appears whole or not at all.
-        assert!(!out.exists(), "{signal} after {delay_ms} ms left a half-filled {}", out.display());
-        let mut stack = vec![dir.path().to_path_buf()];
-        while let Some(d) = stack.pop() {
-            for e in std::fs::read_dir(&d).unwrap() {
-                let e = e.unwrap();
-                let name = e.file_name().to_string_lossy().into_owned();
-                assert!(!name.starts_with(".fusion-"), "{name} left in {}", d.display());
-                if e.file_type().unwrap().is_dir() {
-                    stack.push(e.path());
-                }
-            }
-        }
-    }
 }

@@ -167,7 +167,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         .map(|s| s.name.clone())
         .context("the dataset has no TIR set at half the VIS size")?;
     let tir = dataset.image(&tir_set, 0, true)?;
-    std::fs::create_dir_all(&args.out)?;
+    let _folder = fusion_io::output::create_folder(&args.out)?;
 
     let mut points = Vec::new();
     for (family, configs) in knobs() {

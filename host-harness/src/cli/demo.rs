@@ -13,7 +13,7 @@
 //!    `OUT/navigation_attitude_error.png` (the filter's attitude error and 3σ per frame) and the
 //!    availability of each in `summary.md`.
 
-use anyhow::{Context, Result};
+use anyhow::Result;
 use clap::Args;
 use fusion_engine::study::{Dataset, core_methods, fuse_timed, grid};
 use fusion_io::save_gray_u8;
@@ -55,7 +55,7 @@ struct Row {
 /// Runs `fusion demo`.
 pub fn run(args: &DemoArgs) -> Result<()> {
     let started = Instant::now();
-    std::fs::create_dir_all(&args.out).with_context(|| format!("cannot create {}", args.out.display()))?;
+    let _folder = fusion_io::output::create_folder(&args.out)?;
     let data_dir = args.out.join("dataset");
     let dataset = match Dataset::open(&data_dir) {
         Ok(d) if d.frames() >= args.frames => {

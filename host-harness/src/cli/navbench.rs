@@ -2,7 +2,7 @@
 //! through the navigation chain (model-based front end, filter) against the rendered ground
 //! truth, over several seeds (`fusion_navbench::bench`, `fusion_navbench::seeds`).
 
-use anyhow::{Context, Result, bail};
+use anyhow::{Result, bail};
 use clap::Args;
 use fusion_io::write_bytes;
 use fusion_navbench::bench::{FrameResult, PHASE_ALL, run_sequence, selected, summary};
@@ -99,7 +99,7 @@ pub fn run(args: &NavbenchArgs) -> Result<()> {
     let streams = selected(only)?.len();
     let start = Instant::now();
     let data = args.data.clone().unwrap_or_else(|| args.out.join("data"));
-    std::fs::create_dir_all(&args.out).with_context(|| format!("cannot create {}", args.out.display()))?;
+    let _folder = fusion_io::output::create_folder(&args.out)?;
     let mut rows: Vec<FrameResult> = Vec::new();
     let mut per_seed = Vec::new();
     for &seed in &seeds {

@@ -116,7 +116,7 @@ pub fn run(args: &SkipStudyArgs) -> Result<()> {
         "both" => vec![false, true],
         v => bail!("--versions must be clean, noisy or both, not {v}"),
     };
-    std::fs::create_dir_all(&args.out)?;
+    let _folder = fusion_io::output::create_folder(&args.out)?;
     let levels = [("none", SkipPolicy::None), ("roi", SkipPolicy::Roi), ("all", SkipPolicy::All)];
     let mut csv = String::from(
         "set,version,frame,method,skip,seconds,window_fraction,roi_fraction,max_abs,psnr_db,taken,declined,illumination,vis_bg,vis_spread_q8,tir_bg,tir_spread_q8,declined_best_constant_psnr_db,declined_input_mean_psnr_db\n",

@@ -87,8 +87,8 @@ pub fn run(args: &FuseArgs) -> Result<()> {
     }
     fusion_io::folders::check_output_folder(&args.output, &[&args.vis, &args.tir])?;
     let (pairs, unpaired) = pair_by_stem(&[(&args.vis, "visible"), (&args.tir, "thermal")])?;
-    std::fs::create_dir_all(&args.output)
-        .with_context(|| format!("cannot create {}", args.output.display()))?;
+    // Removed again if no pair gets through (and on an interrupt while still empty).
+    let _folder = fusion_io::output::create_folder(&args.output)?;
     let ext = args.format.unwrap_or(OutFormat::Png).extension();
     let jobs = args.jobs.unwrap_or(0);
     let front_end = args.nuc.is_some() || args.bad_pixels.is_some() || args.column_filter.is_some();

@@ -353,7 +353,7 @@ pub fn run(args: &ReportArgs) -> Result<()> {
     for set in ["vis_light", "vis_eclipse", &tir_small, &tir_big] {
         anyhow::ensure!(has(set), "the dataset has no {set} set (render it with --tir-sizes {small},{big})");
     }
-    std::fs::create_dir_all(&args.out).with_context(|| format!("cannot create {}", args.out.display()))?;
+    let _folder = fusion_io::output::create_folder(&args.out)?;
     let frames = args.frames.unwrap_or(usize::MAX).min(dataset.frames());
     let native = NativeVis::new(&dataset.manifest.config)?;
     let methods = core_methods();

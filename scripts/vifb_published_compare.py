@@ -71,7 +71,7 @@ def run_fusion(fusion, vifb, method, files, tmp):
     if r.returncode != 0:
         sys.exit(f"{' '.join(cmd)} failed:\n{r.stderr}")
     rows = list(csv.DictReader(io.StringIO(r.stdout)))
-    return {row["image"]: row for row in rows if row["image"] != "mean"}
+    return {row["image"]: row for row in rows if row["row"] == "image"}
 
 
 def main():

@@ -5,6 +5,7 @@
 //! and `note!` wrap these.
 
 use anyhow::{Context, Result};
+
 use std::io::Write;
 
 /// Set by `--quiet`: notes are not printed (errors still are).
@@ -46,7 +47,58 @@ pub fn stderr_note(args: std::fmt::Arguments<'_>) {
     }
 }
 
+/// Notes already given by [`stderr_note_once`].
+static SAID: std::sync::Mutex<Vec<&'static str>> = std::sync::Mutex::new(Vec::new());
+
+/// [`stderr_note`] the first time `key` is given in this run, nothing after: a note that would
+/// repeat for every file of a folder (an option that does not apply to them, a conversion) is
+/// said once.
+pub fn stderr_note_once(key: &'static str, args: std::fmt::Arguments<'_>) {
+    let mut said = SAID.lock().unwrap_or_else(|e| e.into_inner());
+    if !said.contains(&key) {
+        said.push(key);
+        drop(said);
+        stderr_note(args);
+    }
+}
+
+/// An error and its causes on one line (`context: cause: cause`), line breaks replaced by
+/// spaces, a cause left out when the text before it already says it (decoders' errors often
+/// repeat their source in their own message).
+pub fn one_line(e: &anyhow::Error) -> String {
+    let mut text = String::new();
+    for cause in e.chain() {
+        let part = cause.to_string().replace(['\n', '\r'], " ");
+        let part = part.trim().trim_end_matches(['.', ':']).trim();
+        if part.is_empty() || text.contains(part) {
+            continue;
+        }
+        if !text.is_empty() {
+            text.push_str(": ");
+        }
+        text.push_str(part);
+    }
+    text
+}
+
 /// Whether a note to standard error failed during this run.
 pub fn stderr_failed() -> bool {
     STDERR_FAILED.load(std::sync::atomic::Ordering::Relaxed)
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn one_line_drops_causes_already_said() {
+        let inner = anyhow::anyhow!("Invalid PNG signature.");
+        let e = inner
+            .context("Format error decoding Png: Invalid PNG signature.")
+            .context("a.png is not a valid PNG");
+        assert_eq!(
+            super::one_line(&e),
+            "a.png is not a valid PNG: Format error decoding Png: Invalid PNG signature"
+        );
+        let e = anyhow::anyhow!("no such file").context("cannot open\nb.png");
+        assert_eq!(super::one_line(&e), "cannot open b.png: no such file");
+    }
 }

@@ -3,26 +3,39 @@
 
 use anyhow::{Context, Result, bail};
 use std::collections::BTreeMap;
+use std::ffi::OsString;
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 
-/// The extensions a folder's images may have (case-insensitive).
-pub const IMAGE_EXTENSIONS: [&str; 5] = ["png", "jpg", "jpeg", "tif", "tiff"];
+/// The extensions a folder's images may have (case-insensitive): every format the readers take
+/// and `fusion fuse --format` writes.
+pub const IMAGE_EXTENSIONS: [&str; 7] = ["png", "jpg", "jpeg", "tif", "tiff", "pgm", "ppm"];
 
-/// The images of one folder by stem; a stem held by two files is an error of that stem.
-fn images_by_stem(dir: &Path) -> Result<BTreeMap<String, Vec<PathBuf>>> {
-    let mut map: BTreeMap<String, Vec<PathBuf>> = BTreeMap::new();
+/// The images of one folder by stem; a stem held by two files is an error of that stem. Stems
+/// are the file names' own bytes: a name that is not UTF-8 is paired like any other (shown with
+/// U+FFFD where it cannot be printed).
+fn images_by_stem(dir: &Path) -> Result<BTreeMap<OsString, Vec<PathBuf>>> {
+    let mut map: BTreeMap<OsString, Vec<PathBuf>> = BTreeMap::new();
     for entry in std::fs::read_dir(dir).with_context(|| format!("cannot list {}", dir.display()))? {
         let path = entry.with_context(|| format!("cannot list {}", dir.display()))?.path();
-        let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
+        let ext = path.extension().map(|e| e.to_string_lossy().to_ascii_lowercase());
         if !path.is_file() || !ext.is_some_and(|e| IMAGE_EXTENSIONS.contains(&e.as_str())) {
             continue;
         }
-        if let Some(stem) = path.file_stem().and_then(|s| s.to_str()) {
-            map.entry(stem.to_string()).or_default().push(path);
+        if let Some(stem) = path.file_stem() {
+            map.entry(stem.to_os_string()).or_default().push(path);
         }
     }
     Ok(map)
+}
+
+/// `stem.ext` in `dir`, from the stem's own bytes (an output named after its input, whatever
+/// the input's name is made of).
+pub fn output_path(dir: &Path, input: &Path, ext: &str) -> PathBuf {
+    let mut name = input.file_stem().unwrap_or_default().to_os_string();
+    name.push(".");
+    name.push(ext);
+    dir.join(name)
 }
 
 /// Stems with one file in each folder (in folder order), and the stems that cannot be paired
@@ -106,7 +119,7 @@ pub fn split_results<T, R>(
     for ((stem, _), r) in items.iter().zip(results) {
         match r {
             Ok(v) => ok.push((stem.clone(), v)),
-            Err(e) => failed.push((stem.clone(), format!("{e:#}"))),
+            Err(e) => failed.push((stem.clone(), crate::console::one_line(&e))),
         }
     }
     failed.sort_by(|a, b| natural_order(&a.0, &b.0));
@@ -117,11 +130,12 @@ pub fn split_results<T, R>(
 /// folder cannot be listed or no stem is in all of them.
 pub fn pair_by_stem(dirs: &[(&Path, &str)]) -> Result<Pairing> {
     let maps = dirs.iter().map(|(d, _)| images_by_stem(d)).collect::<Result<Vec<_>>>()?;
-    let mut stems: Vec<&String> = maps.iter().flat_map(|m| m.keys()).collect();
-    stems.sort_by(|a, b| natural_order(a, b));
+    let mut stems: Vec<&OsString> = maps.iter().flat_map(|m| m.keys()).collect();
+    stems.sort_by(|a, b| natural_order(&a.to_string_lossy(), &b.to_string_lossy()).then(a.cmp(b)));
     stems.dedup();
     let (mut pairs, mut unpaired) = (Vec::new(), Vec::new());
     for stem in stems {
+        let shown = stem.to_string_lossy().into_owned();
         let mut files = Vec::new();
         let mut why = Vec::new();
         for (map, (dir, name)) in maps.iter().zip(dirs) {
@@ -131,13 +145,13 @@ pub fn pair_by_stem(dirs: &[(&Path, &str)]) -> Result<Pairing> {
                     let names: Vec<String> = many.iter().map(|p| p.display().to_string()).collect();
                     why.push(format!("two {name} images with this name ({})", names.join(", ")))
                 }
-                None => why.push(format!("no {name} image {stem}.* in {}", dir.display())),
+                None => why.push(format!("no {name} image {shown}.* in {}", dir.display())),
             }
         }
         if why.is_empty() {
-            pairs.push((stem.clone(), files));
+            pairs.push((shown, files));
         } else {
-            unpaired.push((stem.clone(), why.join("; ")));
+            unpaired.push((shown, why.join("; ")));
         }
     }
     if pairs.is_empty() {
@@ -152,7 +166,7 @@ pub fn pair_by_stem(dirs: &[(&Path, &str)]) -> Result<Pairing> {
                     String::new()
                 }
             ),
-            None => bail!("no images (png, jpg, jpeg, tif, tiff) in {}", names.join(" and ")),
+            None => bail!("no images ({}) in {}", IMAGE_EXTENSIONS.join(", "), names.join(" and ")),
         }
     }
     Ok((pairs, unpaired))
@@ -206,7 +220,7 @@ pub fn run_all<T: Send + Sync, R: Send + std::fmt::Display>(
                                 note!("{verb} [{k}/{n}] {stem}: ok ({v})")
                             }
                         }
-                        Err(e) => note!("{verb} [{k}/{n}] {stem}: failed: {e:#}"),
+                        Err(e) => note!("{verb} [{k}/{n}] {stem}: failed: {}", crate::console::one_line(e)),
                     }
                 }
                 r

@@ -131,9 +131,17 @@ pub fn check_destination(path: &Path) -> Result<()> {
     }
 }
 
-/// The OS's reason for an I/O error, without the temporary's name `tempfile` appends.
+/// The OS's reason for an I/O error, without the temporary's name `tempfile` appends (its
+/// error wraps the OS error and shows it as `REASON at path "NAME"`).
 fn without_path(e: std::io::Error) -> std::io::Error {
-    e.raw_os_error().map_or(e, std::io::Error::from_raw_os_error)
+    if let Some(raw) = e.raw_os_error() {
+        return std::io::Error::from_raw_os_error(raw);
+    }
+    let text = e.to_string();
+    match text.rfind(" at path \"") {
+        Some(at) => std::io::Error::new(e.kind(), text[..at].to_string()),
+        None => e,
+    }
 }
 
 /// A file written under a temporary name, not yet in place. Dropping it removes the temporary.

@@ -105,12 +105,70 @@ fn open(path: &Path) -> Result<Opened> {
     if name == "JPEG" {
         return Ok(Opened::Jpeg(crate::jpeg::Jpeg::open(path)?));
     }
+    refuse_several_images(path, name)?;
     Ok(Opened::Image(reader, name))
+}
+
+/// Refuses a file that holds more than one image (an animated PNG, a multi-page TIFF): reading
+/// its first image alone would drop the rest without a word. A file whose header cannot be read
+/// here is left to the decoder, which says why.
+fn refuse_several_images(path: &Path, name: &str) -> Result<()> {
+    let Ok(file) = std::fs::File::open(path) else { return Ok(()) };
+    let file = std::io::BufReader::new(file);
+    let images = match name {
+        "PNG" => {
+            let Ok(reader) = png::Decoder::new(file).read_info() else { return Ok(()) };
+            let info = reader.info();
+            // APNG: the frames of `acTL`, plus the default image when it is not the first frame.
+            info.animation_control
+                .map_or(1, |a| a.num_frames as usize + usize::from(info.frame_control.is_none()))
+        }
+        "TIFF" => {
+            let Ok(mut decoder) = tiff::decoder::Decoder::new(file) else { return Ok(()) };
+            let mut pages = 1;
+            while decoder.more_images() && pages < 1_000 {
+                if decoder.next_image().is_err() {
+                    break;
+                }
+                pages += 1;
+            }
+            pages
+        }
+        _ => 1,
+    };
+    if images > 1 {
+        let what = if name == "PNG" { "an animated PNG of" } else { "a multi-page TIFF of" };
+        bail!("{} is {what} {images} images; one image per file is needed here", path.display());
+    }
+    Ok(())
 }
 
 /// The `image` crate's decoder of a PNG, TIFF or PGM/PPM, its header read.
 fn decoder(path: &Path, reader: Reader, name: &str) -> Result<impl image::ImageDecoder> {
-    reader.into_decoder().with_context(|| format!("{} is not a valid {name}", path.display()))
+    reader.into_decoder().map_err(|e| {
+        use image::error::{ImageError, UnsupportedErrorKind};
+        match &e {
+            ImageError::Unsupported(u) => match u.kind() {
+                UnsupportedErrorKind::Color(color) => anyhow::anyhow!(
+                    "{} is a {name} of {} samples, which is not read here: 8-bit grey or colour, or 14/16-bit grey counts are needed",
+                    path.display(),
+                    sample_kind(color)
+                ),
+                _ => anyhow::anyhow!("{} is a {name} this reader does not take: {e}", path.display()),
+            },
+            _ => anyhow::Error::new(e).context(format!("{} is not a valid {name}", path.display())),
+        }
+    })
+}
+
+/// A colour type the decoders do not take, in words.
+fn sample_kind(color: image::ExtendedColorType) -> String {
+    match color {
+        image::ExtendedColorType::Unknown(bits) => {
+            format!("{bits}-bit (floating-point or {bits}-bit integer)")
+        }
+        other => format!("{other:?}"),
+    }
 }
 
 /// Refuses decoding `w × h` pixels of `bytes_per_pixel` over the memory limit (from the header,

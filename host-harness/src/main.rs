@@ -9,6 +9,25 @@ extern crate fusion_io;
 
 mod cli;
 
+/// Whether standard output was closed when the process started (`fusion … >&-`).
+static STDOUT_WAS_CLOSED: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+/// Runs before Rust's runtime (from `.init_array`, as the C library starts the program), which
+/// reopens a closed standard output on `/dev/null`: a summary printed there would vanish while
+/// the run exits 0, so whether it was closed is recorded first and the run refused in `main`.
+#[cfg(target_os = "linux")]
+extern "C" fn record_closed_stdout() {
+    // SAFETY: fcntl(F_GETFD) on a descriptor number only reads its flags; -1 means not open.
+    if unsafe { libc::fcntl(libc::STDOUT_FILENO, libc::F_GETFD) } == -1 {
+        STDOUT_WAS_CLOSED.store(true, std::sync::atomic::Ordering::Relaxed);
+    }
+}
+
+#[cfg(target_os = "linux")]
+#[used]
+#[unsafe(link_section = ".init_array")]
+static RECORD_CLOSED_STDOUT: extern "C" fn() = record_closed_stdout;
+
 use clap::Parser;
 use std::process::ExitCode;
 
@@ -34,6 +53,12 @@ fn main() -> ExitCode {
     }));
     // SIGINT/SIGTERM remove the outputs being written (render_host::output).
     fusion_io::output::remove_in_flight_on_signal();
+    if STDOUT_WAS_CLOSED.load(std::sync::atomic::Ordering::Relaxed) {
+        fusion_io::console::stderr_line(format_args!(
+            "fusion: error: standard output is closed; give it somewhere to go (>/dev/null to discard it)"
+        ));
+        return ExitCode::FAILURE;
+    }
     let cli = cli::Cli::parse();
     fusion_io::console::set_quiet(cli.quiet);
     match cli::run(cli) {
@@ -44,7 +69,7 @@ fn main() -> ExitCode {
             // One line, whatever the underlying messages hold, and whatever `--quiet` says.
             fusion_io::console::stderr_line(format_args!(
                 "fusion: error: {}",
-                format!("{e:#}").replace('\n', " ")
+                fusion_io::console::one_line(&e)
             ));
             ExitCode::FAILURE
         }

@@ -27,7 +27,7 @@ use std::path::PathBuf;
 /// A Python exception for a host error: `OSError` when a file operation failed, `ValueError`
 /// for everything else (the core's refusals, bad names), with the whole message chain.
 fn py_err(e: anyhow::Error) -> PyErr {
-    let message = format!("{e:#}");
+    let message = fusion_io::console::one_line(&e);
     if e.chain().any(|c| c.downcast_ref::<std::io::Error>().is_some()) {
         PyOSError::new_err(message)
     } else {
@@ -441,7 +441,8 @@ fn save(py: Python<'_>, path: PathBuf, img: &Bound<'_, PyAny>) -> PyResult<()> {
 /// "flyaround") into the folder `out` (a new folder appears whole or not at all; an existing
 /// one is written into) and returns its manifest, the
 /// parsed `manifest.json`: per frame the files, the camera pose and the illumination phase.
-/// frames: how many (default: the CLI's); tir_sizes: thermal frame sizes (dataset); tir16:
+/// frames: how many (default: the CLI's); tir_sizes: thermal frame sizes (default: half the VIS
+/// size and the VIS size; a sequence renders the first, half the VIS size); tir16:
 /// also write 16-bit thermal counts.
 #[pyfunction]
 #[pyo3(signature = (out, frames=None, sequence=None, seed=1, vis_size=1024, tir_sizes=None, tir16=false))]
@@ -465,7 +466,7 @@ fn render<'py>(
             .transpose()?,
         seed,
         vis_size,
-        tir_sizes: tir_sizes.unwrap_or(defaults.tir_sizes.clone()),
+        tir_sizes,
         tir16,
         ..defaults
     };

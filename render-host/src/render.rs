@@ -28,8 +28,10 @@ pub struct RenderOptions {
     pub seed: u64,
     /// VIS image size (square), px.
     pub vis_size: u32,
-    /// TIR image sizes (square), px, one set each (comma separated).
-    pub tir_sizes: Vec<u32>,
+    /// TIR image sizes (square), px, one set each; `None`: half the VIS size and the VIS size
+    /// (the study's 512² and 1024² beside a 1024² VIS), a sequence the first of them (half, as
+    /// `fusion navbench` renders). See [`RenderOptions::tir_sizes_or_default`].
+    pub tir_sizes: Option<Vec<u32>>,
     /// Render this OBJ mesh instead of the procedural Tango-like target.
     pub mesh: Option<PathBuf>,
     /// Scale from the OBJ's units to metres.
@@ -83,7 +85,7 @@ impl Default for RenderOptions {
             sequence: None,
             seed: 1,
             vis_size: 1024,
-            tir_sizes: vec![512, 1024],
+            tir_sizes: None,
             mesh: None,
             mesh_scale: 1.0,
             radiometry: Radiometry::Radiometric,
@@ -107,6 +109,16 @@ impl Default for RenderOptions {
 }
 
 impl RenderOptions {
+    /// The TIR sizes given, or half the VIS size and the VIS size (one size when they are the
+    /// same, at `--vis-size 1`).
+    pub fn tir_sizes_or_default(&self) -> Vec<u32> {
+        self.tir_sizes.clone().unwrap_or_else(|| {
+            let mut sizes = vec![(self.vis_size / 2).max(1), self.vis_size];
+            sizes.dedup();
+            sizes
+        })
+    }
+
     /// The dataset configuration these options describe; a one-line error names the bad option.
     pub fn config(&self) -> Result<DatasetConfig> {
         let mut cfg = if self.demo { DatasetConfig::demo() } else { DatasetConfig::default() };
@@ -134,7 +146,8 @@ impl RenderOptions {
         if !(self.exposure.is_finite() && self.exposure > 0.0) {
             bail!("--exposure must be positive");
         }
-        if self.vis_size == 0 || self.tir_sizes.is_empty() || self.tir_sizes.contains(&0) {
+        let tir_sizes = self.tir_sizes_or_default();
+        if self.vis_size == 0 || tir_sizes.is_empty() || tir_sizes.contains(&0) {
             bail!("--vis-size and --tir-sizes must be positive");
         }
         if let Some(n) = self.samples
@@ -145,7 +158,7 @@ impl RenderOptions {
         cfg.vis.samples = self.samples.unwrap_or(1);
         cfg.tir.samples = cfg.vis.samples;
         cfg.vis_size = self.vis_size;
-        cfg.tir_sizes = self.tir_sizes.clone();
+        cfg.tir_sizes = tir_sizes;
         cfg.seed = self.seed;
         cfg.mesh = self.mesh.clone();
         cfg.mesh_scale = self.mesh_scale;

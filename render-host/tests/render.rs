@@ -627,7 +627,7 @@ fn render_options_render_a_dataset() {
         out: out.clone(),
         frames: Some(2),
         vis_size: 48,
-        tir_sizes: vec![24, 48],
+        tir_sizes: Some(vec![24, 48]),
         sheet_frames: 0,
         radiometry: Radiometry::Study,
         ..RenderOptions::default()
@@ -645,7 +645,7 @@ fn render_options_render_a_dataset() {
     let bad = [
         RenderOptions { frames: Some(0), ..a.clone() },
         RenderOptions { t_min: 400.0, t_max: 300.0, ..a.clone() },
-        RenderOptions { tir_sizes: vec![0], ..a.clone() },
+        RenderOptions { tir_sizes: Some(vec![0]), ..a.clone() },
         RenderOptions { out: dir.path().join("never"), exposure: f32::NAN, ..a.clone() },
     ];
     for b in &bad {

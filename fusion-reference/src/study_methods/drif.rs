@@ -85,7 +85,7 @@ pub fn scale_factor(vis: (usize, usize), tir: (usize, usize)) -> Result<usize> {
     let s = vw / tw;
     if s == 0 || vw != s * tw || vh != s * th {
         bail!(
-            "DRIF needs the VIS frame to be an integer multiple of the TIR frame on both axes (VIS {vw}x{vh}, TIR {tw}x{th})"
+            "DRIF needs the VIS frame to be the TIR frame times one integer factor on both axes (its downsampling is an s x s block mean): VIS {vw}x{vh}, TIR {tw}x{th}"
         );
     }
     Ok(s)

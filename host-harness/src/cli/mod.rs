@@ -2,6 +2,7 @@
 
 use clap::{Parser, Subcommand};
 
+pub mod agc;
 pub mod bench;
 pub mod budget;
 pub mod demo;
@@ -87,11 +88,17 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::SkipStudy(args) => skip_study::run(&args),
         Command::Render(args) => {
             // Every camera's frames are in flight: the VIS size and each TIR size count.
+            let tir_sizes = render_host::RenderOptions {
+                vis_size: args.vis_size,
+                tir_sizes: args.tir_sizes.clone(),
+                ..Default::default()
+            }
+            .tir_sizes_or_default();
             let px = std::iter::once(args.vis_size)
-                .chain(args.tir_sizes.iter().copied())
+                .chain(tir_sizes.iter().copied())
                 .fold(0u64, |sum, s| sum.saturating_add(u64::from(s).saturating_mul(u64::from(s))));
             let bytes = fusion_io::memory::estimate(px, fusion_io::memory::per_pixel::RENDER);
-            let sizes = args.tir_sizes.iter().map(u32::to_string).collect::<Vec<_>>().join(",");
+            let sizes = tir_sizes.iter().map(u32::to_string).collect::<Vec<_>>().join(",");
             fusion_io::memory::check(
                 &format!("--vis-size {} --tir-sizes {sizes}", args.vis_size),
                 "rendering",

@@ -28,9 +28,10 @@ pub struct RenderArgs {
     /// VIS image size (square), px.
     #[arg(long, default_value_t = RenderOptions::default().vis_size, value_name = "PX")]
     pub vis_size: u32,
-    /// TIR image sizes (square), px, one set each (comma separated).
-    #[arg(long, value_delimiter = ',', default_values_t = RenderOptions::default().tir_sizes, value_name = "PX,PX")]
-    pub tir_sizes: Vec<u32>,
+    /// TIR image sizes (square), px, one set each (comma separated) [default: half the VIS size
+    /// and the VIS size; a sequence renders the first: half the VIS size, as navbench does].
+    #[arg(long, value_delimiter = ',', value_name = "PX,PX")]
+    pub tir_sizes: Option<Vec<u32>>,
     /// Render this OBJ mesh instead of the procedural Tango-like target.
     #[arg(long, value_name = "FILE.obj")]
     pub mesh: Option<PathBuf>,

@@ -2,7 +2,7 @@
 
 use anyhow::{Result, bail};
 use clap::{Args, ValueEnum};
-use fusion_engine::methods::{AgcArg, EngineArg, MethodArg, RescaleArg, SkipArg, VariantArg};
+use fusion_engine::methods::{EngineArg, MethodArg, RescaleArg, SkipArg, VariantArg};
 use fusion_io::OutFormat;
 use fusion_reference::study_methods::HostMethod;
 use std::path::PathBuf;
@@ -85,14 +85,9 @@ pub struct FuseArgs {
     /// report is printed.
     #[arg(long, value_name = "ROWS|max")]
     pub strips: Option<StripRows>,
-    /// Thermal AGC for a 14/16-bit thermal image (its counts to 8 bits, in the core:
-    /// `fusion_nostd::agc`) [default: linear]. An 8-bit thermal image is used as it is.
-    #[arg(long, value_enum)]
-    pub agc: Option<AgcArg>,
-    /// The plateau of plateau equalisation, in pixels per histogram bin (bins of 4 counts); given
-    /// alone it asks for --agc plateau [default: the thermal frame's pixels / 2^18, at least 1].
-    #[arg(long, value_name = "PIXELS")]
-    pub plateau: Option<u32>,
+    /// `--agc`, `--plateau`.
+    #[command(flatten)]
+    pub thermal_agc: crate::cli::agc::AgcChoice,
     /// Folders as sequences: smooth the AGC mapping over the thermal frames in name order, each
     /// frame's mapping moving 1/2^K of the way to its own (0..=8; 0: none) so the level does not
     /// flicker. Needs two folders and 14/16-bit thermal frames; the mapped thermal frames are
@@ -271,14 +266,9 @@ pub(super) fn check_options(args: &FuseArgs) -> Result<()> {
             }
         }
     }
-    if let (Some(AgcArg::Linear), Some(_)) = (args.agc, args.plateau) {
-        bail!("--plateau sets the plateau of --agc plateau; drop it with --agc linear");
-    }
+    args.thermal_agc.check()?;
     if args.agc_smoothing.is_some_and(|k| k > fusion_nostd::agc::AGC_MAX_SMOOTHING) {
         bail!("--agc-smoothing is at most {}", fusion_nostd::agc::AGC_MAX_SMOOTHING);
-    }
-    if args.plateau == Some(0) {
-        bail!("--plateau must be at least 1 pixel per bin");
     }
     Ok(())
 }

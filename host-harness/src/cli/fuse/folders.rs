@@ -40,7 +40,11 @@ fn sequential_thermal(
                     Err(e) => Err(e),
                 };
                 if let Err(e) = levelled {
-                    return Some(Err(format!("shutter frame {}: {e:#}", path.display())));
+                    return Some(Err(format!(
+                        "shutter frame {}: {}",
+                        path.display(),
+                        fusion_io::console::one_line(&e)
+                    )));
                 }
             }
             thermal_frame(args, &mut agc, chain.as_mut(), &files[1])
@@ -54,8 +58,8 @@ fn shutter_frames(args: &FuseArgs) -> Result<std::collections::HashMap<String, s
     let mut out = std::collections::HashMap::new();
     for entry in std::fs::read_dir(dir).with_context(|| format!("--shutter-dir {}", dir.display()))? {
         let path = entry.with_context(|| format!("--shutter-dir {}", dir.display()))?.path();
-        if let (true, Some(stem)) = (path.is_file(), path.file_stem().and_then(|s| s.to_str())) {
-            out.insert(stem.to_string(), path.clone());
+        if let (true, Some(stem)) = (path.is_file(), path.file_stem()) {
+            out.insert(stem.to_string_lossy().into_owned(), path.clone());
         }
     }
     Ok(out)
@@ -70,10 +74,10 @@ fn thermal_frame(
 ) -> Option<Mapped> {
     match fusion_io::load_picture(path) {
         Ok(Picture::Gray16(counts)) => {
-            Some(agc_map(args, agc, chain, &counts, path).map_err(|e| format!("{e:#}")))
+            Some(agc_map(args, agc, chain, &counts, path).map_err(|e| fusion_io::console::one_line(&e)))
         }
         Ok(_) => None,
-        Err(e) => Some(Err(format!("thermal image: {e:#}"))),
+        Err(e) => Some(Err(format!("thermal image: {}", fusion_io::console::one_line(&e)))),
     }
 }
 
@@ -104,8 +108,8 @@ pub fn run(args: &FuseArgs) -> Result<()> {
     };
     let items: Vec<(String, PairFiles)> =
         pairs.iter().zip(mapped).map(|((stem, files), m)| (stem.clone(), (files.as_slice(), m))).collect();
-    let results = run_all(&items, jobs, "fuse", |stem, (files, mapped)| {
-        let out = args.output.join(format!("{stem}.{ext}"));
+    let results = run_all(&items, jobs, "fuse", |_, (files, mapped)| {
+        let out = fusion_io::folders::output_path(&args.output, &files[0], ext);
         let mapped = match mapped {
             Some(Err(why)) => bail!("{why}"),
             Some(Ok(g)) => Some(g.clone()),

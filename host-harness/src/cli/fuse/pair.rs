@@ -4,7 +4,7 @@
 use super::args::{ColorArg, ColumnArg, FuseArgs, StripRows};
 use anyhow::{Context, Result, bail};
 use fusion_engine::methods::{
-    AgcArg, EngineArg, Fused, RescaleArg, VariantArg, fuse_core, fuse_reference, method_for,
+    EngineArg, Fused, RescaleArg, VariantArg, fuse_core, fuse_reference, method_for,
 };
 use fusion_engine::thermal::{Column, ThermalChain};
 use fusion_io::npy::encode_npy_f32;
@@ -107,13 +107,7 @@ pub fn fuse_host_method(
 /// unless `--plateau` is given, which asks for plateau equalisation), `--plateau`,
 /// `--agc-smoothing`.
 pub fn agc_params(args: &FuseArgs, pixels: usize) -> fusion_nostd::AgcParams {
-    let default = if args.plateau.is_some() { AgcArg::Plateau } else { AgcArg::Linear };
-    fusion_engine::agc::params(
-        args.agc.unwrap_or(default),
-        args.plateau,
-        args.agc_smoothing.unwrap_or(0),
-        pixels,
-    )
+    args.thermal_agc.params(args.agc_smoothing.unwrap_or(0), pixels)
 }
 
 /// The thermal front end the options ask for (`--nuc`, `--bad-pixels`, `--shutter`,
@@ -209,10 +203,14 @@ pub(super) fn prepare(
     }
     let tir = match tir_picture {
         Picture::Gray8(g) => {
-            if (args.agc.is_some() || args.plateau.is_some()) && args.agc_smoothing.is_none() {
-                note!(
-                    "fusion: note: {} is 8-bit: --agc and --plateau apply to 14/16-bit counts and are not used",
-                    tir_path.display()
+            if args.thermal_agc.given() || args.agc_smoothing.is_some() {
+                fusion_io::console::stderr_note_once(
+                    "8-bit thermal with AGC options",
+                    format_args!(
+                        "fusion: note: {} is 8-bit: --agc, --plateau and --agc-smoothing apply to 14/16-bit counts and are not used{}",
+                        tir_path.display(),
+                        if args.tir.is_dir() { " (said once for the folder)" } else { "" }
+                    ),
                 );
             }
             g

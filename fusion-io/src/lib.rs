@@ -12,9 +12,14 @@
 //!   give, so metrics on JPEGs reproduce the field's published values; the other formats by
 //!   the `image` crate.
 //! * **The write path** ([`output`]): every file through an exclusive temporary in the
-//!   destination folder, synced and renamed into place; related files all or none
-//!   ([`output::Batch`]); new folders appear whole ([`output::in_new_folder`]); temporaries
-//!   removed on SIGINT/SIGTERM.
+//!   destination folder, synced and renamed over the destination (a reader sees the old bytes
+//!   or the new, never no file); related files all or none ([`output::Batch`]); new folders
+//!   appear whole ([`output::in_new_folder`]); on SIGINT/SIGTERM/SIGHUP every temporary and
+//!   every empty folder the run made is removed and every earlier output is as it was or
+//!   replaced whole.
+//! * **Inputs read as they were written**: images of a folder paired by their names' own bytes
+//!   (UTF-8 or not), PGM/PPM included ([`folders`]); a file holding several images (an animated
+//!   PNG, a multi-page TIFF) or samples no reader here takes (floating point) refused by name.
 //! * **Console** ([`console`]): standard output and error without panics, `--quiet`, and the
 //!   macros [`out!`], [`outln!`] and [`note!`].
 //! * **The thermal camera's calibration files** ([`thermal`]): NUC tables and bad-pixel maps.

@@ -51,7 +51,7 @@ fn main() -> ExitCode {
             fusion_io::console::stderr_line(format_args!("{}", std::backtrace::Backtrace::force_capture()));
         }
     }));
-    // SIGINT/SIGTERM remove the outputs being written (render_host::output).
+    // SIGINT/SIGTERM/SIGHUP remove the outputs being written (fusion_io::output).
     fusion_io::output::remove_in_flight_on_signal();
     if STDOUT_WAS_CLOSED.load(std::sync::atomic::Ordering::Relaxed) {
         fusion_io::console::stderr_line(format_args!(

@@ -250,7 +250,7 @@ fn what_a_run_could_do_quietly_is_said() {
     let closed = dir.path().join("closed");
     let o = Command::new("sh")
         .arg("-c")
-        .arg(format!("exec \"$0\" fuse \"$1\" \"$2\" \"$3\" >&-"))
+        .arg("exec \"$0\" fuse \"$1\" \"$2\" \"$3\" >&-")
         .args([bin().as_path(), &v, &t, &closed])
         .output()
         .unwrap();

@@ -243,6 +243,19 @@ fn navbench_refuses_damaged_data_in_one_line() {
         edit_manifest(&d, &|m| m["vis_camera"]["size"] = size.into());
         cases.push((d, "vis_camera.size"));
     }
+    // Values no renderer writes: judged silently before (exit 0, figures of nothing).
+    let impossible: [(&str, &str, serde_json::Value, &str); 5] = [
+        ("focal", "/vis_camera/focal_px", 0.0.into(), "vis_camera.focal_px 0"),
+        ("quat", "/frames/1/quaternion_wxyz/0", 3.0.into(), "frame 1: quaternion_wxyz"),
+        ("time", "/frames/2/time_s", 0.5.into(), "frame 2: time_s 0.5 is not after"),
+        ("sun", "/frames/0/sun_fraction", 2.0.into(), "frame 0: sun_fraction 2"),
+        ("escape", "/frames/0/files/vis", "../../../etc/passwd".into(), "not a path inside"),
+    ];
+    for (name, pointer, value, needle) in impossible {
+        let d = copy(name);
+        edit_manifest(&d, &|m| *m.pointer_mut(pointer).unwrap() = value.clone());
+        cases.push((d, needle));
+    }
     let d = copy("one");
     edit_manifest(&d, &|m| {
         let first = m["frames"][0].clone();

@@ -1,4 +1,4 @@
-//! The one write path (`render_host::output`): outputs are all or nothing, never redirected,
+//! The one write path (`fusion_io::output`): outputs are all or nothing, never redirected,
 //! only regular files are replaced, long names work, a failing standard output is an error.
 //! Interruptions: `cli_interrupt.rs`.
 

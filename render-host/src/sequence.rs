@@ -654,11 +654,113 @@ pub fn cameras(cfg: &SequenceConfig, pose: Pose) -> Result<(Camera, Camera)> {
     }
 }
 
-/// Reads a sequence's `manifest.json`.
+/// Reads a sequence's `manifest.json` and refuses one whose values a renderer could not have
+/// written ([`SequenceManifest::check`]): a damaged or hand-edited manifest is named, not judged.
 pub fn read_manifest(dir: &Path) -> Result<SequenceManifest> {
     let path = dir.join("manifest.json");
     let text = std::fs::read_to_string(&path).with_context(|| format!("cannot read {}", path.display()))?;
-    serde_json::from_str(&text).with_context(|| format!("{} is not a sequence manifest", path.display()))
+    let m: SequenceManifest = serde_json::from_str(&text)
+        .with_context(|| format!("{} is not a sequence manifest", path.display()))?;
+    m.check().map_err(|why| anyhow::anyhow!("{}: {why}", path.display()))?;
+    Ok(m)
+}
+
+/// Whether a manifest's file name stays inside the sequence's folder (relative, no `..`).
+fn inside_folder(name: &str) -> bool {
+    !name.is_empty() && Path::new(name).components().all(|c| matches!(c, std::path::Component::Normal(_)))
+}
+
+/// Tolerance of the manifest's consistency checks: its poses are stored in `f32`.
+const MANIFEST_TOLERANCE: f32 = 1e-3;
+
+impl SequenceManifest {
+    /// Checks what a renderer guarantees of its manifest: cameras with a positive focal length
+    /// and the principal point on the image; frames in time order; per frame a finite position
+    /// and a positive range, a unit quaternion, a rotation that is orthonormal and that
+    /// quaternion's, a sun fraction in [0, 1], a unit sun direction, and files named inside the
+    /// sequence's folder. The reason names the frame and the field.
+    pub fn check(&self) -> std::result::Result<(), String> {
+        for (name, c) in [("vis_camera", &self.vis_camera), ("tir_camera", &self.tir_camera)] {
+            if c.size == 0 {
+                return Err(format!("{name}.size 0 is not an image size"));
+            }
+            if !(c.focal_px.is_finite() && c.focal_px > 0.0) {
+                return Err(format!("{name}.focal_px {} is not a positive length", c.focal_px));
+            }
+            let on_image = |v: f32| v.is_finite() && (0.0..=c.size as f32).contains(&v);
+            if !c.principal_point.iter().all(|&v| on_image(v)) {
+                return Err(format!(
+                    "{name}.principal_point {:?} is not on the {}x{} image",
+                    c.principal_point, c.size, c.size
+                ));
+            }
+        }
+        for name in [&self.nuc, &self.bad_pixels, &self.rig].into_iter().flatten() {
+            if !inside_folder(name) {
+                return Err(format!("file {name:?} is not a path inside the sequence's folder"));
+            }
+        }
+        let tol = MANIFEST_TOLERANCE;
+        for (k, f) in self.frames.iter().enumerate() {
+            let bad = |what: String| Err(format!("frame {k}: {what}"));
+            if k > 0 && f.time_s.partial_cmp(&self.frames[k - 1].time_s) != Some(std::cmp::Ordering::Greater)
+            {
+                return bad(format!(
+                    "time_s {} is not after the frame before ({})",
+                    f.time_s,
+                    self.frames[k - 1].time_s
+                ));
+            }
+            if !f.time_s.is_finite() {
+                return bad(format!("time_s {} is not finite", f.time_s));
+            }
+            if !(0.0..=1.0).contains(&f.sun_fraction) {
+                return bad(format!("sun_fraction {} is outside 0 to 1", f.sun_fraction));
+            }
+            let p = Vec3::from_array(f.position_m);
+            if !(p.is_finite() && f.range_m.is_finite() && f.range_m > 0.0) {
+                return bad(format!(
+                    "position_m {:?} and range_m {} are not a position",
+                    f.position_m, f.range_m
+                ));
+            }
+            let q = glam::Quat::from_xyzw(
+                f.quaternion_wxyz[1],
+                f.quaternion_wxyz[2],
+                f.quaternion_wxyz[3],
+                f.quaternion_wxyz[0],
+            );
+            if !q.is_finite() || (q.length() - 1.0).abs() > tol {
+                return bad(format!("quaternion_wxyz {:?} is not a unit quaternion", f.quaternion_wxyz));
+            }
+            let r = glam::Mat3::from_cols_array_2d(&f.rotation_cam_to_target).transpose();
+            let rq = glam::Mat3::from_quat(q);
+            let differs = |a: glam::Mat3, b: glam::Mat3| {
+                (0..3).any(|i| (a.col(i) - b.col(i)).abs().max_element() > tol || !a.col(i).is_finite())
+            };
+            if differs(r.transpose() * r, glam::Mat3::IDENTITY) || differs(r, rq) {
+                return bad("rotation_cam_to_target is not the rotation of quaternion_wxyz".to_string());
+            }
+            let sun = Vec3::from_array(f.sun_dir_target);
+            if !sun.is_finite() || (sun.length() - 1.0).abs() > tol {
+                return bad(format!("sun_dir_target {:?} is not a unit vector", f.sun_dir_target));
+            }
+            let files = &f.files;
+            let named = [Some(&files.vis), Some(&files.tir), Some(&files.vis_mask), Some(&files.tir_mask)]
+                .into_iter()
+                .chain(
+                    [&files.vis_clean, &files.tir_clean, &files.tir16, &files.tir_raw, &files.tir_shutter]
+                        .map(Option::as_ref),
+                )
+                .flatten();
+            for name in named {
+                if !inside_folder(name) {
+                    return bad(format!("file {name:?} is not a path inside the sequence's folder"));
+                }
+            }
+        }
+        Ok(())
+    }
 }
 
 #[cfg(test)]

@@ -2,6 +2,7 @@
 
 pub mod camera;
 pub mod dataset;
+pub mod earth;
 pub mod focal_plane;
 pub mod image;
 pub mod material;
@@ -25,5 +26,5 @@ pub use render::{RenderOptions, render};
 pub use scene::{Material, Scene};
 pub use surface::{SurfaceDetail, SurfacePoint};
 pub use thermal::{ThermalParams, eclipse_transient, face_temperatures, steady_state};
-pub use tir::{DnMapping, Radiometry, TirParams, render_tir};
-pub use vis::{Illumination, VisParams, render_vis};
+pub use tir::{DnMapping, Radiometry, TirParams, render_tir, render_tir_over};
+pub use vis::{Illumination, VisParams, render_vis, render_vis_over};

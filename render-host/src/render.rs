@@ -75,6 +75,9 @@ pub struct RenderOptions {
     /// built-in [`crate::rig::offset_rig`]) or an OpenCV calibration file (`fusion_io::rig`);
     /// the cameras' sizes are the rig's.
     pub rig: Option<PathBuf>,
+    /// With a sequence: the Earth behind the target in both bands at this orbit altitude, km
+    /// ([`crate::earth`]); `None`: black space.
+    pub earth_km: Option<f64>,
 }
 
 impl Default for RenderOptions {
@@ -94,6 +97,7 @@ impl Default for RenderOptions {
             t_max: 400.0,
             tir16: false,
             raw_tir: false,
+            earth_km: None,
             eclipse_minutes: None,
             no_specular: false,
             flat: false,
@@ -149,6 +153,14 @@ impl RenderOptions {
         let tir_sizes = self.tir_sizes_or_default();
         if self.vis_size == 0 || tir_sizes.is_empty() || tir_sizes.contains(&0) {
             bail!("--vis-size and --tir-sizes must be positive");
+        }
+        if let Some(km) = self.earth_km {
+            if self.sequence.is_none() {
+                bail!("--earth draws the Earth behind a sequence's target: give --sequence");
+            }
+            if !(km.is_finite() && (150.0..=40_000.0).contains(&km)) {
+                bail!("--earth: the orbit altitude must be between 150 and 40000 km");
+            }
         }
         if let Some(n) = self.samples
             && !(1..=MAX_SAMPLES).contains(&n)
@@ -218,6 +230,10 @@ pub fn sequence_config(
         noise: cfg.noise,
         write_tir16: args.tir16,
         focal_plane: args.raw_tir.then(crate::focal_plane::FocalPlaneParams::default),
+        earth: args.earth_km.map(|km| crate::earth::EarthParams {
+            altitude_m: km * 1000.0,
+            seed: cfg.surface_seed ^ cfg.seed,
+        }),
         ..SequenceConfig::new(name)
     })
 }

@@ -40,9 +40,9 @@ use crate::image::{write_png8, write_png16};
 use crate::noise::{Band, NoiseParams, apply_sensor_noise, rng_for};
 use crate::scene::Scene;
 use crate::thermal::{NodeBalance, ThermalParams, advance, face_temperatures, steady_state};
-use crate::tir::{TirParams, render_tir};
-use crate::truth::target_mask;
-use crate::vis::{VisParams, render_vis};
+use crate::tir::{TirParams, render_tir_over};
+use crate::truth::{earth_mask, target_mask};
+use crate::vis::{VisParams, render_vis_over};
 use anyhow::{Context, Result, bail};
 use fusion_io::output::write_json;
 use glam::{Quat, Vec3};
@@ -154,6 +154,11 @@ pub struct SequenceConfig {
     /// the field read `None`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub focal_plane: Option<FocalPlaneParams>,
+    /// The Earth behind the target in both bands ([`crate::earth`]), along `vis.earth_dir` at
+    /// its altitude, the ground moving under the orbit; the earthshine then follows the Earth
+    /// drawn. Manifests without it: black space.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub earth: Option<crate::earth::EarthParams>,
     /// An offset camera pair instead of today's aligned one: each camera with its own
     /// intrinsics, distortion and pose on the chaser ([`crate::rig`]); `vis_size` and
     /// `tir_size` are then the rig's widths. Written beside the frames as
@@ -180,6 +185,7 @@ impl SequenceConfig {
             write_clean: true,
             write_tir16: false,
             focal_plane: None,
+            earth: None,
             rig: None,
         }
     }
@@ -283,6 +289,26 @@ pub fn state(cfg: &SequenceConfig, i: usize) -> InertialState {
     }
 }
 
+/// The Earth as frame `i` sees it: along the configured Earth direction (inertial) turned into
+/// the target's body frame, its surface turned by the target's attitude and by the ground's
+/// motion under the orbit (the orbit's mean motion about the normal of the plane holding the
+/// Earth and the sun directions).
+pub fn earth_view(
+    cfg: &SequenceConfig,
+    earth: &crate::earth::EarthParams,
+    st: &InertialState,
+    centre: Vec3,
+    i: usize,
+) -> crate::earth::EarthView {
+    let to_body = st.attitude.inverse();
+    let towards = cfg.vis.earth_dir.normalize();
+    let normal = towards.cross(st.sun.normalize());
+    let normal = if normal.length() > 1e-3 { normal.normalize() } else { towards.any_orthonormal_vector() };
+    let ground = glam::DQuat::from_axis_angle(normal.as_dvec3(), earth.mean_motion() * cfg.time(i));
+    let to_surface = ground * st.attitude.as_dquat().normalize();
+    crate::earth::EarthView::new(earth, centre, to_body * towards, to_surface, to_body * st.sun)
+}
+
 /// The camera pose of a state in the target body frame (the frame the scene is built in): the
 /// camera looks at the scene's centre with `state.up` as image up.
 pub fn camera_pose(state: &InertialState, scene: &Scene) -> Pose {
@@ -318,6 +344,13 @@ pub struct SequenceFiles {
     pub vis_mask: String,
     /// TIR target mask.
     pub tir_mask: String,
+    /// VIS Earth mask (with the Earth drawn): 255 where the pixel centre's ray misses the target
+    /// and hits the Earth's surface (the limb's glow above it not counted).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub vis_earth_mask: Option<String>,
+    /// TIR Earth mask.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tir_earth_mask: Option<String>,
 }
 
 /// Ground truth of one frame.
@@ -457,6 +490,9 @@ pub fn render_sequence(cfg: &SequenceConfig, out_dir: &Path, progress: bool) -> 
     if cfg.write_tir16 {
         dirs.push("tir16");
     }
+    if cfg.earth.is_some() {
+        dirs.extend(["vis_earth_mask", "tir_earth_mask"]);
+    }
     let focal_plane = cfg.focal_plane.map(|p| {
         FocalPlane::new(p, cfg.tir_size as usize, cfg.tir_size as usize, cfg.tir.t_max - cfg.tir.t_min)
     });
@@ -486,18 +522,22 @@ pub fn render_sequence(cfg: &SequenceConfig, out_dir: &Path, progress: bool) -> 
         .map(|(i, (st, node_t))| {
             let pose = camera_pose(&st, &scene);
             let sun_body = (st.attitude.inverse() * st.sun).normalize();
-            let vis_params = VisParams {
+            let earth_body = (st.attitude.inverse() * cfg.vis.earth_dir).normalize();
+            let earth = cfg.earth.map(|e| earth_view(cfg, &e, &st, scene.centre, i));
+            let mut vis_params = VisParams {
                 sun_dir: sun_body,
-                earth_dir: (st.attitude.inverse() * cfg.vis.earth_dir).normalize(),
+                earth_dir: earth_body,
                 sun_fraction: st.sun_fraction as f32,
                 ..cfg.vis
             };
+            if let Some(e) = &earth {
+                vis_params.earthshine = e.earthshine(earth_body) as f32;
+            }
             let face_t = face_temperatures(&scene, &node_t);
             let (vis_cam, tir_cam) = cameras(cfg, pose)?;
-            let mut vis = render_vis(&scene, &vis_cam, &vis_params);
-            let earth_body = (st.attitude.inverse() * cfg.vis.earth_dir).normalize();
+            let mut vis = render_vis_over(&scene, &vis_cam, &vis_params, earth.as_ref());
             let tir_params = TirParams { earth_dir: earth_body, ..cfg.tir };
-            let mut tir = render_tir(&scene, &tir_cam, &face_t, &tir_params);
+            let mut tir = render_tir_over(&scene, &tir_cam, &face_t, &tir_params, earth.as_ref());
             vis.clip();
             tir.clip();
             let vis_noisy = apply_sensor_noise(
@@ -557,6 +597,15 @@ pub fn render_sequence(cfg: &SequenceConfig, out_dir: &Path, progress: bool) -> 
                 let bytes = mask.iter().map(|&m| if m { 255u8 } else { 0 }).collect();
                 let img = GrayImage::from_raw(cam.width, cam.height, bytes).context("mask size")?;
                 write_png8(&out_dir.join(rel), &img)?;
+                if let Some(e) = &earth {
+                    let band = if k == 0 { "vis" } else { "tir" };
+                    let rel = format!("{band}_earth_mask/{file}");
+                    let bytes =
+                        earth_mask(cam, e, &mask).iter().map(|&m| if m { 255u8 } else { 0 }).collect();
+                    let img = GrayImage::from_raw(cam.width, cam.height, bytes).context("mask size")?;
+                    write_png8(&out_dir.join(&rel), &img)?;
+                    *(if k == 0 { &mut files.vis_earth_mask } else { &mut files.tir_earth_mask }) = Some(rel);
+                }
             }
             let mut thumbs = Vec::new();
             if sheet_frames.contains(&i) {
@@ -749,8 +798,16 @@ impl SequenceManifest {
             let named = [Some(&files.vis), Some(&files.tir), Some(&files.vis_mask), Some(&files.tir_mask)]
                 .into_iter()
                 .chain(
-                    [&files.vis_clean, &files.tir_clean, &files.tir16, &files.tir_raw, &files.tir_shutter]
-                        .map(Option::as_ref),
+                    [
+                        &files.vis_clean,
+                        &files.tir_clean,
+                        &files.tir16,
+                        &files.tir_raw,
+                        &files.tir_shutter,
+                        &files.vis_earth_mask,
+                        &files.tir_earth_mask,
+                    ]
+                    .map(Option::as_ref),
                 )
                 .flatten();
             for name in named {

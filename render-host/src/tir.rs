@@ -1,4 +1,5 @@
-//! TIR rendering: every face is a Lambertian emitter at its temperature; no lights, no shadows.
+//! TIR rendering: every face is a Lambertian emitter at its temperature; no lights, no shadows;
+//! behind the target black space or the Earth ([`render_tir_over`], [`crate::earth`]).
 //!
 //! Two radiometric modes:
 //! - [`Radiometry::Radiometric`] (default): a resolved Lambertian emitter traced with one ray per
@@ -16,6 +17,7 @@
 //! (≈ 3 K) falls below `T_min` and clips to 0.
 
 use crate::camera::Camera;
+use crate::earth::{EarthPixel, EarthView};
 use crate::image::Image;
 use crate::scene::Scene;
 use crate::thermal::SIGMA;
@@ -117,6 +119,19 @@ impl TirParams {
 /// Renders one TIR frame from per-face temperatures (K, indexed like [`Scene::faces`]).
 /// Values are in [0, 1] after the DN mapping, unclipped (the DN conversion clips).
 pub fn render_tir(scene: &Scene, camera: &Camera, face_temperatures: &[f32], params: &TirParams) -> Image {
+    render_tir_over(scene, camera, face_temperatures, params, None)
+}
+
+/// [`render_tir`] with the Earth behind the target where a ray misses it (`None`: black space,
+/// the same bytes as [`render_tir`]); its radiance takes the lens's `cos⁴` fall-off in both
+/// radiometric modes (the study's view factor is the target's facets', not the Earth's).
+pub fn render_tir_over(
+    scene: &Scene,
+    camera: &Camera,
+    face_temperatures: &[f32],
+    params: &TirParams,
+    background: Option<&EarthView>,
+) -> Image {
     let mut img = Image::new(camera.width, camera.height);
     let w = camera.width as usize;
     let axis = camera.pose.forward();
@@ -126,8 +141,9 @@ pub fn render_tir(scene: &Scene, camera: &Camera, face_temperatures: &[f32], par
     // The footprint divisor: a sub-pixel sees 1/n of the pixel's footprint.
     let focal = camera.focal_px * n as f32;
     // The radiance along the ray `d` (0: space).
-    let radiance = |d: glam::Vec3| -> f64 {
-        let Some(hit) = scene.intersect(camera.pose.position, d, 0.0) else { return 0.0 };
+    // The radiance of the target along the ray `d` (`None`: the ray misses it).
+    let radiance = |d: glam::Vec3| -> Option<f64> {
+        let hit = scene.intersect(camera.pose.position, d, 0.0)?;
         let face = &scene.faces[hit.face as usize];
         let t = f64::from(face_temperatures.get(hit.face as usize).copied().unwrap_or(0.0));
         let (t, eps, reflected) = match &scene.detail {
@@ -152,12 +168,21 @@ pub fn render_tir(scene: &Scene, camera: &Camera, face_temperatures: &[f32], par
                 cos_c * cos_f * (params.study_reference_range / s).powi(2)
             }
         };
-        weight * (eps * TirParams::blackbody_radiance(t) + reflected)
+        Some(weight * (eps * TirParams::blackbody_radiance(t) + reflected))
     };
     img.data.par_chunks_mut(w.max(1)).enumerate().for_each(|(y, row)| {
         for (x, px) in row.iter_mut().enumerate() {
-            let sum: f64 =
-                Camera::subpixels(x as u32, y as u32, n).map(|(u, v)| radiance(camera.ray_dir(u, v))).sum();
+            let mut behind = background
+                .map(|e| EarthPixel::new(e, camera.pose.position, camera.pixel_ray(x as u32, y as u32)));
+            let sum: f64 = Camera::subpixels(x as u32, y as u32, n)
+                .map(|(u, v)| {
+                    let d = camera.ray_dir(u, v);
+                    radiance(d).unwrap_or_else(|| {
+                        let lens = f64::from(axis.dot(d)).max(0.0).powi(4);
+                        behind.as_mut().map_or(0.0, |b| lens * b.sample(d, EarthView::tir_radiance))
+                    })
+                })
+                .sum();
             *px = params.value_of_radiance(sum / f64::from(n * n)) as f32;
         }
     });

@@ -1,7 +1,8 @@
 //! VIS rendering: sun-lit Lambertian shading with an optional Blinn–Phong lobe, shadow rays,
-//! black space.
+//! black space or the Earth behind the target ([`render_vis_over`], [`crate::earth`]).
 
 use crate::camera::Camera;
+use crate::earth::{EarthPixel, EarthView};
 use crate::image::Image;
 use crate::scene::Scene;
 use glam::Vec3;
@@ -109,6 +110,17 @@ pub fn default_earth_dir() -> Vec3 {
 /// radiance, `exposure × (albedo cos θ_s + specular)` averaged over the pixel, not clipped (the
 /// DN conversion clips).
 pub fn render_vis(scene: &Scene, camera: &Camera, params: &VisParams) -> Image {
+    render_vis_over(scene, camera, params, None)
+}
+
+/// [`render_vis`] with the Earth behind the target where a ray misses it (`None`: black
+/// space, the same bytes as [`render_vis`]). The Earth's radiance takes the same exposure.
+pub fn render_vis_over(
+    scene: &Scene,
+    camera: &Camera,
+    params: &VisParams,
+    earth: Option<&EarthView>,
+) -> Image {
     let mut img = Image::new(camera.width, camera.height);
     let w = camera.width as usize;
     let n = params.samples.max(1);
@@ -116,8 +128,17 @@ pub fn render_vis(scene: &Scene, camera: &Camera, params: &VisParams) -> Image {
     let focal = camera.focal_px * n as f32;
     img.data.par_chunks_mut(w.max(1)).enumerate().for_each(|(y, row)| {
         for (x, px) in row.iter_mut().enumerate() {
+            let mut behind =
+                earth.map(|e| EarthPixel::new(e, camera.pose.position, camera.pixel_ray(x as u32, y as u32)));
             let sum: f32 = Camera::subpixels(x as u32, y as u32, n)
-                .map(|(u, v)| shade(scene, camera, params, camera.ray_dir(u, v), focal))
+                .map(|(u, v)| {
+                    let d = camera.ray_dir(u, v);
+                    shade(scene, camera, params, d, focal).unwrap_or_else(|| {
+                        behind
+                            .as_mut()
+                            .map_or(0.0, |b| params.exposure * b.sample(d, EarthView::vis_radiance) as f32)
+                    })
+                })
                 .sum();
             *px = sum / (n * n) as f32;
         }
@@ -125,11 +146,11 @@ pub fn render_vis(scene: &Scene, camera: &Camera, params: &VisParams) -> Image {
     img
 }
 
-/// The radiance seen along the ray `d`; a hit at range `t` sees a footprint of `t / focal`
-/// metres.
-fn shade(scene: &Scene, camera: &Camera, p: &VisParams, d: Vec3, focal: f32) -> f32 {
+/// The radiance of the target seen along the ray `d` (`None`: the ray misses it); a hit at
+/// range `t` sees a footprint of `t / focal` metres.
+fn shade(scene: &Scene, camera: &Camera, p: &VisParams, d: Vec3, focal: f32) -> Option<f32> {
     let origin = camera.pose.position;
-    let Some(hit) = scene.intersect(origin, d, 0.0) else { return 0.0 };
+    let hit = scene.intersect(origin, d, 0.0)?;
     let props = scene.faces[hit.face as usize].material.props();
     let (albedo, specular, shading_normal) = match &scene.detail {
         Some(detail) => {
@@ -160,5 +181,5 @@ fn shade(scene: &Scene, camera: &Camera, p: &VisParams, d: Vec3, focal: f32) -> 
         }
         value += e * v;
     }
-    p.exposure * value
+    Some(p.exposure * value)
 }

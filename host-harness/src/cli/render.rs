@@ -96,6 +96,11 @@ pub struct RenderArgs {
     /// are the rig's; the rig is written beside the frames (`calibration/rig.json`).
     #[arg(long, value_name = "offset|FILE", requires = "sequence")]
     pub rig: Option<PathBuf>,
+    /// With --sequence: the Earth behind the target in both bands (ocean, land, clouds, the
+    /// terminator, the limb; render_host::earth), seen from an orbit at KM altitude
+    /// [default when given without a value: 500]; Earth masks beside the target masks.
+    #[arg(long, value_name = "KM", num_args = 0..=1, default_missing_value = "500", requires = "sequence")]
+    pub earth: Option<f64>,
 }
 
 impl From<RenderArgs> for RenderOptions {
@@ -125,6 +130,7 @@ impl From<RenderArgs> for RenderOptions {
             demo: a.demo,
             samples: a.samples,
             rig: a.rig,
+            earth_km: a.earth,
         }
     }
 }

@@ -78,6 +78,8 @@ pub struct RenderOptions {
     /// With a sequence: the Earth behind the target in both bands at this orbit altitude, km
     /// ([`crate::earth`]); `None`: black space.
     pub earth_km: Option<f64>,
+    /// With a sequence: the sun–target–camera phase angle at the first frame, degrees (0–180).
+    pub sun_phase_deg: Option<f64>,
 }
 
 impl Default for RenderOptions {
@@ -98,6 +100,7 @@ impl Default for RenderOptions {
             tir16: false,
             raw_tir: false,
             earth_km: None,
+            sun_phase_deg: None,
             eclipse_minutes: None,
             no_specular: false,
             flat: false,
@@ -153,6 +156,14 @@ impl RenderOptions {
         let tir_sizes = self.tir_sizes_or_default();
         if self.vis_size == 0 || tir_sizes.is_empty() || tir_sizes.contains(&0) {
             bail!("--vis-size and --tir-sizes must be positive");
+        }
+        if let Some(phase) = self.sun_phase_deg {
+            if self.sequence.is_none() {
+                bail!("--sun-phase sets the lighting of a sequence: give --sequence");
+            }
+            if !(phase.is_finite() && (0.0..=180.0).contains(&phase)) {
+                bail!("--sun-phase must be between 0 and 180 degrees");
+            }
         }
         if let Some(km) = self.earth_km {
             if self.sequence.is_none() {
@@ -234,6 +245,7 @@ pub fn sequence_config(
             altitude_m: km * 1000.0,
             seed: cfg.surface_seed ^ cfg.seed,
         }),
+        sun_phase_deg: args.sun_phase_deg,
         ..SequenceConfig::new(name)
     })
 }

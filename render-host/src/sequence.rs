@@ -6,17 +6,21 @@
 //! (default 1 Hz) for [`SequenceConfig::frames`] frames (default 120):
 //!
 //! * **`approach`**: closing from 50 m to 5 m along a fixed line of sight on the sunlit side
-//!   (16° from the sun) with a slow lateral drift of ± 10°; the range shrinks geometrically (a
-//!   constant ratio per frame, as a glide-slope approach whose closing rate is proportional to
-//!   range), so the 0.74 m target spans 24 px of the VIS frame at the start and 237 px at the
-//!   end (the study's working ranges); the target tumbles at 1 °/s about a tilted axis. In
-//!   sunlight throughout.
+//!   (a sun phase angle of 14.3° at the first frame) with a slow lateral drift of ± 10°; the
+//!   range shrinks geometrically (a constant ratio per frame, as a glide-slope approach whose
+//!   closing rate is proportional to range), so the 0.74 m target spans 24 px of the VIS frame
+//!   at the start and 237 px at the end (the study's working ranges); the target tumbles at
+//!   1 °/s about a tilted axis. In sunlight throughout.
 //! * **`flyaround`**: a full circumnavigation at 8 m (the target ≈ 150 px across in VIS) on a
 //!   plane tilted 30° from the target's x–y plane, starting and ending on the sunlit side, the
 //!   target spinning at 0.5 °/s about its z axis; the pair enters the Earth's shadow at 35 % of
 //!   the sequence and leaves it at 65 %, each time through an 8 s penumbra (the visible
 //!   fraction of the solar disc as the Earth's limb crosses it: a circular segment, not a
 //!   switch).
+//!
+//! Options of every sequence: the sun–target–camera phase angle
+//! ([`SequenceConfig::sun_phase_deg`], `--sun-phase`) and the Earth behind the target
+//! ([`SequenceConfig::earth`], `--earth`, [`crate::earth`]).
 //!
 //! Each pixel integrates [`SEQUENCE_SAMPLES`]² rays over its area (the study's datasets shoot
 //! one through its centre): the surface detail then moves with the surface as the view turns,
@@ -159,6 +163,12 @@ pub struct SequenceConfig {
     /// drawn. Manifests without it: black space.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub earth: Option<crate::earth::EarthParams>,
+    /// The sun–target–camera phase angle at the first frame, degrees (0: the sun behind the
+    /// camera, 180: behind the target, in the camera's view). The sun turns from the first
+    /// frame's line of sight towards `vis.sun_dir` by this angle (the trajectory itself is laid
+    /// out with `vis.sun_dir`, so only the lighting changes); `None`: the sun at `vis.sun_dir`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sun_phase_deg: Option<f64>,
     /// An offset camera pair instead of today's aligned one: each camera with its own
     /// intrinsics, distortion and pose on the chaser ([`crate::rig`]); `vis_size` and
     /// `tir_size` are then the rig's widths. Written beside the frames as
@@ -186,6 +196,7 @@ impl SequenceConfig {
             write_tir16: false,
             focal_plane: None,
             earth: None,
+            sun_phase_deg: None,
             rig: None,
         }
     }
@@ -238,6 +249,23 @@ pub fn disc_fraction_uncovered(progress: f64) -> f64 {
 
 /// The inertial state of frame `i` (see the module docs for the trajectories).
 pub fn state(cfg: &SequenceConfig, i: usize) -> InertialState {
+    let mut st = laid_out(cfg, i);
+    if let Some(phase) = cfg.sun_phase_deg {
+        st.sun = phased_sun(laid_out(cfg, 0).eye.normalize(), st.sun, phase);
+    }
+    st
+}
+
+/// The sun at `phase` degrees from the line of sight `eye` (unit, target → camera), in the
+/// plane holding `eye` and `sun` (any plane through `eye` when the two are parallel).
+pub fn phased_sun(eye: Vec3, sun: Vec3, phase: f64) -> Vec3 {
+    let axis = eye.cross(sun);
+    let axis = if axis.length() > 1e-6 { axis.normalize() } else { eye.any_orthonormal_vector() };
+    (Quat::from_axis_angle(axis, phase.to_radians() as f32) * eye).normalize()
+}
+
+/// The state of frame `i` with the sun at `vis.sun_dir` (the trajectories are laid out with it).
+fn laid_out(cfg: &SequenceConfig, i: usize) -> InertialState {
     let t = cfg.time(i);
     let u = t / cfg.duration();
     let sun = cfg.vis.sun_dir.normalize();
@@ -245,7 +273,8 @@ pub fn state(cfg: &SequenceConfig, i: usize) -> InertialState {
         SequenceName::Approach => {
             let range = APPROACH_RANGE_M.0 * (APPROACH_RANGE_M.1 / APPROACH_RANGE_M.0).powf(u);
             let drift = (10.0f64.to_radians() * (std::f64::consts::PI * u).sin()) as f32;
-            // On the sunlit side (16° from the sun): the approach sees the lit panel and two lit sides.
+            // On the sunlit side (14.3° from the sun at the start): the approach sees the lit
+            // panel and two lit sides.
             let base = Vec3::new(0.6, 0.45, 0.65).normalize();
             let dir = Quat::from_axis_angle(Vec3::Z, drift) * base;
             let axis = Vec3::new(0.3, 0.2, 1.0).normalize();
@@ -823,6 +852,32 @@ impl SequenceManifest {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_sun_phase_angle_is_the_angle_asked_and_the_trajectory_stays() {
+        for name in [SequenceName::Approach, SequenceName::Flyaround] {
+            let plain = SequenceConfig::new(name);
+            let angle = |st: &InertialState| {
+                f64::from(st.eye.normalize().dot(st.sun).clamp(-1.0, 1.0)).acos().to_degrees()
+            };
+            // The approach's own sun is 14.3° from its first line of sight, as the module says.
+            if name == SequenceName::Approach {
+                assert!((angle(&state(&plain, 0)) - 14.3).abs() < 0.1, "{}", angle(&state(&plain, 0)));
+            }
+            for phase in [0.0, 45.0, 90.0, 150.0, 180.0] {
+                let cfg = SequenceConfig { sun_phase_deg: Some(phase), ..plain.clone() };
+                let (a, b) = (state(&cfg, 0), state(&plain, 0));
+                assert!((angle(&a) - phase).abs() < 0.01, "{name:?} {phase}: {}", angle(&a));
+                assert_eq!(
+                    (a.eye, a.attitude, a.up, a.sun_fraction),
+                    (b.eye, b.attitude, b.up, b.sun_fraction)
+                );
+                assert!((a.sun.length() - 1.0).abs() < 1e-6);
+                // One sun for the whole sequence.
+                assert_eq!(state(&cfg, 7).sun, a.sun);
+            }
+        }
+    }
 
     #[test]
     fn the_uncovered_disc_fraction_is_a_circular_segment() {

@@ -101,6 +101,11 @@ pub struct RenderArgs {
     /// [default when given without a value: 500]; Earth masks beside the target masks.
     #[arg(long, value_name = "KM", num_args = 0..=1, default_missing_value = "500", requires = "sequence")]
     pub earth: Option<f64>,
+    /// With --sequence: the sun–target–camera phase angle at the first frame, degrees (0: the
+    /// sun behind the camera, 180: behind the target); the trajectory is unchanged, the sun
+    /// turns [default: the sequence's own sun, 14.3° on the approach].
+    #[arg(long, value_name = "DEG", requires = "sequence")]
+    pub sun_phase: Option<f64>,
 }
 
 impl From<RenderArgs> for RenderOptions {
@@ -131,6 +136,7 @@ impl From<RenderArgs> for RenderOptions {
             samples: a.samples,
             rig: a.rig,
             earth_km: a.earth,
+            sun_phase_deg: a.sun_phase,
         }
     }
 }

@@ -153,9 +153,7 @@ struct Staged {
 impl Drop for Staged {
     fn drop(&mut self) {
         if let Some(temp) = self.temp.take() {
-            let mut list = pending();
-            let _ = std::fs::remove_file(&temp);
-            forget(&mut list, &temp);
+            remove_pending(&temp);
         }
     }
 }

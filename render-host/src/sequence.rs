@@ -318,6 +318,13 @@ fn laid_out(cfg: &SequenceConfig, i: usize) -> InertialState {
     }
 }
 
+/// Writes a camera's mask as an 8-bit PNG (255 where set) at `rel` in `out_dir`.
+fn write_mask(out_dir: &Path, rel: &str, cam: &Camera, mask: &[bool]) -> Result<()> {
+    let bytes = mask.iter().map(|&m| if m { 255u8 } else { 0 }).collect();
+    let img = GrayImage::from_raw(cam.width, cam.height, bytes).context("mask size")?;
+    write_png8(&out_dir.join(rel), &img)
+}
+
 /// The Earth as frame `i` sees it: along the configured Earth direction (inertial) turned into
 /// the target's body frame, its surface turned by the target's attitude and by the ground's
 /// motion under the orbit (the orbit's mean motion about the normal of the plane holding the
@@ -623,16 +630,11 @@ pub fn render_sequence(cfg: &SequenceConfig, out_dir: &Path, progress: bool) -> 
             {
                 let mask = target_mask(&scene, cam);
                 target_pixels[k] = mask.iter().filter(|&&m| m).count();
-                let bytes = mask.iter().map(|&m| if m { 255u8 } else { 0 }).collect();
-                let img = GrayImage::from_raw(cam.width, cam.height, bytes).context("mask size")?;
-                write_png8(&out_dir.join(rel), &img)?;
+                write_mask(out_dir, rel, cam, &mask)?;
                 if let Some(e) = &earth {
                     let band = if k == 0 { "vis" } else { "tir" };
                     let rel = format!("{band}_earth_mask/{file}");
-                    let bytes =
-                        earth_mask(cam, e, &mask).iter().map(|&m| if m { 255u8 } else { 0 }).collect();
-                    let img = GrayImage::from_raw(cam.width, cam.height, bytes).context("mask size")?;
-                    write_png8(&out_dir.join(&rel), &img)?;
+                    write_mask(out_dir, &rel, cam, &earth_mask(cam, e, &mask))?;
                     *(if k == 0 { &mut files.vis_earth_mask } else { &mut files.tir_earth_mask }) = Some(rel);
                 }
             }

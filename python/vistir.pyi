@@ -114,7 +114,7 @@ def save(path: Path, img: Union[Gray8, Gray16, Rgb8]) -> None:
 def render(
     out: Path,
     frames: Optional[int] = None,
-    sequence: Optional[Literal["approach", "flyaround"]] = None,
+    sequence: Optional[Literal["approach", "flyaround", "radial"]] = None,
     seed: int = 1,
     vis_size: int = 1024,
     tir_sizes: Optional[Sequence[int]] = None,

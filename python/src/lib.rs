@@ -437,8 +437,8 @@ fn save(py: Python<'_>, path: PathBuf, img: &Bound<'_, PyAny>) -> PyResult<()> {
     }
 }
 
-/// Renders a dataset (`fusion render`) or a rendezvous sequence (sequence="approach" or
-/// "flyaround") into the folder `out` (a new folder appears whole or not at all; an existing
+/// Renders a dataset (`fusion render`) or a rendezvous sequence (sequence="approach",
+/// "flyaround" or "radial": the Earth behind the target) into the folder `out` (a new folder appears whole or not at all; an existing
 /// one is written into) and returns its manifest, the
 /// parsed `manifest.json`: per frame the files, the camera pose and the illumination phase.
 /// frames: how many (default: the CLI's); tir_sizes: thermal frame sizes (default: half the VIS

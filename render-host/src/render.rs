@@ -241,10 +241,12 @@ pub fn sequence_config(
         noise: cfg.noise,
         write_tir16: args.tir16,
         focal_plane: args.raw_tir.then(crate::focal_plane::FocalPlaneParams::default),
-        earth: args.earth_km.map(|km| crate::earth::EarthParams {
-            altitude_m: km * 1000.0,
-            seed: cfg.surface_seed ^ cfg.seed,
-        }),
+        // `--earth KM`, or the sequence's own Earth (`radial`) at its altitude.
+        earth: args
+            .earth_km
+            .map(|km| km * 1000.0)
+            .or(SequenceConfig::new(name).earth.map(|e| e.altitude_m))
+            .map(|altitude_m| crate::earth::EarthParams { altitude_m, seed: cfg.surface_seed ^ cfg.seed }),
         sun_phase_deg: args.sun_phase_deg,
         ..SequenceConfig::new(name)
     })

@@ -2,7 +2,7 @@
 //! crossing through the penumbra, sensor noise and per-frame ground truth, for judging what a
 //! fused stream does for relative navigation.
 //!
-//! Two named trajectories ([`SequenceName`]), both at [`SequenceConfig::frame_rate_hz`]
+//! Three named trajectories ([`SequenceName`]), all at [`SequenceConfig::frame_rate_hz`]
 //! (default 1 Hz) for [`SequenceConfig::frames`] frames (default 120):
 //!
 //! * **`approach`**: closing from 50 m to 5 m along a fixed line of sight on the sunlit side
@@ -17,10 +17,25 @@
 //!   the sequence and leaves it at 65 %, each time through an 8 s penumbra (the visible
 //!   fraction of the solar disc as the Earth's limb crosses it: a circular segment, not a
 //!   switch).
+//! * **`radial`**: closing from 30 m to 5 m from above, along a line 40° from the radial
+//!   towards the sun (drifting ± 8° across the orbit plane), so **the Earth fills the
+//!   background** of every frame ([`crate::earth`], on by default); the target tumbles at 1 °/s.
+//!   Laid out in the orbit's local frame, where the sun turns away from the zenith at the orbit's
+//!   mean motion (0.0635 °/s at 500 km) and the ground under the camera turns with it, so the
+//!   terminator stays where it is on the ground and **the eclipse comes from the geometry**: the
+//!   visible fraction of the solar disc as it sets behind the Earth's limb
+//!   ([`sun_fraction_above_limb`]). By default the phase angle starts at 68° (the sun 108° from
+//!   the zenith, the ground below in night): light until 59 s, penumbra to 67 s, then eclipse,
+//!   the thermal camera seeing the target against the warm night Earth throughout. With
+//!   `--sun-phase 0` the same approach is in daylight over a lit Earth; above ≈ 72° it starts in
+//!   the shadow.
 //!
 //! Options of every sequence: the sun–target–camera phase angle
-//! ([`SequenceConfig::sun_phase_deg`], `--sun-phase`) and the Earth behind the target
-//! ([`SequenceConfig::earth`], `--earth`, [`crate::earth`]).
+//! ([`SequenceConfig::sun_phase_deg`], `--sun-phase`; on `radial` the sun then sets with the
+//! orbit) and the Earth behind the target ([`SequenceConfig::earth`],
+//! `--earth`, [`crate::earth`]). In `approach` and `flyaround` the sun is fixed and the
+//! flyaround's eclipse is scheduled, not cast by the Earth drawn (with `--earth` the Earth
+//! behind the target stays lit in its eclipse); `radial` is the sequence where both agree.
 //!
 //! Each pixel integrates [`SEQUENCE_SAMPLES`]² rays over its area (the study's datasets shoot
 //! one through its centre): the surface detail then moves with the surface as the view turns,
@@ -65,17 +80,25 @@ pub enum SequenceName {
     Approach,
     /// A circumnavigation at 8 m through an eclipse (entry and exit through the penumbra).
     Flyaround,
+    /// Closing from 30 m to 5 m along the radial from above, the Earth behind the target, the
+    /// orbit carrying the pair into the Earth's shadow.
+    Radial,
 }
 
 impl SequenceName {
-    /// Both sequences, in a fixed order.
-    pub const ALL: [SequenceName; 2] = [SequenceName::Approach, SequenceName::Flyaround];
+    /// Every sequence, in a fixed order.
+    pub const ALL: [SequenceName; 3] =
+        [SequenceName::Approach, SequenceName::Flyaround, SequenceName::Radial];
+
+    /// The two sequences against black space (the Earth only on request).
+    pub const SPACE: [SequenceName; 2] = [SequenceName::Approach, SequenceName::Flyaround];
 
     /// The name as written on the command line and in manifests.
     pub fn as_str(self) -> &'static str {
         match self {
             SequenceName::Approach => "approach",
             SequenceName::Flyaround => "flyaround",
+            SequenceName::Radial => "radial",
         }
     }
 }
@@ -178,7 +201,8 @@ pub struct SequenceConfig {
 }
 
 impl SequenceConfig {
-    /// The default sequence of `name`: 120 frames at 1 Hz, VIS 1024², TIR 512², noisy and clean.
+    /// The default sequence of `name`: 120 frames at 1 Hz, VIS 1024², TIR 512², noisy and clean;
+    /// `radial` with the Earth ([`EarthParams::default`](crate::earth::EarthParams)).
     pub fn new(name: SequenceName) -> SequenceConfig {
         SequenceConfig {
             name,
@@ -195,7 +219,7 @@ impl SequenceConfig {
             write_clean: true,
             write_tir16: false,
             focal_plane: None,
-            earth: None,
+            earth: (name == SequenceName::Radial).then(crate::earth::EarthParams::default),
             sun_phase_deg: None,
             rig: None,
         }
@@ -232,6 +256,19 @@ pub struct InertialState {
 pub const APPROACH_RANGE_M: (f64, f64) = (50.0, 5.0);
 /// Flyaround: the constant range, m.
 pub const FLYAROUND_RANGE_M: f64 = 8.0;
+/// Radial: first and last range, m.
+pub const RADIAL_RANGE_M: (f64, f64) = (30.0, 5.0);
+/// Radial: the line of sight's angle from the local zenith, towards the sun in the orbit
+/// plane, degrees (the camera above the target and on the sun's side; every ray of a 35° field
+/// still ends on the Earth, whose limb is 68° from the nadir at 500 km).
+pub const RADIAL_OFF_ZENITH_DEG: f64 = 40.0;
+/// Radial: the sun–target–camera phase angle at the first frame, degrees, unless `--sun-phase`
+/// says otherwise; the sun is then 68° + 40° = 108° from the zenith. At 500 km the Earth's
+/// shadow begins where that angle reaches 112.0°; the orbit turns it by 0.0635 °/s, so the pair
+/// enters the penumbra at 59 s and the umbra at 67 s.
+pub const RADIAL_SUN_PHASE_DEG: f64 = 68.0;
+/// Angular radius of the solar disc, rad (0.2665°).
+pub const SUN_ANGULAR_RADIUS: f64 = 0.004_651;
 
 /// Penumbra duration of the flyaround's eclipse entry and exit, s.
 pub const PENUMBRA_S: f64 = 8.0;
@@ -250,10 +287,21 @@ pub fn disc_fraction_uncovered(progress: f64) -> f64 {
 /// The inertial state of frame `i` (see the module docs for the trajectories).
 pub fn state(cfg: &SequenceConfig, i: usize) -> InertialState {
     let mut st = laid_out(cfg, i);
-    if let Some(phase) = cfg.sun_phase_deg {
+    // The radial sequence's sun moves with the orbit: its phase is laid out with it.
+    if let Some(phase) = cfg.sun_phase_deg.filter(|_| cfg.name != SequenceName::Radial) {
         st.sun = phased_sun(laid_out(cfg, 0).eye.normalize(), st.sun, phase);
     }
     st
+}
+
+/// Visible fraction of the solar disc seen from an orbit at `altitude_m` when the sun is
+/// `nadir_angle` (rad) from the nadir: the Earth's limb lies `asin(R / (R + h))` from the nadir
+/// and crosses the disc (angular radius [`SUN_ANGULAR_RADIUS`]) as a straight edge.
+pub fn sun_fraction_above_limb(nadir_angle: f64, altitude_m: f64) -> f64 {
+    use crate::earth::EARTH_RADIUS_M;
+    let limb = (EARTH_RADIUS_M / (EARTH_RADIUS_M + altitude_m)).asin();
+    let above = nadir_angle - limb;
+    disc_fraction_uncovered((SUN_ANGULAR_RADIUS - above) / (2.0 * SUN_ANGULAR_RADIUS))
 }
 
 /// The sun at `phase` degrees from the line of sight `eye` (unit, target → camera), in the
@@ -313,6 +361,40 @@ fn laid_out(cfg: &SequenceConfig, i: usize) -> InertialState {
                 up: normal,
                 sun,
                 sun_fraction,
+            }
+        }
+        SequenceName::Radial => {
+            // In the orbit's local frame (the Earth fixed along `vis.earth_dir`, the sun in the
+            // orbit plane through it and `vis.sun_dir`): the sun turns away from the zenith at
+            // the mean motion, the ground under the orbit with it (`earth_view`), and the pair
+            // enters the shadow where the sun sets behind the limb.
+            let earth = cfg.earth.unwrap_or_default();
+            let zenith = -cfg.vis.earth_dir.normalize();
+            let normal = zenith.cross(sun);
+            let normal =
+                if normal.length() > 1e-6 { normal.normalize() } else { zenith.any_orthonormal_vector() };
+            let off = RADIAL_OFF_ZENITH_DEG.to_radians();
+            let phase = cfg.sun_phase_deg.unwrap_or(RADIAL_SUN_PHASE_DEG).to_radians();
+            let zeta = off + phase + earth.mean_motion() * t;
+            let sun = (Quat::from_axis_angle(normal, zeta as f32) * zenith).normalize();
+            // The line of sight `off` from the zenith towards the sun, drifting ± 8° across the
+            // orbit plane.
+            let sight = Quat::from_axis_angle(normal, off as f32) * zenith;
+            let drift = (8.0f64.to_radians() * (std::f64::consts::PI * u).sin()) as f32;
+            let dir = Quat::from_axis_angle(sight.cross(normal).normalize(), drift) * sight;
+            let range = RADIAL_RANGE_M.0 * (RADIAL_RANGE_M.1 / RADIAL_RANGE_M.0).powf(u);
+            // The target's panel (its +z) halfway between the first frame's sun and line of
+            // sight (lit and in view), then tumbling at 1 °/s.
+            let sun0 = Quat::from_axis_angle(normal, (off + 0.5 * phase) as f32) * zenith;
+            let spin = Vec3::new(-0.4, 0.3, 1.0).normalize();
+            let tumble = Quat::from_axis_angle(spin, (1.0f64.to_radians() * t) as f32);
+            InertialState {
+                attitude: tumble * Quat::from_rotation_arc(Vec3::Z, sun0.normalize()),
+                eye: dir * range as f32,
+                // Image up towards the sky.
+                up: (zenith - dir * zenith.dot(dir)).normalize(),
+                sun,
+                sun_fraction: sun_fraction_above_limb(std::f64::consts::PI - zeta, earth.altitude_m),
             }
         }
     }
@@ -879,6 +961,93 @@ mod tests {
                 assert_eq!(state(&cfg, 7).sun, a.sun);
             }
         }
+    }
+
+    /// The radial sequence against geometry worked independently: the Earth behind every pixel
+    /// (the camera corners' rays end on the Earth's sphere), the first phase angle as asked,
+    /// the eclipse where the target is in the Earth's cylindrical shadow (light and umbra
+    /// frames; the penumbra lies within a disc's width of the cylinder), the sun fixed on the
+    /// ground (the terminator does not slide), and the penumbra as long as the sun's diameter
+    /// takes at the mean motion (2 × 0.2665° / 0.063 51 °/s = 8.39 s at 500 km).
+    #[test]
+    fn the_radial_sequence_has_the_earth_behind_and_its_eclipse_from_the_geometry() {
+        use crate::earth::{EARTH_RADIUS_M, EarthParams};
+        let cfg = SequenceConfig { vis_size: 64, tir_size: 32, ..SequenceConfig::new(SequenceName::Radial) };
+        let earth = cfg.earth.expect("radial draws the Earth");
+        let scene = Scene::tango().unwrap();
+        let nadir = cfg.vis.earth_dir.normalize().as_dvec3();
+        let r = EARTH_RADIUS_M + earth.altitude_m;
+        // The Earth's centre from the target, inertial (orbit-local) frame.
+        let centre = nadir * r;
+        let angle = |a: Vec3, b: Vec3| f64::from(a.normalize().dot(b.normalize()).clamp(-1.0, 1.0)).acos();
+        let (mut light, mut umbra) = (0, 0);
+        let mut on_ground = None;
+        for i in 0..cfg.frames {
+            let st = state(&cfg, i);
+            // Every corner ray of the VIS camera ends on the Earth.
+            let pose = camera_pose(&st, &scene);
+            let (vis, _) = cameras(&cfg, pose).unwrap();
+            for (x, y) in [(0, 0), (63, 0), (0, 63), (63, 63)] {
+                let d = (st.attitude * vis.pixel_ray(x, y)).as_dvec3();
+                let o = st.eye.as_dvec3();
+                // Ray o + s d meets the sphere |p − centre| = R.
+                let oc = o - centre;
+                let b = oc.dot(d);
+                let disc = b * b - (oc.length_squared() - EARTH_RADIUS_M * EARTH_RADIUS_M);
+                assert!(
+                    disc > 0.0 && -b - disc.sqrt() > 0.0,
+                    "frame {i}: corner ({x}, {y}) misses the Earth"
+                );
+            }
+            if i == 0 {
+                let phase = angle(st.eye, st.sun).to_degrees();
+                assert!((phase - RADIAL_SUN_PHASE_DEG).abs() < 0.01, "{phase}");
+            }
+            // The target (at −centre from the Earth's centre) in the shadow cylinder.
+            let p = -centre;
+            let sun = st.sun.as_dvec3().normalize();
+            let in_cylinder = p.dot(sun) < 0.0 && p.cross(sun).length() < EARTH_RADIUS_M;
+            if st.sun_fraction >= 1.0 {
+                assert!(!in_cylinder, "frame {i}: lit inside the shadow");
+                light += 1;
+            } else if st.sun_fraction <= 0.0 {
+                assert!(in_cylinder, "frame {i}: eclipsed outside the shadow");
+                umbra += 1;
+            }
+            // The sun as the ground sees it stays put.
+            let view = earth_view(&cfg, &earth, &st, scene.centre, i);
+            let sun_on_ground = view.to_surface * (st.attitude.inverse() * st.sun).as_dvec3();
+            let first = *on_ground.get_or_insert(sun_on_ground);
+            assert!((sun_on_ground - first).length() < 1e-5, "frame {i}: the terminator slid");
+        }
+        assert!(light > 50 && umbra > 45, "light {light}, umbra {umbra}");
+        // The penumbra's length from the fraction alone, on a fine clock.
+        let fine = SequenceConfig { frames: 1201, frame_rate_hz: 10.0, ..cfg.clone() };
+        let partial = (0..fine.frames)
+            .filter(|&i| {
+                (0.0..1.0).contains(&state(&fine, i).sun_fraction) && state(&fine, i).sun_fraction > 0.0
+            })
+            .count();
+        let expect = 2.0 * SUN_ANGULAR_RADIUS / EarthParams::default().mean_motion();
+        assert!(
+            (partial as f64 / 10.0 - expect).abs() < 0.25,
+            "{} s against {expect} s",
+            partial as f64 / 10.0
+        );
+        assert!((expect - 8.39).abs() < 0.01, "{expect}");
+    }
+
+    #[test]
+    fn the_sun_sets_behind_the_limb_as_a_disc() {
+        // 500 km: the limb 68.01° from the nadir (asin(6371 / 6871)).
+        let limb = (6371.0f64 / 6871.0).asin();
+        assert!((limb.to_degrees() - 68.01).abs() < 0.01);
+        assert_eq!(sun_fraction_above_limb(limb + 0.01, 500e3), 1.0);
+        assert!(sun_fraction_above_limb(limb - 0.01, 500e3).abs() < 1e-12);
+        assert!((sun_fraction_above_limb(limb, 500e3) - 0.5).abs() < 1e-9);
+        // Half a radius above the limb: a quarter of the diameter covered.
+        let f = sun_fraction_above_limb(limb + 0.5 * SUN_ANGULAR_RADIUS, 500e3);
+        assert!((f - disc_fraction_uncovered(0.25)).abs() < 1e-6, "{f}");
     }
 
     #[test]

@@ -57,7 +57,8 @@ pub struct NavbenchArgs {
     /// `truth` (at the true range) or `none` (rescaled as if the cameras were aligned).
     #[arg(long, default_value = "filter", value_name = "filter|truth|none", value_parser = Registration::parse)]
     pub registration: Registration,
-    /// Only these sequences, comma-separated (`approach`, `flyaround`) [default: both].
+    /// Only these sequences, comma-separated (`approach`, `flyaround`, `radial`: the Earth
+    /// behind the target) [default: approach, flyaround].
     #[arg(long, value_delimiter = ',', value_enum)]
     pub sequences: Option<Vec<SequenceName>>,
 }
@@ -104,7 +105,7 @@ pub fn run(args: &NavbenchArgs) -> Result<()> {
     let mut per_seed = Vec::new();
     for &seed in &seeds {
         let mut seed_rows = Vec::new();
-        for &name in args.sequences.as_deref().unwrap_or(&SequenceName::ALL) {
+        for &name in args.sequences.as_deref().unwrap_or(&SequenceName::SPACE) {
             let dir = data.join(format!("seed-{seed}")).join(name.as_str());
             if dir.join("manifest.json").is_file() {
                 let m = read_manifest(&dir)?;

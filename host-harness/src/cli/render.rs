@@ -17,8 +17,9 @@ pub struct RenderArgs {
     #[arg(long)]
     pub frames: Option<usize>,
     /// Render a rendezvous sequence instead of the study's layout: `approach` (50 m → 5 m in
-    /// light, the target tumbling) or `flyaround` (a circumnavigation at 8 m through an
-    /// eclipse), at 1 Hz, VIS `--vis-size`², TIR the first of `--tir-sizes`, with per-frame
+    /// light, the target tumbling), `flyaround` (a circumnavigation at 8 m through an
+    /// eclipse) or `radial` (30 m → 5 m from above, the Earth behind the target, into the
+    /// Earth's shadow), at 1 Hz, VIS `--vis-size`², TIR the first of `--tir-sizes`, with per-frame
     /// ground truth (`render_host::sequence`).
     #[arg(long, value_enum, value_name = "NAME")]
     pub sequence: Option<SequenceName>,
@@ -98,12 +99,14 @@ pub struct RenderArgs {
     pub rig: Option<PathBuf>,
     /// With --sequence: the Earth behind the target in both bands (ocean, land, clouds, the
     /// terminator, the limb; render_host::earth), seen from an orbit at KM altitude
-    /// [default when given without a value: 500]; Earth masks beside the target masks.
+    /// [default when given without a value: 500; `radial` has it at 500 without the option];
+    /// Earth masks beside the target masks.
     #[arg(long, value_name = "KM", num_args = 0..=1, default_missing_value = "500", requires = "sequence")]
     pub earth: Option<f64>,
     /// With --sequence: the sun–target–camera phase angle at the first frame, degrees (0: the
     /// sun behind the camera, 180: behind the target); the trajectory is unchanged, the sun
-    /// turns [default: the sequence's own sun, 14.3° on the approach].
+    /// turns [default: the sequence's own sun, 14.3° on the approach, 68° on `radial`, where
+    /// the sun then sets with the orbit].
     #[arg(long, value_name = "DEG", requires = "sequence")]
     pub sun_phase: Option<f64>,
 }

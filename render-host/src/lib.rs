@@ -4,6 +4,7 @@ pub mod camera;
 pub mod dataset;
 pub mod earth;
 pub mod focal_plane;
+pub mod glare;
 pub mod image;
 pub mod material;
 pub mod noise;

@@ -80,6 +80,9 @@ pub struct RenderOptions {
     pub earth_km: Option<f64>,
     /// With a sequence: the sun–target–camera phase angle at the first frame, degrees (0–180).
     pub sun_phase_deg: Option<f64>,
+    /// With a sequence: the sun's disc, stray light and blooming in the visible camera
+    /// ([`crate::glare`], default parameters).
+    pub glare: bool,
 }
 
 impl Default for RenderOptions {
@@ -101,6 +104,7 @@ impl Default for RenderOptions {
             raw_tir: false,
             earth_km: None,
             sun_phase_deg: None,
+            glare: false,
             eclipse_minutes: None,
             no_specular: false,
             flat: false,
@@ -164,6 +168,9 @@ impl RenderOptions {
             if !(phase.is_finite() && (0.0..=180.0).contains(&phase)) {
                 bail!("--sun-phase must be between 0 and 180 degrees");
             }
+        }
+        if self.glare && self.sequence.is_none() {
+            bail!("--glare adds the sun's glare to a sequence's visible frames: give --sequence");
         }
         if let Some(km) = self.earth_km {
             if self.sequence.is_none() {
@@ -248,6 +255,7 @@ pub fn sequence_config(
             .or(SequenceConfig::new(name).earth.map(|e| e.altitude_m))
             .map(|altitude_m| crate::earth::EarthParams { altitude_m, seed: cfg.surface_seed ^ cfg.seed }),
         sun_phase_deg: args.sun_phase_deg,
+        glare: args.glare.then(crate::glare::GlareParams::default),
         ..SequenceConfig::new(name)
     })
 }

@@ -192,6 +192,10 @@ pub struct SequenceConfig {
     /// out with `vis.sun_dir`, so only the lighting changes); `None`: the sun at `vis.sun_dir`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub sun_phase_deg: Option<f64>,
+    /// The sun in or near the visible camera's view: its disc, stray light and blooming
+    /// ([`crate::glare`]). Manifests without it: none (the renders before it).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub glare: Option<crate::glare::GlareParams>,
     /// An offset camera pair instead of today's aligned one: each camera with its own
     /// intrinsics, distortion and pose on the chaser ([`crate::rig`]); `vis_size` and
     /// `tir_size` are then the rig's widths. Written beside the frames as
@@ -221,6 +225,7 @@ impl SequenceConfig {
             focal_plane: None,
             earth: (name == SequenceName::Radial).then(crate::earth::EarthParams::default),
             sun_phase_deg: None,
+            glare: None,
             rig: None,
         }
     }
@@ -503,6 +508,14 @@ pub struct SequenceFrame {
     /// The shutter froze the thermal video on this frame: `tir_raw` repeats the frame before.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub tir_frozen: bool,
+    /// With `glare`: the sun's angle from the VIS optical axis, degrees (in view below the
+    /// half field of view, 17.5° in the study's camera).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sun_off_axis_deg: Option<f64>,
+    /// With `glare`: VIS pixels at full well before the sensor noise (sun, halo, blooming,
+    /// glints).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub vis_saturated_pixels: Option<usize>,
     /// Files.
     pub files: SequenceFiles,
 }
@@ -653,7 +666,34 @@ pub fn render_sequence(cfg: &SequenceConfig, out_dir: &Path, progress: bool) -> 
             }
             let face_t = face_temperatures(&scene, &node_t);
             let (vis_cam, tir_cam) = cameras(cfg, pose)?;
+            // Each camera's target and Earth masks (ground truth, and where the sun can show).
+            let masks = [&vis_cam, &tir_cam].map(|cam| {
+                let target = target_mask(&scene, cam);
+                let earth = earth.as_ref().map(|e| earth_mask(cam, e, &target));
+                (target, earth)
+            });
             let mut vis = render_vis_over(&scene, &vis_cam, &vis_params, earth.as_ref());
+            let (mut sun_off_axis_deg, mut vis_saturated_pixels) = (None, None);
+            if let Some(g) = &cfg.glare {
+                let (target, earth) = &masks[0];
+                let open: Vec<bool> = match earth {
+                    Some(e) => target.iter().zip(e).map(|(t, e)| !t && !e).collect(),
+                    None => target.iter().map(|t| !t).collect(),
+                };
+                crate::glare::add_sun(
+                    &mut vis,
+                    &vis_cam,
+                    sun_body,
+                    st.sun_fraction as f32,
+                    cfg.vis.exposure,
+                    &open,
+                    g,
+                );
+                crate::glare::bloom(&mut vis, 1.0, g.blooming);
+                let axis = vis_cam.pose.forward();
+                sun_off_axis_deg = Some(f64::from(axis.dot(sun_body).clamp(-1.0, 1.0)).acos().to_degrees());
+                vis_saturated_pixels = Some(vis.data.iter().filter(|&&v| v >= 1.0).count());
+            }
             let tir_params = TirParams { earth_dir: earth_body, ..cfg.tir };
             let mut tir = render_tir_over(&scene, &tir_cam, &face_t, &tir_params, earth.as_ref());
             vis.clip();
@@ -710,13 +750,13 @@ pub fn render_sequence(cfg: &SequenceConfig, out_dir: &Path, progress: bool) -> 
             for (k, (cam, rel)) in
                 [(&vis_cam, &files.vis_mask), (&tir_cam, &files.tir_mask)].into_iter().enumerate()
             {
-                let mask = target_mask(&scene, cam);
+                let (mask, earth_pixels) = &masks[k];
                 target_pixels[k] = mask.iter().filter(|&&m| m).count();
-                write_mask(out_dir, rel, cam, &mask)?;
-                if let Some(e) = &earth {
+                write_mask(out_dir, rel, cam, mask)?;
+                if let Some(e) = earth_pixels {
                     let band = if k == 0 { "vis" } else { "tir" };
                     let rel = format!("{band}_earth_mask/{file}");
-                    write_mask(out_dir, &rel, cam, &earth_mask(cam, e, &mask))?;
+                    write_mask(out_dir, &rel, cam, e)?;
                     *(if k == 0 { &mut files.vis_earth_mask } else { &mut files.tir_earth_mask }) = Some(rel);
                 }
             }
@@ -745,6 +785,8 @@ pub fn render_sequence(cfg: &SequenceConfig, out_dir: &Path, progress: bool) -> 
                     mean_temperature_k: mean_t,
                     fpa_delta_k,
                     tir_frozen: shutters.iter().any(|(_, frozen)| frozen.contains(&i)),
+                    sun_off_axis_deg,
+                    vis_saturated_pixels,
                     files,
                 },
                 thumbs,

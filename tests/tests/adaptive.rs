@@ -191,3 +191,64 @@ fn the_pipeline_decides_on_the_input_frames() -> Result<()> {
     }
     Ok(())
 }
+
+/// The glare case in rendered data (`render_host::glare`): the approach with the sun 5° off
+/// the optical axis (`--sun-phase 175 --glare`) puts the solar disc in the visible frame —
+/// saturated where the camera's projection of the sun falls, its column bloomed farther than
+/// the halo reaches along its row — and the adaptive fusion's glare guard fires there, as it
+/// does not on the same frame rendered without glare.
+#[test]
+fn a_sequence_with_the_sun_in_view_gives_the_adaptive_rule_its_glare_case() -> Result<()> {
+    use render_host::sequence::{
+        SequenceConfig, SequenceName, camera_pose, cameras, read_manifest, render_sequence, state,
+    };
+    let dir = tempfile::tempdir()?;
+    let base = SequenceConfig {
+        frames: 2,
+        vis_size: 256,
+        tir_size: 128,
+        sun_phase_deg: Some(175.0),
+        ..SequenceConfig::new(SequenceName::Approach)
+    };
+    let with = SequenceConfig { glare: Some(render_host::glare::GlareParams::default()), ..base.clone() };
+    let mut guards = Vec::new();
+    for (name, cfg) in [("plain", &base), ("glare", &with)] {
+        let d = dir.path().join(name);
+        render_sequence(cfg, &d, false)?;
+        let m = read_manifest(&d)?;
+        let f = &m.frames[0];
+        let load = |rel: &str| fusion_io::load_gray_u8(&d.join(rel), fusion_io::ColorPolicy::Refuse);
+        let (vis, tir) = (load(&f.files.vis)?, load(&f.files.tir)?);
+        if name == "glare" {
+            let off = f.sun_off_axis_deg.expect("the glare's ground truth");
+            assert!((off - 5.0).abs() < 0.5, "sun {off}° off the axis");
+            // Where the sun projects, the frame is saturated; its column stays saturated
+            // farther from it than its row does (blooming).
+            let scene = render_host::scene::Scene::tango()?;
+            let st = state(cfg, 0);
+            let pose = camera_pose(&st, &scene);
+            let (cam, _) = cameras(cfg, pose)?;
+            let sun_body = st.attitude.inverse() * st.sun;
+            let (u, v) = cam.project(pose.position + sun_body * 1e4).expect("the sun in front");
+            let (sx, sy) = (u as usize, v as usize);
+            // On the noiseless frame, where the full well reads 255 exactly.
+            let clean = load(f.files.vis_clean.as_deref().expect("clean frames"))?;
+            assert_eq!(clean.data[sy * clean.width + sx], 255, "the sun at ({sx}, {sy})");
+            let run = |step: &dyn Fn(usize) -> Option<(usize, usize)>| {
+                (1..)
+                    .take_while(|&k| step(k).is_some_and(|(x, y)| clean.data[y * clean.width + x] == 255))
+                    .count()
+            };
+            let up = run(&|k| sy.checked_sub(k).map(|y| (sx, y)));
+            let left = run(&|k| sx.checked_sub(k).map(|x| (x, sy)));
+            assert!(up > left + 3, "column run {up} px, row run {left} px: no blooming");
+            assert!(f.vis_saturated_pixels.unwrap_or(0) > 30);
+        } else {
+            assert_eq!(f.sun_off_axis_deg, None);
+        }
+        let fused = fuse_core(&vis, &tir, &adaptive(), false)?;
+        guards.push(fused.guards.contains(Guards::ADAPTIVE_GLARE));
+    }
+    assert_eq!(guards, vec![false, true], "the glare guard without and with the sun's glare");
+    Ok(())
+}

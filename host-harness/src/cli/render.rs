@@ -109,6 +109,11 @@ pub struct RenderArgs {
     /// the sun then sets with the orbit].
     #[arg(long, value_name = "DEG", requires = "sequence")]
     pub sun_phase: Option<f64>,
+    /// With --sequence: the sun's glare in the visible camera — its disc where it is in view,
+    /// the optics' stray light around it, blooming along columns above the full well
+    /// (render_host::glare); e.g. `--sun-phase 170` puts the sun beside the target.
+    #[arg(long, requires = "sequence")]
+    pub glare: bool,
 }
 
 impl From<RenderArgs> for RenderOptions {
@@ -140,6 +145,7 @@ impl From<RenderArgs> for RenderOptions {
             rig: a.rig,
             earth_km: a.earth,
             sun_phase_deg: a.sun_phase,
+            glare: a.glare,
         }
     }
 }

@@ -1,21 +1,25 @@
-//! What each method makes of the Earth behind the target: a labelled contact sheet of a
-//! sequence rendered with the Earth (`radial`, or any sequence with `--earth`), one row per
-//! illumination phase, the visible frame, the thermal frame on the visible grid and every
-//! method of the core with the adaptive fusion, cropped around the target.
+//! What each method makes of a hard scene — the Earth behind the target, the sun in view: a
+//! labelled contact sheet of a rendered sequence, one row per illumination phase, the visible
+//! frame, the thermal frame on the visible grid and every method of the core with the adaptive
+//! fusion.
 //!
 //! ```sh
 //! fusion render --sequence radial --out /tmp/radial
-//! cargo run --release -p fusion-navbench --example earth_sheet -- /tmp/radial docs/earth/radial_sheet.png
+//! cargo run --release -p fusion-navbench --example scene_sheet -- /tmp/radial docs/earth/radial_sheet.png
+//! fusion render --sequence approach --sun-phase 172 --glare --frames 12 --out /tmp/glare
+//! cargo run --release -p fusion-navbench --example scene_sheet -- /tmp/glare docs/glare/approach_sheet.png whole
 //! ```
 //!
 //! Rows: the last frame in light, the middle frame of the penumbra, the last frame in eclipse
 //! (phases the sequence lacks are left out). The crop is the square around both cameras'
-//! target masks grown to three times the target's size, so the Earth around it shows. Prints
-//! per row and column the target's contrast against the Earth around it: the mean grey level
-//! inside the target mask minus the mean over the Earth pixels of the crop, in grey levels
-//! (negative: the target is darker than the Earth behind it).
+//! target masks grown to three times the target's size, so the background around it shows
+//! (`whole` as a third argument: the whole frame). Prints per row and column the target's
+//! contrast against its background: the mean grey level inside the target mask minus the mean
+//! over the background pixels of the crop (the Earth's where the sequence draws it, else every
+//! pixel off the target), in grey levels (negative: the target is darker than what is behind
+//! it).
 
-use anyhow::{Context, Result, bail};
+use anyhow::{Result, bail};
 use fusion_engine::methods::fuse_core;
 use fusion_engine::study::{core_methods, grid};
 use fusion_io::{ColorPolicy, Gray, load_gray_u8, source_on_grid};
@@ -43,7 +47,12 @@ fn mean_where(img: &Gray<u8>, (x0, y0, side): (usize, usize, usize), inside: imp
 fn main() -> Result<()> {
     let mut args = std::env::args_os().skip(1);
     let (Some(dir), Some(out)) = (args.next().map(PathBuf::from), args.next().map(PathBuf::from)) else {
-        bail!("usage: earth_sheet SEQUENCE_DIR OUT.png");
+        bail!("usage: scene_sheet SEQUENCE_DIR OUT.png [whole]");
+    };
+    let whole = match args.next() {
+        None => false,
+        Some(w) if w == "whole" => true,
+        Some(w) => bail!("the third argument is `whole` (the whole frame), not {}", w.to_string_lossy()),
     };
     let m = read_manifest(&dir)?;
     let load = |rel: &str| load_gray_u8(&dir.join(rel), ColorPolicy::Refuse);
@@ -61,7 +70,10 @@ fn main() -> Result<()> {
     methods.push(("adaptive", Method::Adaptive(AdaptiveParams::default())));
     let mut columns = vec!["VIS", "TIR"];
     columns.extend(methods.iter().map(|(n, _)| *n));
-    println!("target minus Earth around it, grey levels (crop of 3x the target)");
+    println!(
+        "target minus its background, grey levels ({})",
+        if whole { "whole frame" } else { "crop of 3x the target" }
+    );
     println!("| frame | {} |", columns.join(" | "));
     println!("|---|{}", "---:|".repeat(columns.len()));
     let (mut sheet, mut labels) = (Vec::new(), Vec::new());
@@ -70,9 +82,21 @@ fn main() -> Result<()> {
         let g = grid(&vis, &tir, RescalePolicy::TirUp)?;
         let tir_up = source_on_grid(&tir, g, Filter::Cubic)?;
         let target = load(&f.files.vis_mask)?;
-        let earth = load(f.files.vis_earth_mask.as_deref().context("no Earth mask: render with the Earth")?)?;
+        // The background: the Earth where the sequence draws it, else everything off the target.
+        let background = match f.files.vis_earth_mask.as_deref() {
+            Some(rel) => load(rel)?,
+            None => Gray {
+                width: target.width,
+                height: target.height,
+                data: target.data.iter().map(|&t| 255 - t).collect(),
+            },
+        };
         let tir_target = source_on_grid(&load(&f.files.tir_mask)?, g, Filter::Area)?;
-        let square = target_square(&[&target, &tir_target], 127, 1.0);
+        let square = if whole {
+            (0, 0, vis.width.min(vis.height))
+        } else {
+            target_square(&[&target, &tir_target], 127, 1.0)
+        };
         let mut images = vec![vis.clone(), tir_up];
         for (_, method) in &methods {
             let config =
@@ -83,7 +107,7 @@ fn main() -> Result<()> {
             .iter()
             .map(|img| {
                 let t = mean_where(img, square, |i| target.data[i] > 127);
-                let e = mean_where(img, square, |i| earth.data[i] > 127);
+                let e = mean_where(img, square, |i| background.data[i] > 127);
                 format!("{:+.1}", t - e)
             })
             .collect();

@@ -14,7 +14,7 @@ use fusion_navbench::model::TargetModel;
 use fusion_navbench::tracker::smooth;
 use image::GrayImage;
 use render_host::glam::{DQuat, DVec3};
-use render_host::{Camera, Scene};
+use render_host::Camera;
 use std::path::PathBuf;
 
 fn main() -> Result<()> {
@@ -23,7 +23,7 @@ fn main() -> Result<()> {
     let band = args.next().unwrap_or_else(|| "vis".into());
     let frames: usize = args.next().map(|s| s.parse()).transpose()?.unwrap_or(20);
     let m = render_host::sequence::read_manifest(&dir)?;
-    let scene = Scene::tango()?.with_surface_detail(m.config.surface_seed);
+    let scene = m.config.target.scene()?.with_surface_detail(m.config.surface_seed);
     let model = TargetModel::new(&scene);
     let edges = ModelEdges::new(&scene);
     println!(

@@ -8,7 +8,7 @@ use fusion_navbench::model::TargetModel;
 use fusion_navbench::tracker::{ModelTracker, TrackerParams, smooth};
 use render_host::glam::DQuat;
 use render_host::sequence::read_manifest;
-use render_host::{Camera, Scene};
+use render_host::Camera;
 
 fn main() -> anyhow::Result<()> {
     let args: Vec<String> = std::env::args().collect();
@@ -27,7 +27,7 @@ fn main() -> anyhow::Result<()> {
     let band = args.get(2).map_or("vis", String::as_str);
     let m = read_manifest(&dir)?;
     let n = args.get(3).and_then(|s| s.parse().ok()).unwrap_or(m.frames.len()).min(m.frames.len());
-    let scene = Scene::tango()?.with_surface_detail(m.config.surface_seed);
+    let scene = m.config.target.scene()?.with_surface_detail(m.config.surface_seed);
     let model = TargetModel::new(&scene);
     let mut tracker = ModelTracker::new(TrackerParams::default(), 1);
     // Residuals by track age: 0–29 frames, the last bin 30 and older.

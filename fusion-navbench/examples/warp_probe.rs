@@ -12,7 +12,7 @@ use fusion_navbench::tracker::smooth;
 use fusion_navbench::warp::{GradientImage, Template};
 use optical_flow_lk::{DetectorContext, Grid, TrackParams, TrackStatus, build_pyramid, calc_optical_flow_fb};
 use render_host::sequence::read_manifest;
-use render_host::{Camera, Scene};
+use render_host::Camera;
 
 fn main() -> anyhow::Result<()> {
     let args: Vec<String> = std::env::args().collect();
@@ -20,7 +20,7 @@ fn main() -> anyhow::Result<()> {
     let band = args.get(2).map_or("vis", String::as_str);
     let step: usize = args.get(3).and_then(|s| s.parse().ok()).unwrap_or(1);
     let m = read_manifest(&dir)?;
-    let scene = Scene::tango()?.with_surface_detail(m.config.surface_seed);
+    let scene = m.config.target.scene()?.with_surface_detail(m.config.surface_seed);
     let model = TargetModel::new(&scene);
     let mut detector = DetectorContext::new();
     let load = |i: usize| -> anyhow::Result<image::GrayImage> {

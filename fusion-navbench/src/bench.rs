@@ -51,10 +51,10 @@ use fusion_nostd::scene::Rect;
 use fusion_nostd::{AdaptiveParams, FuseConfig, Method, RescalePolicy};
 use image::GrayImage;
 use rayon::prelude::*;
+use render_host::Camera;
 use render_host::glam::{DQuat, DVec2, DVec3};
 use render_host::noise::{SplitMix64, mix64};
 use render_host::sequence::{Phase, SequenceManifest, read_manifest};
-use render_host::{Camera, Scene};
 use serde::Serialize;
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -1096,7 +1096,8 @@ pub fn run_sequence(
         anyhow::bail!("{}: a sequence needs at least 2 frames, it has {n}", dir.display());
     }
     check_cameras(dir, &m, n)?;
-    let scene = Scene::tango()?.with_surface_detail(m.config.surface_seed);
+    // The model of the target the sequence was rendered with.
+    let scene = m.config.target.scene()?.with_surface_detail(m.config.surface_seed);
     let name = m.config.name.as_str().to_string();
     let mut all = selected(only)?;
     let has_raw = m.nuc.is_some() && m.frames.iter().take(n).all(|f| f.files.tir_raw.is_some());

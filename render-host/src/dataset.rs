@@ -26,8 +26,12 @@ pub struct DatasetConfig {
     pub frames: usize,
     /// Seed of every random draw.
     pub seed: u64,
-    /// Target mesh (OBJ); `None` = the procedural Tango-like target.
+    /// Target mesh (OBJ); `None` = the procedural [`target`](Self::target).
     pub mesh: Option<PathBuf>,
+    /// The procedural target rendered without a mesh. Configurations without the field read
+    /// the Tango-like one.
+    #[serde(default, skip_serializing_if = "crate::scene::Target::is_default")]
+    pub target: crate::scene::Target,
     /// Scale applied to the OBJ mesh's coordinates (to metres).
     pub mesh_scale: f32,
     /// Material of OBJ faces whose names give no hint.
@@ -91,6 +95,7 @@ impl Default for DatasetConfig {
             frames: 20,
             seed: 1,
             mesh: None,
+            target: crate::scene::Target::default(),
             mesh_scale: 1.0,
             mesh_default_material: Material::MliKapton,
             vis_size: 1024,
@@ -136,7 +141,7 @@ impl DatasetConfig {
     /// Loads the target this configuration names.
     pub fn scene(&self) -> Result<Scene> {
         let scene = match &self.mesh {
-            None => Scene::tango()?,
+            None => self.target.scene()?,
             Some(p) => Scene::from_obj(p, self.mesh_default_material, self.mesh_scale)?,
         };
         Ok(if self.surface_detail { scene.with_surface_detail(self.surface_seed) } else { scene })
@@ -586,7 +591,10 @@ pub fn render_dataset(cfg: &DatasetConfig, out_dir: &Path, progress: bool) -> Re
     let manifest = Manifest {
         generator: format!("render-host {}", env!("CARGO_PKG_VERSION")),
         seed: cfg.seed,
-        target: cfg.mesh.as_ref().map_or_else(|| "tango".to_string(), |p| p.display().to_string()),
+        target: cfg
+            .mesh
+            .as_ref()
+            .map_or_else(|| cfg.target.as_str().to_string(), |p| p.display().to_string()),
         target_centre_m: arr(scene.centre),
         sun_direction: arr(sun),
         earth_direction: arr(cfg.vis.earth_dir.normalize()),

@@ -32,8 +32,10 @@ pub struct RenderOptions {
     /// (the study's 512² and 1024² beside a 1024² VIS), a sequence the first of them (half, as
     /// `fusion navbench` renders). See [`RenderOptions::tir_sizes_or_default`].
     pub tir_sizes: Option<Vec<u32>>,
-    /// Render this OBJ mesh instead of the procedural Tango-like target.
+    /// Render this OBJ mesh instead of the procedural target.
     pub mesh: Option<PathBuf>,
+    /// The procedural target (datasets without `mesh`, and sequences).
+    pub target: crate::scene::Target,
     /// Scale from the OBJ's units to metres.
     pub mesh_scale: f32,
     /// TIR radiometry: `radiometric` (εσT⁴/π with cos⁴ fall-off) or `study` (view-factor weighting).
@@ -95,6 +97,7 @@ impl Default for RenderOptions {
             vis_size: 1024,
             tir_sizes: None,
             mesh: None,
+            target: crate::scene::Target::default(),
             mesh_scale: 1.0,
             radiometry: Radiometry::Radiometric,
             tir_dn: DnMapping::Temperature,
@@ -191,6 +194,7 @@ impl RenderOptions {
         cfg.tir_sizes = tir_sizes;
         cfg.seed = self.seed;
         cfg.mesh = self.mesh.clone();
+        cfg.target = self.target;
         cfg.mesh_scale = self.mesh_scale;
         cfg.mesh_default_material = Material::MliKapton;
         cfg.tir.radiometry = self.radiometry;
@@ -240,6 +244,7 @@ pub fn sequence_config(
         frames: args.frames.unwrap_or(120),
         seed: cfg.seed,
         surface_seed: cfg.surface_seed,
+        target: args.target,
         vis_size,
         tir_size,
         rig,
@@ -270,7 +275,7 @@ pub fn render(args: &RenderOptions) -> Result<String> {
     if let Some(name) = args.sequence {
         if args.mesh.is_some() || args.flat {
             bail!(
-                "--sequence renders the procedural target with its surface detail; --mesh and --flat do not apply"
+                "--sequence renders a procedural target (--target) with its surface detail; --mesh and --flat do not apply"
             );
         }
         let seq = sequence_config(name, args, &cfg)?;

@@ -57,7 +57,7 @@ use crate::focal_plane::{FocalPlane, FocalPlaneParams};
 use crate::image::Image;
 use crate::image::{write_png8, write_png16};
 use crate::noise::{Band, NoiseParams, apply_sensor_noise, rng_for};
-use crate::scene::Scene;
+use crate::scene::{Scene, Target};
 use crate::thermal::{NodeBalance, ThermalParams, advance, face_temperatures, steady_state};
 use crate::tir::{TirParams, render_tir_over};
 use crate::truth::{earth_mask, target_mask};
@@ -157,6 +157,9 @@ pub struct SequenceConfig {
     pub seed: u64,
     /// Seed of the target's surface detail.
     pub surface_seed: u64,
+    /// The target ([`Target`]); manifests without the field read the Tango-like one.
+    #[serde(default, skip_serializing_if = "Target::is_default")]
+    pub target: Target,
     /// VIS image size (square), px.
     pub vis_size: u32,
     /// TIR image size (square), px.
@@ -214,6 +217,7 @@ impl SequenceConfig {
             frame_rate_hz: 1.0,
             seed: 1,
             surface_seed: 0,
+            target: Target::default(),
             vis_size: 1024,
             tir_size: 512,
             vis: VisParams { samples: SEQUENCE_SAMPLES, ..VisParams::light() },
@@ -612,7 +616,7 @@ pub fn render_sequence(cfg: &SequenceConfig, out_dir: &Path, progress: bool) -> 
     if cfg.vis_size == 0 || cfg.tir_size == 0 {
         bail!("image sizes must be positive");
     }
-    let scene = Scene::tango()?.with_surface_detail(cfg.surface_seed);
+    let scene = cfg.target.scene()?.with_surface_detail(cfg.surface_seed);
     let name = cfg.name.as_str();
     let mut dirs = vec!["vis", "tir", "vis_mask", "tir_mask"];
     if cfg.write_clean {

@@ -282,3 +282,38 @@ fn an_offset_rig_is_judged_with_its_registration() {
     let rows = run_sequence(plain.path(), None, Some(&only), false, Registration::Filter).unwrap();
     assert!(rows.iter().all(|r| r.misregistration_px.is_nan()));
 }
+
+/// The second target (`render_host::scene::Target::BoxWing`) through the sequences and the
+/// judge: the manifest names it, each mask is the set of pixels whose ray meets the box-wing
+/// geometry at the manifest's pose (and not the Tango-like one's), and the judge's baselines
+/// hold on it (its model is the target the sequence was rendered with).
+#[test]
+fn a_second_target_is_rendered_and_judged_with_its_own_model() {
+    use render_host::scene::Target;
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = SequenceConfig { target: Target::BoxWing, ..small(SequenceName::Flyaround, 48) };
+    render_sequence(&cfg, dir.path(), false).unwrap();
+    let m = read_manifest(dir.path()).unwrap();
+    assert_eq!(m.config.target, Target::BoxWing);
+    let (boxwing, tango) = (Target::BoxWing.scene().unwrap(), Scene::tango().unwrap());
+    for f in [&m.frames[0], &m.frames[17]] {
+        let cam = Camera::study(160, f.pose());
+        let mask =
+            fusion_io::load_gray_u8(&dir.path().join(&f.files.vis_mask), fusion_io::ColorPolicy::Refuse)
+                .unwrap();
+        let hits = |scene: &Scene| {
+            (0..160u32)
+                .flat_map(|y| (0..160u32).map(move |x| (x, y)))
+                .filter(|&(x, y)| scene.intersect(cam.pose.position, cam.pixel_ray(x, y), 0.0).is_some())
+                .collect::<Vec<_>>()
+        };
+        let on_mask: Vec<(u32, u32)> = (0..160u32)
+            .flat_map(|y| (0..160u32).map(move |x| (x, y)))
+            .filter(|&(x, y)| mask.data[(y * 160 + x) as usize] > 127)
+            .collect();
+        assert_eq!(on_mask, hits(&boxwing), "frame {}", f.index);
+        assert_ne!(on_mask, hits(&tango), "frame {}", f.index);
+    }
+    let rows = run_sequence(dir.path(), None, None, false, Registration::Filter).unwrap();
+    judge_floor_and_ceiling(&m, &rows);
+}

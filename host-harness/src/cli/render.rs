@@ -33,9 +33,14 @@ pub struct RenderArgs {
     /// and the VIS size; a sequence renders the first: half the VIS size, as navbench does].
     #[arg(long, value_delimiter = ',', value_name = "PX,PX")]
     pub tir_sizes: Option<Vec<u32>>,
-    /// Render this OBJ mesh instead of the procedural Tango-like target.
-    #[arg(long, value_name = "FILE.obj")]
+    /// Render this OBJ mesh instead of the procedural target (datasets; README, "Your own
+    /// target").
+    #[arg(long, value_name = "FILE.obj", conflicts_with = "target")]
     pub mesh: Option<PathBuf>,
+    /// The procedural target: `tango` (the Tango-like small satellite, a 0.74 m bus under one
+    /// panel) or `boxwing` (a 0.9 m bus with two 1.3 m solar wings and a dish, 3.4 m across).
+    #[arg(long, value_enum, value_name = "NAME", default_value = "tango")]
+    pub target: render_host::scene::Target,
     /// Scale from the OBJ's units to metres.
     #[arg(long, default_value_t = RenderOptions::default().mesh_scale)]
     pub mesh_scale: f32,
@@ -126,6 +131,7 @@ impl From<RenderArgs> for RenderOptions {
             vis_size: a.vis_size,
             tir_sizes: a.tir_sizes,
             mesh: a.mesh,
+            target: a.target,
             mesh_scale: a.mesh_scale,
             radiometry: a.radiometry,
             tir_dn: a.tir_dn,

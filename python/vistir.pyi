@@ -119,6 +119,8 @@ def render(
     vis_size: int = 1024,
     tir_sizes: Optional[Sequence[int]] = None,
     tir16: bool = False,
+    target: Literal["tango", "boxwing"] = "tango",
 ) -> dict[str, Any]:
     """Renders a dataset or a rendezvous sequence (with ground truth) into the folder `out` (a
-    new folder appears whole or not at all) and returns its manifest (the parsed manifest.json)."""
+    new folder appears whole or not at all) and returns its manifest (the parsed manifest.json);
+    `target` picks the procedural target."""

@@ -443,9 +443,10 @@ fn save(py: Python<'_>, path: PathBuf, img: &Bound<'_, PyAny>) -> PyResult<()> {
 /// parsed `manifest.json`: per frame the files, the camera pose and the illumination phase.
 /// frames: how many (default: the CLI's); tir_sizes: thermal frame sizes (default: half the VIS
 /// size and the VIS size; a sequence renders the first, half the VIS size); tir16:
-/// also write 16-bit thermal counts.
+/// also write 16-bit thermal counts; target: "tango" (the Tango-like small satellite) or
+/// "boxwing" (a box-wing satellite with two long solar wings).
 #[pyfunction]
-#[pyo3(signature = (out, frames=None, sequence=None, seed=1, vis_size=1024, tir_sizes=None, tir16=false))]
+#[pyo3(signature = (out, frames=None, sequence=None, seed=1, vis_size=1024, tir_sizes=None, tir16=false, target="tango"))]
 #[allow(clippy::too_many_arguments)]
 fn render<'py>(
     py: Python<'py>,
@@ -456,6 +457,7 @@ fn render<'py>(
     vis_size: u32,
     tir_sizes: Option<Vec<u32>>,
     tir16: bool,
+    target: &str,
 ) -> PyResult<Bound<'py, PyAny>> {
     let defaults = render_host::RenderOptions::default();
     let options = render_host::RenderOptions {
@@ -468,6 +470,7 @@ fn render<'py>(
         vis_size,
         tir_sizes,
         tir16,
+        target: named::<render_host::scene::Target>("target", target)?,
         ..defaults
     };
     let manifest = py

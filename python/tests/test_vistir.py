@@ -254,6 +254,12 @@ def test_render_writes_a_dataset_and_returns_its_manifest(tmp_path):
     assert all((out / p).read_bytes() == b for p, b in first.items()), "same seed, same frames"
     with pytest.raises(ValueError, match="approach"):
         vistir.render(tmp_path / "x", sequence="orbit")
+    # The second target: named in the manifest, other pixels than the first's.
+    boxwing = vistir.render(tmp_path / "bw", frames=2, vis_size=128, tir_sizes=[64], target="boxwing")
+    assert boxwing["target"] == "boxwing"
+    assert (tmp_path / "bw" / pngs[0]).read_bytes() != first[pngs[0]]
+    with pytest.raises(ValueError, match="boxwing"):
+        vistir.render(tmp_path / "y", target="hubble")
 
 
 def test_the_gil_is_released_while_the_core_runs():
@@ -263,8 +269,10 @@ def test_the_gil_is_released_while_the_core_runs():
     import time
 
     rng = np.random.default_rng(3)
-    vis = rng.integers(0, 256, size=(1024, 1024), dtype=np.uint8)
-    tir = rng.integers(0, 256, size=(512, 512), dtype=np.uint8)
+    # 2048² so that a call lasts tens of ms even on a fast core (1024² ADF took < 20 ms here
+    # in one run of the suite, which left nothing to judge).
+    vis = rng.integers(0, 256, size=(2048, 2048), dtype=np.uint8)
+    tir = rng.integers(0, 256, size=(1024, 1024), dtype=np.uint8)
     stamps, stop = [], threading.Event()
 
     def spin():

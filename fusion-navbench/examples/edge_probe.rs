@@ -13,8 +13,8 @@ use fusion_navbench::filter::rotation_vector;
 use fusion_navbench::model::TargetModel;
 use fusion_navbench::tracker::smooth;
 use image::GrayImage;
-use render_host::glam::{DQuat, DVec3};
 use render_host::Camera;
+use render_host::glam::{DQuat, DVec3};
 use std::path::PathBuf;
 
 fn main() -> Result<()> {

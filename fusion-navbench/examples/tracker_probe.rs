@@ -6,9 +6,9 @@
 use fusion_io::{ColorPolicy, load_gray_u8};
 use fusion_navbench::model::TargetModel;
 use fusion_navbench::tracker::{ModelTracker, TrackerParams, smooth};
+use render_host::Camera;
 use render_host::glam::DQuat;
 use render_host::sequence::read_manifest;
-use render_host::Camera;
 
 fn main() -> anyhow::Result<()> {
     let args: Vec<String> = std::env::args().collect();

@@ -11,8 +11,8 @@ use fusion_navbench::model::TargetModel;
 use fusion_navbench::tracker::smooth;
 use fusion_navbench::warp::{GradientImage, Template};
 use optical_flow_lk::{DetectorContext, Grid, TrackParams, TrackStatus, build_pyramid, calc_optical_flow_fb};
-use render_host::sequence::read_manifest;
 use render_host::Camera;
+use render_host::sequence::read_manifest;
 
 fn main() -> anyhow::Result<()> {
     let args: Vec<String> = std::env::args().collect();

@@ -6,7 +6,12 @@
 //! few degrees across) comes back in every later measurement and grows. The outline does not
 //! depend on the estimate: the target, warm or lit against cold, dark space, is segmented
 //! (a threshold over the space background's level and noise, both measured on the image's
-//! border), and its centroid and area are compared with the model's silhouette at the estimate
+//! border). Against a background that is not dark (the Earth: lit in VIS, warm in TIR, where
+//! the target may be brighter or darker than what is behind it), the target is what differs
+//! from its surroundings either way: level and spread are measured on a ring around the
+//! predicted box, and pixels inside the box more than [`RING_SIGMAS`] spreads off that level,
+//! above or below, are the target. Its centroid and area are compared with the model's
+//! silhouette at the estimate
 //! ([`crate::model::TargetModel::silhouette`]). To first order a lateral offset of the target
 //! moves the centroid by `f·Δx/z`, and a range error scales the area by `(z/z')²`; the
 //! measurement is the target-centre position those imply, in the target frame. Its errors are
@@ -36,10 +41,31 @@ pub const MIN_AREA_PX: f64 = 40.0;
 pub const THRESHOLD_SIGMAS: f64 = 6.0;
 /// The border band the background's level and noise are measured on, px.
 pub const BORDER_PX: u32 = 16;
+/// A border median above this (grey levels) is not dark space: the target is segmented
+/// against the ring around its predicted box instead (dark space after the sensor's noise and
+/// the front end's smoothing reads a median of a few grey levels).
+pub const DARK_BACKGROUND: f64 = 24.0;
+/// Against a background that is not dark: the ring around the predicted box the background is
+/// measured on, as a share of the box's larger side on each side.
+pub const RING_FRAC: f64 = 0.5;
+/// Against a background that is not dark: the threshold, in the ring's spreads (1.4826 × its
+/// median absolute deviation, at least 1 grey level), on either side of the ring's median.
+pub const RING_SIGMAS: f64 = 3.0;
 
-/// The segmented target in `img` (the smoothed frame): pixels more than [`THRESHOLD_SIGMAS`]
-/// background noise standard deviations (median absolute deviation of the border band, at
-/// least 1 grey level) above the border's median, inside `bbox`.
+/// Median and spread (1.4826 × the median absolute deviation, at least 1) of `values`.
+fn level_and_spread(mut values: Vec<u8>) -> (f64, f64) {
+    values.sort_unstable();
+    let median = f64::from(values[values.len() / 2]);
+    let mut dev: Vec<f64> = values.iter().map(|&v| (f64::from(v) - median).abs()).collect();
+    dev.sort_by(f64::total_cmp);
+    (median, (1.4826 * dev[dev.len() / 2]).max(1.0))
+}
+
+/// The segmented target in `img` (the smoothed frame), inside `bbox`: against dark space (the
+/// border band's median at most [`DARK_BACKGROUND`]) the pixels more than [`THRESHOLD_SIGMAS`]
+/// background noise standard deviations above the border's median; against anything brighter
+/// (the Earth) the pixels more than [`RING_SIGMAS`] spreads above or below the level of the
+/// ring around `bbox` ([`RING_FRAC`]).
 pub fn segment(img: &GrayImage, bbox: (u32, u32, u32, u32)) -> Option<Silhouette> {
     let (w, h) = img.dimensions();
     if w <= 2 * BORDER_PX || h <= 2 * BORDER_PX {
@@ -53,17 +79,33 @@ pub fn segment(img: &GrayImage, bbox: (u32, u32, u32, u32)) -> Option<Silhouette
             }
         }
     }
-    border.sort_unstable();
-    let median = f64::from(border[border.len() / 2]);
-    let mut dev: Vec<f64> = border.iter().map(|&v| (f64::from(v) - median).abs()).collect();
-    dev.sort_by(f64::total_cmp);
-    let sigma = (1.4826 * dev[dev.len() / 2]).max(1.0);
-    let threshold = median + THRESHOLD_SIGMAS * sigma;
+    let (median, sigma) = level_and_spread(border);
     let (x0, y0, x1, y1) = bbox;
+    let target: Box<dyn Fn(f64) -> bool> = if median <= DARK_BACKGROUND {
+        let threshold = median + THRESHOLD_SIGMAS * sigma;
+        Box::new(move |v| v > threshold)
+    } else {
+        let grow = (f64::from((x1 - x0).max(y1 - y0)) * RING_FRAC).ceil() as u32;
+        let (rx0, ry0) = (x0.saturating_sub(grow), y0.saturating_sub(grow));
+        let (rx1, ry1) = ((x1 + grow).min(w), (y1 + grow).min(h));
+        let mut ring = Vec::new();
+        for y in ry0..ry1 {
+            for x in rx0..rx1 {
+                if !(x0..x1).contains(&x) || !(y0..y1).contains(&y) {
+                    ring.push(img.get_pixel(x, y)[0]);
+                }
+            }
+        }
+        if ring.len() < 64 {
+            return None;
+        }
+        let (level, spread) = level_and_spread(ring);
+        Box::new(move |v| (v - level).abs() > RING_SIGMAS * spread)
+    };
     let (mut n, mut sx, mut sy) = (0f64, 0f64, 0f64);
     for y in y0..y1.min(h) {
         for x in x0..x1.min(w) {
-            if f64::from(img.get_pixel(x, y)[0]) > threshold {
+            if target(f64::from(img.get_pixel(x, y)[0])) {
                 n += 1.0;
                 sx += f64::from(x) + 0.5;
                 sy += f64::from(y) + 0.5;
@@ -137,5 +179,51 @@ mod tests {
         let d2 = (e.transpose() * cov.try_inverse().unwrap() * e)[(0, 0)];
         assert!(d2 < 4.0 * 3.0, "Mahalanobis² {d2}, error {err:?}");
         assert!(err.length() < 0.3 * (wrong - p).length(), "{} vs {}", err.length(), (wrong - p).length());
+    }
+
+    /// Against the Earth: the same outline on a bright, structured background (a level of 150
+    /// with ±12 grey levels of slow pattern and ±4 of pixel noise), the target once colder
+    /// (darker, as in TIR over a warm Earth) and once brighter: either way the measurement
+    /// pulls the wrong estimate back as it does against dark space; the border-based threshold
+    /// alone would see nothing darker than the background.
+    #[test]
+    fn against_the_earth_the_outline_is_what_differs_from_its_surroundings() {
+        let scene = Scene::tango().expect("scene");
+        let model = TargetModel::new(&scene);
+        let pose = camera_pose(&state(&SequenceConfig::new(SequenceName::Flyaround), 3), &scene);
+        let size = 512;
+        let truth = Camera::study(size, pose);
+        let mask = render_host::truth::target_mask(&scene, &truth);
+        let q = DQuat::from_mat3(&pose.rotation.as_dmat3());
+        let p = pose.position.as_dvec3();
+        let c = model.centre();
+        let wrong = c + (p - c) * 1.05 + DVec3::new(0.0, 0.0, 0.1);
+        let est = camera_at(&truth, q, wrong);
+        let bbox = model.image_box(&est, 0.3).unwrap();
+        let mut rng = render_host::noise::SplitMix64::new(5);
+        for target in [100u8, 210] {
+            let data = mask
+                .iter()
+                .enumerate()
+                .map(|(i, &m)| {
+                    let (x, y) = ((i % 512) as f64, (i / 512) as f64);
+                    let earth =
+                        150.0 + 12.0 * (x / 37.0).sin() * (y / 53.0).cos() + (rng.next_u64() % 9) as f64
+                            - 4.0;
+                    if m { target } else { earth.round() as u8 }
+                })
+                .collect();
+            let img = GrayImage::from_raw(size, size, data).unwrap();
+            let seen = segment(&img, bbox).expect("segmented");
+            let at_est = model.silhouette(&est, bbox, 1).expect("model silhouette");
+            let (m, _) = position_measurement(&seen, &at_est, &est, &model).expect("a measurement");
+            let err = m - p;
+            assert!(
+                err.length() < 0.3 * (wrong - p).length(),
+                "target {target}: {} vs {}",
+                err.length(),
+                (wrong - p).length()
+            );
+        }
     }
 }

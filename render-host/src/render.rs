@@ -258,7 +258,9 @@ pub fn sequence_config(
             .earth_km
             .map(|km| km * 1000.0)
             .or(SequenceConfig::new(name).earth.map(|e| e.altitude_m))
-            .map(|altitude_m| crate::earth::EarthParams { altitude_m, seed: cfg.surface_seed ^ cfg.seed }),
+            .map(|altitude_m| {
+                crate::earth::EarthParams::for_sequence(altitude_m, cfg.seed, cfg.surface_seed)
+            }),
         sun_phase_deg: args.sun_phase_deg,
         glare: args.glare.then(crate::glare::GlareParams::default),
         ..SequenceConfig::new(name)

@@ -165,6 +165,17 @@ pub fn run(args: &NavbenchArgs) -> Result<()> {
                     rig,
                     ..SequenceConfig::new(name)
                 };
+                // The sequence's own Earth (`radial`), seeded as `fusion render` seeds it.
+                let cfg = SequenceConfig {
+                    earth: cfg.earth.map(|e| {
+                        render_host::earth::EarthParams::for_sequence(
+                            e.altitude_m,
+                            cfg.seed,
+                            cfg.surface_seed,
+                        )
+                    }),
+                    ..cfg
+                };
                 note!(
                     "rendering {} seed {seed} ({} frames) into {}",
                     name.as_str(),

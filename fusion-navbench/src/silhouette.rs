@@ -152,25 +152,40 @@ mod tests {
     use render_host::glam::DQuat;
     use render_host::sequence::{SequenceConfig, SequenceName, camera_pose, state};
 
-    /// The true camera's rendered mask, segmented, measured against the model at an estimate
-    /// 5 % too far and 10 cm to the side: the measurement lands within its 2σ of the true
-    /// position, and much closer than the estimate.
-    #[test]
-    fn outline_pulls_a_wrong_estimate_back_to_the_truth() {
+    /// A fly-around frame at 512²: the target, the true camera's target mask, the true camera
+    /// position, and an estimate 5 % too far and 10 cm to the side.
+    struct Case {
+        scene: Scene,
+        mask: Vec<bool>,
+        truth: DVec3,
+        wrong: DVec3,
+        est: Camera,
+    }
+
+    fn wrong_estimate() -> Case {
         let scene = Scene::tango().expect("scene");
         let model = TargetModel::new(&scene);
         let pose = camera_pose(&state(&SequenceConfig::new(SequenceName::Flyaround), 3), &scene);
-        let size = 512;
-        let truth = Camera::study(size, pose);
-        let mask = render_host::truth::target_mask(&scene, &truth);
-        let img =
-            GrayImage::from_raw(size, size, mask.iter().map(|&m| if m { 200 } else { 3 }).collect()).unwrap();
+        let camera = Camera::study(512, pose);
+        let mask = render_host::truth::target_mask(&scene, &camera);
         let q = DQuat::from_mat3(&pose.rotation.as_dmat3());
-        let p = pose.position.as_dvec3();
+        let truth = pose.position.as_dvec3();
         let c = model.centre();
-        let wrong = c + (p - c) * 1.05 + DVec3::new(0.0, 0.0, 0.1);
-        let est = camera_at(&truth, q, wrong);
+        let wrong = c + (truth - c) * 1.05 + DVec3::new(0.0, 0.0, 0.1);
+        let est = camera_at(&camera, q, wrong);
+        Case { scene, mask, truth, wrong, est }
+    }
+
+    /// The true camera's rendered mask, segmented, measured against the model at the wrong
+    /// estimate: the measurement lands within its 2σ of the true position, and much closer
+    /// than the estimate.
+    #[test]
+    fn outline_pulls_a_wrong_estimate_back_to_the_truth() {
+        let Case { scene, mask, truth: p, wrong, est } = wrong_estimate();
+        let model = TargetModel::new(&scene);
         let bbox = model.image_box(&est, 0.3).unwrap();
+        let img =
+            GrayImage::from_raw(512, 512, mask.iter().map(|&m| if m { 200 } else { 3 }).collect()).unwrap();
         let seen = segment(&img, bbox).expect("segmented");
         let at_est = model.silhouette(&est, bbox, 1).expect("model silhouette");
         let (m, cov) = position_measurement(&seen, &at_est, &est, &model).expect("a measurement");
@@ -188,17 +203,8 @@ mod tests {
     /// alone would see nothing darker than the background.
     #[test]
     fn against_the_earth_the_outline_is_what_differs_from_its_surroundings() {
-        let scene = Scene::tango().expect("scene");
+        let Case { scene, mask, truth: p, wrong, est } = wrong_estimate();
         let model = TargetModel::new(&scene);
-        let pose = camera_pose(&state(&SequenceConfig::new(SequenceName::Flyaround), 3), &scene);
-        let size = 512;
-        let truth = Camera::study(size, pose);
-        let mask = render_host::truth::target_mask(&scene, &truth);
-        let q = DQuat::from_mat3(&pose.rotation.as_dmat3());
-        let p = pose.position.as_dvec3();
-        let c = model.centre();
-        let wrong = c + (p - c) * 1.05 + DVec3::new(0.0, 0.0, 0.1);
-        let est = camera_at(&truth, q, wrong);
         let bbox = model.image_box(&est, 0.3).unwrap();
         let mut rng = render_host::noise::SplitMix64::new(5);
         for target in [100u8, 210] {
@@ -213,7 +219,7 @@ mod tests {
                     if m { target } else { earth.round() as u8 }
                 })
                 .collect();
-            let img = GrayImage::from_raw(size, size, data).unwrap();
+            let img = GrayImage::from_raw(512, 512, data).unwrap();
             let seen = segment(&img, bbox).expect("segmented");
             let at_est = model.silhouette(&est, bbox, 1).expect("model silhouette");
             let (m, _) = position_measurement(&seen, &at_est, &est, &model).expect("a measurement");

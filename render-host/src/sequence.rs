@@ -394,11 +394,11 @@ fn laid_out(cfg: &SequenceConfig, i: usize) -> InertialState {
             let range = RADIAL_RANGE_M.0 * (RADIAL_RANGE_M.1 / RADIAL_RANGE_M.0).powf(u);
             // The target's panel (its +z) halfway between the first frame's sun and line of
             // sight (lit and in view), then tumbling at 1 °/s.
-            let sun0 = Quat::from_axis_angle(normal, (off + 0.5 * phase) as f32) * zenith;
+            let panel = Quat::from_axis_angle(normal, (off + 0.5 * phase) as f32) * zenith;
             let spin = Vec3::new(-0.4, 0.3, 1.0).normalize();
             let tumble = Quat::from_axis_angle(spin, (1.0f64.to_radians() * t) as f32);
             InertialState {
-                attitude: tumble * Quat::from_rotation_arc(Vec3::Z, sun0.normalize()),
+                attitude: tumble * Quat::from_rotation_arc(Vec3::Z, panel.normalize()),
                 eye: dir * range as f32,
                 // Image up towards the sky.
                 up: (zenith - dir * zenith.dot(dir)).normalize(),

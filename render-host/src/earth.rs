@@ -84,13 +84,6 @@ impl EarthParams {
         (EARTH_MU / (EARTH_RADIUS_M + self.altitude_m).powi(3)).sqrt()
     }
 
-    /// The Earth of a sequence rendered with noise seed `seed` and surface seed `surface_seed`
-    /// at `altitude_m`: its land and clouds seeded by both, so that `fusion render` and the
-    /// navigation judge, rendering the same sequence, draw the same Earth.
-    pub fn for_sequence(altitude_m: f64, seed: u64, surface_seed: u64) -> EarthParams {
-        EarthParams { altitude_m, seed: surface_seed ^ seed }
-    }
-
     /// Cosine of the Earth's angular radius seen from the orbit.
     pub fn cos_angular_radius(&self) -> f64 {
         let s = EARTH_RADIUS_M / (EARTH_RADIUS_M + self.altitude_m);

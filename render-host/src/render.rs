@@ -253,14 +253,12 @@ pub fn sequence_config(
         noise: cfg.noise,
         write_tir16: args.tir16,
         focal_plane: args.raw_tir.then(crate::focal_plane::FocalPlaneParams::default),
-        // `--earth KM`, or the sequence's own Earth (`radial`) at its altitude.
-        earth: args
-            .earth_km
-            .map(|km| km * 1000.0)
-            .or(SequenceConfig::new(name).earth.map(|e| e.altitude_m))
-            .map(|altitude_m| {
-                crate::earth::EarthParams::for_sequence(altitude_m, cfg.seed, cfg.surface_seed)
-            }),
+        earth: crate::sequence::sequence_earth(
+            name,
+            args.earth_km.map(|km| km * 1000.0),
+            cfg.seed,
+            cfg.surface_seed,
+        ),
         sun_phase_deg: args.sun_phase_deg,
         glare: args.glare.then(crate::glare::GlareParams::default),
         ..SequenceConfig::new(name)

@@ -209,7 +209,7 @@ pub struct SequenceConfig {
 
 impl SequenceConfig {
     /// The default sequence of `name`: 120 frames at 1 Hz, VIS 1024², TIR 512², noisy and clean;
-    /// `radial` with the Earth ([`EarthParams::default`](crate::earth::EarthParams)).
+    /// `radial` with its Earth ([`sequence_earth`]).
     pub fn new(name: SequenceName) -> SequenceConfig {
         SequenceConfig {
             name,
@@ -227,7 +227,7 @@ impl SequenceConfig {
             write_clean: true,
             write_tir16: false,
             focal_plane: None,
-            earth: (name == SequenceName::Radial).then(crate::earth::EarthParams::default),
+            earth: sequence_earth(name, None, 1, 0),
             sun_phase_deg: None,
             glare: None,
             rig: None,
@@ -303,6 +303,19 @@ pub fn state(cfg: &SequenceConfig, i: usize) -> InertialState {
     st
 }
 
+/// The Earth a sequence `name` draws: at `altitude_m` when asked (`--earth`), else its own
+/// (`radial`'s) if it has one, seeded from the sequence's noise and surface seeds so that
+/// `fusion render` and the navigation judge, rendering the same sequence, draw the same Earth.
+pub fn sequence_earth(
+    name: SequenceName,
+    altitude_m: Option<f64>,
+    seed: u64,
+    surface_seed: u64,
+) -> Option<crate::earth::EarthParams> {
+    let own = (name == SequenceName::Radial).then_some(crate::earth::DEFAULT_ALTITUDE_M);
+    altitude_m.or(own).map(|altitude_m| crate::earth::EarthParams { altitude_m, seed: surface_seed ^ seed })
+}
+
 /// Visible fraction of the solar disc seen from an orbit at `altitude_m` when the sun is
 /// `nadir_angle` (rad) from the nadir: the Earth's limb lies `asin(R / (R + h))` from the nadir
 /// and crosses the disc (angular radius [`SUN_ANGULAR_RADIUS`]) as a straight edge.
@@ -316,9 +329,14 @@ pub fn sun_fraction_above_limb(nadir_angle: f64, altitude_m: f64) -> f64 {
 /// The sun at `phase` degrees from the line of sight `eye` (unit, target → camera), in the
 /// plane holding `eye` and `sun` (any plane through `eye` when the two are parallel).
 pub fn phased_sun(eye: Vec3, sun: Vec3, phase: f64) -> Vec3 {
-    let axis = eye.cross(sun);
-    let axis = if axis.length() > 1e-6 { axis.normalize() } else { eye.any_orthonormal_vector() };
-    (Quat::from_axis_angle(axis, phase.to_radians() as f32) * eye).normalize()
+    (Quat::from_axis_angle(turning_axis(eye, sun), phase.to_radians() as f32) * eye).normalize()
+}
+
+/// The unit axis that turns `from` towards `to` (`from × to`), or any axis normal to `from`
+/// when the two are parallel.
+fn turning_axis(from: Vec3, to: Vec3) -> Vec3 {
+    let axis = from.cross(to);
+    if axis.length() > 1e-6 { axis.normalize() } else { from.any_orthonormal_vector() }
 }
 
 /// The state of frame `i` with the sun at `vis.sun_dir` (the trajectories are laid out with it).
@@ -379,9 +397,7 @@ fn laid_out(cfg: &SequenceConfig, i: usize) -> InertialState {
             // enters the shadow where the sun sets behind the limb.
             let earth = cfg.earth.unwrap_or_default();
             let zenith = -cfg.vis.earth_dir.normalize();
-            let normal = zenith.cross(sun);
-            let normal =
-                if normal.length() > 1e-6 { normal.normalize() } else { zenith.any_orthonormal_vector() };
+            let normal = turning_axis(zenith, sun);
             let off = RADIAL_OFF_ZENITH_DEG.to_radians();
             let phase = cfg.sun_phase_deg.unwrap_or(RADIAL_SUN_PHASE_DEG).to_radians();
             let zeta = off + phase + earth.mean_motion() * t;

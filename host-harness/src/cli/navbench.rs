@@ -114,7 +114,7 @@ pub fn run(args: &NavbenchArgs) -> Result<()> {
         let mut seed_rows = Vec::new();
         for &name in args.sequences.as_deref().unwrap_or(&SequenceName::SPACE) {
             let dir = data.join(format!("seed-{seed}")).join(name.as_str());
-            if dir.join("manifest.json").is_file() {
+            let target = if dir.join("manifest.json").is_file() {
                 let m = read_manifest(&dir)?;
                 if m.config.seed != seed {
                     bail!("{}: rendered with seed {}, not {seed}", dir.display(), m.config.seed);
@@ -150,11 +150,13 @@ pub fn run(args: &NavbenchArgs) -> Result<()> {
                         args.vis_size
                     );
                 }
+                m.config.target
             } else {
                 let (vis_size, tir_size) = match &rig {
                     Some(r) => (r.vis.width as u32, r.tir.width as u32),
                     None => (args.vis_size, args.vis_size / 2),
                 };
+                let base = SequenceConfig::new(name);
                 let cfg = SequenceConfig {
                     frames: args.frames.unwrap_or(120),
                     vis_size,
@@ -163,18 +165,9 @@ pub fn run(args: &NavbenchArgs) -> Result<()> {
                     target: args.target.unwrap_or_default(),
                     focal_plane: args.raw_tir.then(render_host::focal_plane::FocalPlaneParams::default),
                     rig,
-                    ..SequenceConfig::new(name)
-                };
-                // The sequence's own Earth (`radial`), seeded as `fusion render` seeds it.
-                let cfg = SequenceConfig {
-                    earth: cfg.earth.map(|e| {
-                        render_host::earth::EarthParams::for_sequence(
-                            e.altitude_m,
-                            cfg.seed,
-                            cfg.surface_seed,
-                        )
-                    }),
-                    ..cfg
+                    // The sequence's own Earth (`radial`), seeded as `fusion render` seeds it.
+                    earth: render_host::sequence::sequence_earth(name, None, seed, base.surface_seed),
+                    ..base
                 };
                 note!(
                     "rendering {} seed {seed} ({} frames) into {}",
@@ -182,9 +175,8 @@ pub fn run(args: &NavbenchArgs) -> Result<()> {
                     cfg.frames,
                     dir.display()
                 );
-                render_sequence(&cfg, &dir, false)?;
-            }
-            let target = read_manifest(&dir)?.config.target;
+                render_sequence(&cfg, &dir, false)?.config.target
+            };
             targets.push(format!("`{}`: {}", name.as_str(), target.as_str()));
             let seq = run_sequence(&dir, args.frames, only, args.clean, args.registration)?;
             note!(

@@ -21,7 +21,9 @@
 //!   destination itself is never missing).
 //! * **New folders whole**: a verb that fills a folder that does not exist yet builds it under a
 //!   temporary name beside it and renames it into place at the end ([`in_new_folder`]), so an
-//!   interrupted or failed run leaves no half-filled folder. An existing folder is filled file
+//!   interrupted or failed run leaves no half-filled folder; its subfolders are made with
+//!   [`make_folders`] so an interrupt cannot have a removed temporary folder made again. An
+//!   existing folder is filled file
 //!   by file (each file atomic); a folder made by [`create_folder`] is removed again if the run
 //!   leaves it empty.
 //! * **Interrupts**: with [`remove_in_flight_on_signal`] installed, SIGINT, SIGTERM and SIGHUP
@@ -360,6 +362,16 @@ pub fn create_folder(out: &Path) -> Result<OutputFolder> {
     std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
     list.push(Pending::Made(out.to_path_buf()));
     Ok(OutputFolder { made: Some(out.to_path_buf()) })
+}
+
+/// Makes the folder `path` and its missing parents, under the lock the signal handler takes.
+/// Use it for the subfolders of a folder being filled ([`in_new_folder`]): with
+/// `std::fs::create_dir_all`, a worker about to make `TEMP/vis` when an interrupt removes
+/// `TEMP` would make `TEMP` again after the handler's removal, and the process would exit
+/// leaving it behind.
+pub fn make_folders(path: &Path) -> Result<()> {
+    let _list = pending();
+    std::fs::create_dir_all(path).with_context(|| format!("cannot create {}", path.display()))
 }
 
 /// Runs `fill` on the folder `out`. When `out` does not exist, `fill` gets a temporary folder

@@ -284,3 +284,59 @@ fn runs_sharing_an_output_folder_all_succeed() {
     assert_eq!(files(&shared), files(&reference));
     assert_eq!(temporaries(dir.path()), Vec::<String>::new());
 }
+
+/// The race CI once lost (a `.fusion-*.tmp` folder left by a render interrupted 2 ms in),
+/// made certain: under `strace`, the render's main thread waits 1 s before its fifth `mkdir`
+/// (a subfolder of the temporary folder, `vis_mask`), and the signal thread waits 1.5 s after
+/// its third `unlinkat` (with `vis` and `tir` made, the temporary folder itself). SIGTERM is
+/// sent while the `mkdir` waits. Before the fix the handler removed the folder, the waiting
+/// `create_dir_all` made it again (ENOENT, then its parent) and the process exited leaving
+/// it; now subfolders are made under the handler's lock. Skipped without `strace` (`.ci/run`
+/// installs it) or where it may not trace.
+#[test]
+fn an_interrupt_while_a_subfolder_is_made_leaves_nothing() {
+    // strace missing, or not allowed to trace here (a container without ptrace).
+    let traces = Command::new("strace").args(["-qq", "-o", "/dev/null", "true"]).output();
+    if !traces.is_ok_and(|o| o.status.success()) {
+        println!("strace not available or not allowed to trace; skipped (apt-get install strace)");
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let trace = dir.path().join("trace.txt");
+    let out = dir.path().join("work").join("out");
+    std::fs::create_dir(dir.path().join("work")).unwrap();
+    let mut strace = Command::new("strace")
+        .args(["-f", "-qq", "-o", p(&trace), "-e", "trace=mkdir,unlinkat,exit_group"])
+        .args(["-e", "inject=mkdir:delay_enter=1000000:when=5"])
+        .args(["-e", "inject=unlinkat:delay_exit=1500000:when=3"])
+        .arg(bin())
+        .args(["--quiet", "render", "--sequence", "approach", "--frames", "6", "--vis-size", "64"])
+        .args(["--tir-sizes", "32", "--out", p(&out)])
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    // Wait until the fourth mkdir (`tir`) is done: the fifth is then held for 1 s.
+    let work = dir.path().join("work");
+    let made = || std::fs::read_dir(&work).unwrap().flatten().any(|e| e.path().join("tir").is_dir());
+    let start = std::time::Instant::now();
+    while !made() {
+        assert!(start.elapsed() < Duration::from_secs(20), "the render never made its subfolders");
+        std::thread::sleep(Duration::from_millis(2));
+    }
+    std::thread::sleep(Duration::from_millis(100));
+    let children = std::fs::read_to_string(format!("/proc/{0}/task/{0}/children", strace.id())).unwrap();
+    let pid: libc::pid_t = children.split_whitespace().next().unwrap().parse().unwrap();
+    // SAFETY: kill(2) on the traced render, a child of our child, alive while strace waits on it.
+    unsafe { libc::kill(pid, libc::SIGTERM) };
+    let status = strace.wait().unwrap();
+    let log = std::fs::read_to_string(&trace).unwrap();
+    // The scenario happened: the signal arrived while the mkdir was held.
+    let held = log.lines().position(|l| l.contains("mkdir(") && l.contains("<unfinished")).unwrap();
+    let signalled = log.lines().position(|l| l.contains("--- SIGTERM")).expect("no SIGTERM in the trace");
+    let resumed = log.lines().position(|l| l.contains("<... mkdir resumed>")).unwrap_or(usize::MAX);
+    assert!(held < signalled && signalled < resumed, "the signal missed the held mkdir:\n{log}");
+    assert_eq!(status.code(), Some(128 + libc::SIGTERM), "{log}");
+    assert_eq!(temporaries(dir.path()), Vec::<String>::new(), "{log}");
+    assert!(!out.exists(), "an interrupted render left its output folder");
+}

@@ -10,7 +10,7 @@ use crate::scene::{Material, Scene};
 use crate::thermal::{ThermalParams, eclipse_transient, face_temperatures, steady_state};
 use crate::tir::{TirParams, render_tir};
 use crate::vis::{Illumination, VisParams, render_vis};
-use anyhow::{Context, Result, bail};
+use anyhow::{Result, bail};
 use fusion_io::output::write_json;
 use glam::{Mat3, Vec3};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -427,10 +427,10 @@ pub fn render_dataset(cfg: &DatasetConfig, out_dir: &Path, progress: bool) -> Re
         .map(|fp| fp.shutter_frames(cfg.frames, 1.0 / DATASET_FRAME_INTERVAL_S))
         .unwrap_or_default();
 
-    std::fs::create_dir_all(out_dir).with_context(|| format!("cannot create {}", out_dir.display()))?;
+    fusion_io::output::make_folders(out_dir)?;
     if !focal_planes.is_empty() {
         let d = out_dir.join("calibration");
-        std::fs::create_dir_all(&d).with_context(|| format!("cannot create {}", d.display()))?;
+        fusion_io::output::make_folders(&d)?;
     }
     for s in &set_list {
         let raw = s.band == Band::Tir && !focal_planes.is_empty();
@@ -445,7 +445,7 @@ pub fn render_dataset(cfg: &DatasetConfig, out_dir: &Path, progress: bool) -> Re
             };
             if wanted {
                 let d = out_dir.join(&s.name).join(sub);
-                std::fs::create_dir_all(&d).with_context(|| format!("cannot create {}", d.display()))?;
+                fusion_io::output::make_folders(&d)?;
             }
         }
     }

@@ -656,7 +656,7 @@ pub fn render_sequence(cfg: &SequenceConfig, out_dir: &Path, progress: bool) -> 
     }
     for d in &dirs {
         let p = out_dir.join(d);
-        std::fs::create_dir_all(&p).with_context(|| format!("cannot create {}", p.display()))?;
+        fusion_io::output::make_folders(&p)?;
     }
     let bar = if progress { ProgressBar::new(cfg.frames as u64) } else { ProgressBar::hidden() };
     if let Ok(style) =

@@ -23,7 +23,13 @@
 //!   filter along their drift): attitude error (°),
 //!   position error (% of range), their 3σ bounds, NEES, and **available** when the attitude
 //!   error is ≤ [`AVAILABLE_ATT_DEG`] and the position error ≤ [`AVAILABLE_POS_PCT`] of the
-//!   range.
+//!   range. The position is the filter's state, the camera's position in the *target's* frame:
+//!   an error of the relative attitude about the target's centre (the direction a compact
+//!   target shows weakly) is in it too, 1° being 1.75 % of the range. Beside it the
+//!   **relative position** — the target's centre in the *camera's* frame, the line-of-sight
+//!   vector a chaser's guidance steers on (its own attitude comes from its star trackers) —
+//!   which that attitude error leaves unchanged, and **available (relative)** with it in
+//!   place of the position.
 //! * today's **pairwise front end** beside it (`pairwise_*`): FAST-9 + BRIEF matched frame to
 //!   frame, PnP-RANSAC against frame k − 1's rendered depth ([`super::track`],
 //!   [`super::pose`]).
@@ -259,6 +265,9 @@ pub struct FrameResult {
     pub att_err_deg: f64,
     /// Filter: position error, % of the range.
     pub pos_err_pct: f64,
+    /// Filter: error of the target's centre relative to the camera, in the camera's frame, %
+    /// of the range ([`relative_position`]).
+    pub rel_pos_err_pct: f64,
     /// Filter: 3σ of the attitude error (largest axis), degrees.
     pub att_3sigma_deg: f64,
     /// Filter: 3σ of the position error (largest axis), % of the range.
@@ -268,6 +277,8 @@ pub struct FrameResult {
     /// Navigation available: attitude and position errors within [`AVAILABLE_ATT_DEG`] and
     /// [`AVAILABLE_POS_PCT`].
     pub available: bool,
+    /// The same with the relative position's error in place of the position's.
+    pub available_rel: bool,
     /// On the first frame of a run of unavailable frames: frames until navigation is
     /// available again (to the end of the sequence when it never is); NaN elsewhere.
     pub reacquire_frames: f64,
@@ -311,10 +322,12 @@ impl FrameResult {
             lost: false,
             att_err_deg: f64::NAN,
             pos_err_pct: f64::NAN,
+            rel_pos_err_pct: f64::NAN,
             att_3sigma_deg: f64::NAN,
             pos_3sigma_pct: f64::NAN,
             nees: f64::NAN,
             available: false,
+            available_rel: false,
             reacquire_frames: f64::NAN,
             pairwise_tracks: 0,
             pairwise_inliers: 0,
@@ -350,10 +363,15 @@ pub struct PhaseSummary {
     pub lost_frac: f64,
     /// Share of the frames on which navigation is available.
     pub availability: f64,
+    /// Share of the frames on which it is available by the relative position
+    /// ([`FrameResult::available_rel`]).
+    pub availability_rel: f64,
     /// RMS attitude error of the filter, degrees.
     pub att_rms_deg: f64,
     /// RMS position error of the filter, % of the range.
     pub pos_rms_pct: f64,
+    /// RMS error of the relative position, % of the range.
+    pub rel_pos_rms_pct: f64,
     /// Mean NEES of the filter's pose (6 for a consistent filter).
     pub nees: Option<f64>,
     /// Mean frames to re-acquire after a loss that starts in this phase (`null`: no loss).
@@ -425,8 +443,10 @@ pub fn summarise(rows: &[&FrameResult]) -> PhaseSummary {
         ),
         lost_frac: pairs.iter().filter(|r| r.lost).count() as f64 / np,
         availability: rows.iter().filter(|r| r.available).count() as f64 / n,
+        availability_rel: rows.iter().filter(|r| r.available_rel).count() as f64 / n,
         att_rms_deg: rms(&|r| r.att_err_deg),
         pos_rms_pct: rms(&|r| r.pos_err_pct),
+        rel_pos_rms_pct: rms(&|r| r.rel_pos_err_pct),
         nees: mean_finite(rows.iter().map(|r| r.nees)),
         reacquire_frames: mean_finite(rows.iter().map(|r| r.reacquire_frames)),
         pairwise_tracks: pairs.iter().map(|r| r.pairwise_tracks as f64).sum::<f64>() / np,
@@ -740,17 +760,27 @@ fn initial_filter(first: &FrameData, second: &FrameData, seed: u64) -> PoseFilte
     f
 }
 
-/// Fills the filter's measures of `row` against the frame's truth.
-fn score_filter(row: &mut FrameResult, filter: &PoseFilter, fd: &FrameData) {
+/// The target's reference point `centre` (target frame) as the camera at `attitude` (camera →
+/// target) and `position` (target frame) sees it: in the camera's frame, m.
+pub fn relative_position(attitude: DQuat, position: DVec3, centre: DVec3) -> DVec3 {
+    render_host::glam::DMat3::from_quat(attitude).transpose() * (centre - position)
+}
+
+/// Fills the filter's measures of `row` against the frame's truth; `centre` is the target
+/// model's reference point (target frame).
+fn score_filter(row: &mut FrameResult, filter: &PoseFilter, fd: &FrameData, centre: DVec3) {
     let (q, p) = true_pose(&fd.camera);
     let (ea, ep) = filter.error(q, p);
     let (a3, p3) = filter.three_sigma();
     row.att_err_deg = ea.length().to_degrees();
     row.pos_err_pct = 100.0 * ep.length() / fd.range_m;
+    let rel = relative_position(filter.attitude, filter.position, centre) - relative_position(q, p, centre);
+    row.rel_pos_err_pct = 100.0 * rel.length() / fd.range_m;
     row.att_3sigma_deg = a3.to_degrees();
     row.pos_3sigma_pct = 100.0 * p3 / fd.range_m;
     row.nees = filter.nees(q, p);
     row.available = row.att_err_deg <= AVAILABLE_ATT_DEG && row.pos_err_pct <= AVAILABLE_POS_PCT;
+    row.available_rel = row.att_err_deg <= AVAILABLE_ATT_DEG && row.rel_pos_err_pct <= AVAILABLE_POS_PCT;
 }
 
 /// Fills the frame-to-frame measures of `row` from two consecutive measured poses.
@@ -872,7 +902,7 @@ impl SequenceRun<'_> {
                     .image_frame(&mut row, i, stream, &mut st)
                     .with_context(|| format!("{} frame {i} {source}", self.name))?,
             }
-            score_filter(&mut row, &st.filter, fd);
+            score_filter(&mut row, &st.filter, fd, self.model.centre());
             rows.push(row);
         }
         mark_reacquisition(&mut rows);
@@ -1221,6 +1251,28 @@ fn skip_summary(v: &[&FrameResult]) -> SkipSummary {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A camera 8 m from the target's centre, looking at it; the same camera turned by 1° about
+    /// the centre (its attitude turned, its position carried round the centre): the position
+    /// moves by 2 · 8 m · sin(0.5°) = 13.96 cm (1.75 % of the range) while the target's centre
+    /// stays where it was in the camera's frame. A camera moved 10 cm sideways moves the
+    /// relative position by the same 10 cm.
+    #[test]
+    fn relative_position_ignores_a_turn_about_the_centre() {
+        let centre = DVec3::new(0.1, -0.2, 0.3);
+        // Camera axes (columns, target frame): looking along +x from 8 m in front.
+        let q = DQuat::from_mat3(&render_host::glam::DMat3::from_cols(DVec3::Y, DVec3::Z, DVec3::X));
+        let p = centre - DVec3::X * 8.0;
+        assert!((relative_position(q, p, centre) - DVec3::new(0.0, 0.0, 8.0)).length() < 1e-12);
+        let turn = DQuat::from_scaled_axis(DVec3::X * 1f64.to_radians());
+        let q2 = q * turn;
+        let p2 = centre - render_host::glam::DMat3::from_quat(q2) * DVec3::new(0.0, 0.0, 8.0);
+        let moved = (p2 - p).length();
+        assert!((moved - 2.0 * 8.0 * 0.5f64.to_radians().sin()).abs() < 1e-12, "{moved}");
+        assert!((relative_position(q2, p2, centre) - relative_position(q, p, centre)).length() < 1e-12);
+        let side = relative_position(q, p + DVec3::Y * 0.1, centre) - relative_position(q, p, centre);
+        assert!((side.length() - 0.1).abs() < 1e-12);
+    }
 
     #[test]
     fn cnr_of_a_hand_made_case() {

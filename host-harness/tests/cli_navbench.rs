@@ -59,8 +59,10 @@ fn navbench_writes_the_summary_shape_csv_and_charts() {
                 "rot_err_deg_median",
                 "lost_frac",
                 "availability",
+                "availability_rel",
                 "att_rms_deg",
                 "pos_rms_pct",
+                "rel_pos_rms_pct",
                 "nees",
                 "pairwise_rot_err_deg_median",
             ] {
@@ -81,6 +83,8 @@ fn navbench_writes_the_summary_shape_csv_and_charts() {
     );
     let csv = std::fs::read_to_string(out.join("per_frame.csv")).unwrap();
     assert_eq!(csv.lines().count(), 1 + 2 * 2 * frames * expected.len());
+    // The relative position's columns come last: the earlier columns keep their places.
+    assert!(csv.lines().next().unwrap().ends_with(",misregistration_p95_px,rel_pos_err_pct,available_rel"));
     let md = std::fs::read_to_string(out.join("navbench.md")).unwrap();
     assert!(
         md.contains("## flyaround: eclipse")

@@ -220,12 +220,18 @@ fn navigation(out: &std::path::Path) -> Result<Navigation> {
     let mut md = String::from(
         "## Navigation (as `fusion navbench` judges it, one seed)\n\nA 60-frame fly-around through the eclipse; \
          each source through the model-based front end and the filter. Available: share of the frames with \
-         attitude error ≤ 2° and position error ≤ 2 % of range. Chart: `navigation_attitude_error.png`.\n\n\
-         | source | available | attitude RMS ° |\n|---|---|---|\n",
+         attitude error ≤ 2° and position error ≤ 2 % of range; by the relative position: the same with the \
+         target's position in the camera's frame (the line of sight guidance steers on) in place of the \
+         camera's in the target's. Chart: `navigation_attitude_error.png`.\n\n\
+         | source | available | available (relative position) | attitude RMS ° |\n|---|---|---|---|\n",
     );
     for src in ["zero-motion", "oracle", "vis", "tir", "adaptive"] {
         if let Some(x) = s.sources.get(src).and_then(|p| p.get(PHASE_ALL)) {
-            let _ = writeln!(md, "| {src} | {:.3} | {:.3} |", x.availability, x.att_rms_deg);
+            let _ = writeln!(
+                md,
+                "| {src} | {:.3} | {:.3} | {:.3} |",
+                x.availability, x.availability_rel, x.att_rms_deg
+            );
         }
     }
     Ok(Navigation { chart, markdown: md })

@@ -244,15 +244,35 @@ fn linearise(cam: &Camera, o: &Observation) -> Option<(f64, Vector6<f64>)> {
     let (u, v) = cam.project(o.point.as_vec3())?;
     let r = o.normal.dot(DVec2::new(f64::from(u), f64::from(v)) - o.found);
     let f = f64::from(cam.focal_px);
-    // dπ/dc (pinhole; a lens's distortion changes it by its few per cent), then dc/dδ:
+    // dπ/dc: the pinhole's, through the lens's distortion where it has one; then dc/dδ:
     // c(δ) = exp(−[δθ]) (c − Rᵀ δp) ≈ c + [c]ₓ δθ − Rᵀ δp.
-    let du = DVec3::new(f / c.z, 0.0, -f * c.x / (c.z * c.z));
-    let dv = DVec3::new(0.0, f / c.z, -f * c.y / (c.z * c.z));
+    let mut du = DVec3::new(f / c.z, 0.0, -f * c.x / (c.z * c.z));
+    let mut dv = DVec3::new(0.0, f / c.z, -f * c.y / (c.z * c.z));
+    if cam.dist != [0.0; 5] {
+        let j = distortion_jacobian(&cam.dist, c.x / c.z, c.y / c.z);
+        (du, dv) = (du * j[0][0] + dv * j[0][1], du * j[1][0] + dv * j[1][1]);
+    }
     let g = du * o.normal.x + dv * o.normal.y; // d r / d c
     // d r / d δθ: gᵀ (c × δθ) = (g × c) · δθ; d r / d δp = −gᵀ Rᵀ = −(R g)ᵀ.
     let dth = g.cross(c);
     let dp = -(rot * g);
     Some((r, Vector6::new(dth.x, dth.y, dth.z, dp.x, dp.y, dp.z)))
+}
+
+/// The Jacobian `∂(x_d, y_d)/∂(x, y)` of OpenCV's radial–tangential distortion (`dist` =
+/// k1, k2, p1, p2, k3) at the normalised point `(x, y)`:
+/// `x_d = x·L + 2p1·xy + p2·(r² + 2x²)`, `y_d = y·L + p1·(r² + 2y²) + 2p2·xy`,
+/// `L = 1 + k1·r² + k2·r⁴ + k3·r⁶`.
+pub fn distortion_jacobian(dist: &[f32; 5], x: f64, y: f64) -> [[f64; 2]; 2] {
+    let [k1, p1, p2, k2, k3] = [dist[0], dist[2], dist[3], dist[1], dist[4]].map(f64::from);
+    let r2 = x * x + y * y;
+    let l = 1.0 + k1 * r2 + k2 * r2 * r2 + k3 * r2 * r2 * r2;
+    // dL/d(r²)
+    let dl = k1 + 2.0 * k2 * r2 + 3.0 * k3 * r2 * r2;
+    [
+        [l + 2.0 * x * x * dl + 2.0 * p1 * y + 6.0 * p2 * x, 2.0 * x * y * dl + 2.0 * p1 * x + 2.0 * p2 * y],
+        [2.0 * x * y * dl + 2.0 * p1 * x + 2.0 * p2 * y, l + 2.0 * y * y * dl + 6.0 * p1 * y + 2.0 * p2 * x],
+    ]
 }
 
 fn median(mut v: Vec<f64>) -> f64 {
@@ -391,6 +411,41 @@ pub fn support(img: &GrayImage, cam: &Camera, model: &TargetModel<'_>, edges: &M
 mod tests {
     use super::*;
     use render_host::sequence::{SequenceConfig, SequenceName, camera_pose, state};
+
+    /// The distortion's Jacobian against central differences of the lens model itself.
+    #[test]
+    fn distortion_jacobian_matches_the_lens() {
+        let dist = [-0.08f32, 0.02, 0.0004, -0.0003, 0.001];
+        let apply = |x: f64, y: f64| {
+            let [k1, k2, p1, p2, k3] = dist.map(f64::from);
+            let r2 = x * x + y * y;
+            let l = 1.0 + k1 * r2 + k2 * r2 * r2 + k3 * r2 * r2 * r2;
+            (
+                x * l + 2.0 * p1 * x * y + p2 * (r2 + 2.0 * x * x),
+                y * l + p1 * (r2 + 2.0 * y * y) + 2.0 * p2 * x * y,
+            )
+        };
+        for (x, y) in [(0.0, 0.0), (0.21, -0.13), (-0.26, 0.26), (0.05, 0.3)] {
+            let j = distortion_jacobian(&dist, x, y);
+            let h = 1e-6;
+            let (a, b) = (apply(x + h, y), apply(x - h, y));
+            let (c, d) = (apply(x, y + h), apply(x, y - h));
+            let num = [
+                [(a.0 - b.0) / (2.0 * h), (c.0 - d.0) / (2.0 * h)],
+                [(a.1 - b.1) / (2.0 * h), (c.1 - d.1) / (2.0 * h)],
+            ];
+            for r in 0..2 {
+                for k in 0..2 {
+                    assert!(
+                        (j[r][k] - num[r][k]).abs() < 1e-8,
+                        "({x}, {y}) [{r}][{k}]: {} vs {}",
+                        j[r][k],
+                        num[r][k]
+                    );
+                }
+            }
+        }
+    }
 
     /// The Tango model's creases: the bus box (open at the top, under the panel) and the
     /// panel slab give straight creases; the rods' 60° facets do not count.

@@ -132,7 +132,16 @@ pub fn position_measurement(
     }
     let ratio = area_ratio.sqrt();
     let z = c.z / ratio;
-    let (du, dv) = ((image.cx - model_at_estimate.cx) / f, (image.cy - model_at_estimate.cy) / f);
+    let (du, dv) = if cam.dist == [0.0; 5] {
+        ((image.cx - model_at_estimate.cx) / f, (image.cy - model_at_estimate.cy) / f)
+    } else {
+        // Through the lens: the two centroids' rays, not their pixel offset over f.
+        let (a, b) = (
+            crate::model::normalised(cam, image.cx, image.cy),
+            crate::model::normalised(cam, model_at_estimate.cx, model_at_estimate.cy),
+        );
+        (a.x - b.x, a.y - b.y)
+    };
     let measured = DVec3::new((c.x / c.z + du) * z, (c.y / c.z + dv) * z, z);
     let rot: DMat3 = cam.pose.rotation.as_dmat3();
     let position = model.centre() - rot * measured;

@@ -383,7 +383,7 @@ pub fn in_new_folder<T>(out: &Path, fill: impl FnOnce(&Path) -> Result<T>) -> Re
         return fill(out);
     }
     let parent = folder_of(out);
-    std::fs::create_dir_all(parent).with_context(|| format!("cannot create {}", parent.display()))?;
+    let made = make_missing_folders(parent)?;
     let temp = {
         let mut list = pending();
         let temp = tempfile::Builder::new()
@@ -401,12 +401,43 @@ pub fn in_new_folder<T>(out: &Path, fill: impl FnOnce(&Path) -> Result<T>) -> Re
         forget(&mut list, &temp);
         Ok(value)
     });
+    let mut list = pending();
     if result.is_err() {
-        let mut list = pending();
         let _ = std::fs::remove_dir_all(&temp);
         forget(&mut list, &temp);
     }
+    // The folders made for it: removed again if the run failed and left them empty.
+    for p in made.iter().rev() {
+        if result.is_err() {
+            let _ = std::fs::remove_dir(p);
+        }
+        forget(&mut list, p);
+    }
     result
+}
+
+/// Makes `path` and its missing parents, each registered as made by this run (so an interrupt
+/// removes the ones still empty, deepest first). Returns the folders made, outermost first.
+fn make_missing_folders(path: &Path) -> Result<Vec<PathBuf>> {
+    let mut missing = Vec::new();
+    let mut p = Some(path);
+    while let Some(d) = p.filter(|d| !d.as_os_str().is_empty() && std::fs::symlink_metadata(d).is_err()) {
+        missing.push(d.to_path_buf());
+        p = d.parent();
+    }
+    let mut list = pending();
+    let mut made = Vec::new();
+    for d in missing.into_iter().rev() {
+        match std::fs::create_dir(&d) {
+            Ok(()) => {
+                list.push(Pending::Made(d.clone()));
+                made.push(d);
+            }
+            Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {}
+            Err(e) => return Err(e).with_context(|| format!("cannot create {}", d.display())),
+        }
+    }
+    Ok(made)
 }
 
 /// Whether two destinations name the same file (compared after resolving their folders).

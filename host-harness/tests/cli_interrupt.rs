@@ -340,3 +340,45 @@ fn an_interrupt_while_a_subfolder_is_made_leaves_nothing() {
     assert_eq!(temporaries(dir.path()), Vec::<String>::new(), "{log}");
     assert!(!out.exists(), "an interrupted render left its output folder");
 }
+
+/// navbench renders the sequences it lacks into its output folder: interrupted at points spread
+/// over the run, it leaves every sequence folder whole (with its manifest) or absent, and no
+/// folder it made empty.
+#[test]
+fn an_interrupted_navbench_leaves_no_half_rendered_sequence() {
+    let dir = tempfile::tempdir().unwrap();
+    let args = |out: &Path| -> Vec<String> {
+        ["navbench", "--sequences", "flyaround", "--seeds", "1", "--frames", "8", "--vis-size", "96"]
+            .map(String::from)
+            .into_iter()
+            .chain(["--sources".into(), "vis".into(), "--out".into(), p(out).to_string()])
+            .collect()
+    };
+    let reference = dir.path().join("reference");
+    let start = std::time::Instant::now();
+    let a = args(&reference);
+    assert!(fusion(&a.iter().map(String::as_str).collect::<Vec<_>>()).status.success());
+    let span = start.elapsed();
+    let mut handled = 0;
+    for k in 0..40 {
+        if k >= 12 && handled >= 3 {
+            break;
+        }
+        let delay = delay(span, k, 12);
+        let out = dir.path().join(format!("nb{k}"));
+        let a = args(&out);
+        let status = interrupt(&a.iter().map(String::as_str).collect::<Vec<_>>(), delay, libc::SIGTERM);
+        handled += usize::from(ended_by(status, libc::SIGTERM) == "handled");
+        assert_eq!(temporaries(dir.path()), Vec::<String>::new(), "trial {k}, {delay:?}");
+        let seq = out.join("data/seed-1/flyaround");
+        if seq.exists() {
+            assert!(
+                seq.join("manifest.json").is_file(),
+                "trial {k} ({delay:?}): a sequence without its manifest"
+            );
+        } else {
+            assert!(!out.join("data").exists(), "trial {k} ({delay:?}): an empty data folder was left");
+        }
+    }
+    assert!(handled >= 3, "only {handled} runs were interrupted");
+}

@@ -202,7 +202,8 @@ fn navigation(out: &std::path::Path) -> Result<Navigation> {
     };
     if !dir.join("manifest.json").is_file() {
         outln!("rendering a {}-frame fly-around through the eclipse (VIS 512², TIR 256²) …", cfg.frames)?;
-        render_sequence(&cfg, &dir, false)?;
+        // Whole or absent: an interrupted render leaves no half-written sequence.
+        fusion_io::output::in_new_folder(&dir, |d| render_sequence(&cfg, d, false))?;
     }
     let only = ["vis".to_string(), "tir".to_string(), "adaptive".to_string()];
     outln!("navigating it with VIS, TIR and the adaptive fusion (and the two baselines) …")?;

@@ -175,7 +175,8 @@ pub fn run(args: &NavbenchArgs) -> Result<()> {
                     cfg.frames,
                     dir.display()
                 );
-                render_sequence(&cfg, &dir, false)?.config.target
+                // Whole or absent: an interrupted render leaves no half-written sequence.
+                fusion_io::output::in_new_folder(&dir, |d| render_sequence(&cfg, d, false))?.config.target
             };
             targets.push(format!("`{}`: {}", name.as_str(), target.as_str()));
             let seq = run_sequence(&dir, args.frames, only, args.clean, args.registration)?;

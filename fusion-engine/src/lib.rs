@@ -11,6 +11,8 @@
 //! * [`thermal`]: the thermal camera's front end (NUC, shutter, bad pixels, column filter) carried
 //!   from frame to frame; [`agc`]: the thermal gain control on 16-bit frames; [`color`]: colour kept through a grey
 //!   fusion (YCbCr, BT.601).
+//! * [`sequence`]: a sequence of frame pairs fused in order, ADF's weights carried from frame
+//!   to frame (the core's sequence mode), whole frame or in strips.
 //! * [`skip`]: scene skipping, the error it adds and the crop semantics' reference
 //!   ([`skip::fuse_crop`]); [`study`]: rendered datasets, timed
 //!   fusions, the method list of the study; [`stress`]: every method over adversarial frames.
@@ -35,6 +37,7 @@ pub mod agc;
 pub mod color;
 pub mod methods;
 pub mod registration;
+pub mod sequence;
 pub mod skip;
 pub mod stress;
 pub mod strips;

@@ -192,6 +192,7 @@ pub mod registration;
 pub mod rescalers;
 pub mod scene;
 pub mod scratch;
+pub mod sequence;
 pub mod strips;
 pub mod thermal;
 
@@ -205,13 +206,16 @@ pub use methods::ifevip::IfevipParams;
 pub use methods::tsifsd::TsifsdParams;
 pub use methods::{Guards, Variant};
 pub use pipeline::{
-    FuseConfig, FuseReport, Method, RescalePolicy, SkipPolicy, SkipReport, Skips, fuse, fusion_grid,
+    FuseConfig, FuseReport, Method, RescalePolicy, SkipPolicy, SkipReport, Skips, fuse, fuse_in_sequence,
+    fusion_grid,
 };
 pub use rescalers::{Filter, Sample, rescale};
 pub use scene::{Decline, Illumination, SceneParams};
 pub use scratch::{SCRATCH_PLANES, Scratch, Scratch512, Scratch1024, ScratchMut};
+pub use sequence::{Sequence, SequenceParams};
 pub use strips::{
     STRIP_SCRATCH_BYTES, StripReport, StripScratch, StripScratch512K, StripScratchMut, fuse_strips,
+    fuse_strips_in_sequence,
 };
 
 /// The firmware's stage hooks: the pipeline's steps one at a time (a method on frames already

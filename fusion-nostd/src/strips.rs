@@ -50,9 +50,10 @@
 use crate::methods::Guards;
 use crate::pipeline::{
     BandRatio, FuseConfig, FuseReport, Method, RescalePolicy, SkipPolicy, SkipReport, band_ratio,
-    band_window, fusion_grid,
+    band_window, fusion_grid, sequence_link,
 };
 use crate::scene::{Rect, SceneParams};
+use crate::sequence::{Link, Sequence};
 use crate::{Error, Filter, FrameMut, FrameRef};
 
 /// `i32` words of method work memory in a [`StripScratch512K`] (256 KiB; ADF needs 64 572 at
@@ -360,6 +361,8 @@ pub(crate) struct StripRun<'a, 'f, 'o> {
     pub(crate) report: &'a mut StripReport,
     /// The scene analysis' thresholds (the adaptive method decides per frame).
     pub(crate) scene: &'a SceneParams,
+    /// In a sequence, the frame's link to it (ADF: the carried weights; `None` otherwise).
+    pub(crate) link: Option<Link<'a>>,
 }
 
 /// Fuses a VIS/TIR pair like [`crate::pipeline::fuse`] with `pipeline.skip` =
@@ -379,6 +382,53 @@ pub fn fuse_strips(
     pipeline: &FuseConfig,
     max_rows: usize,
 ) -> Result<(FuseReport, StripReport), Error> {
+    strips_maybe_in_sequence(vis, tir, out, scratch, pipeline, max_rows, None)
+}
+
+/// Fuses the next frame pair of a sequence strip by strip: [`crate::pipeline::fuse_in_sequence`]'s
+/// bytes and carry rule ([`crate::sequence`]), in the strip working set. An ADF frame fused
+/// with carried weights takes **one pass** over the strips (it diffuses each strip once,
+/// writing the output with the carried weights while it sums its own covariance for the next
+/// frame; [`StripReport::passes`] = 1); a frame with its own weights takes the two passes of
+/// [`fuse_strips`]. [`Sequence::last_step`] says which.
+///
+/// Errors: those of [`fuse_strips`], and [`Error::InvalidParameter`]
+/// (`"size_change_percent"`) for bad sequence parameters. A failed call leaves the carried
+/// weights as they were.
+pub fn fuse_strips_in_sequence(
+    vis: FrameRef<'_, u8>,
+    tir: FrameRef<'_, u8>,
+    out: FrameMut<'_, u8>,
+    scratch: &mut StripScratchMut<'_>,
+    pipeline: &FuseConfig,
+    max_rows: usize,
+    seq: &mut Sequence,
+) -> Result<(FuseReport, StripReport), Error> {
+    seq.clear_step();
+    seq.params().validate()?;
+    let carried = *seq;
+    let report = strips_maybe_in_sequence(vis, tir, out, scratch, pipeline, max_rows, Some(&mut *seq));
+    match &report {
+        Ok(_) if !matches!(pipeline.method, Method::Adf(_)) => seq.record_per_frame(),
+        Ok(_) => {}
+        Err(_) => {
+            *seq = carried;
+            seq.clear_step();
+        }
+    }
+    report
+}
+
+/// [`fuse_strips`], in a sequence when `seq` is given.
+fn strips_maybe_in_sequence(
+    vis: FrameRef<'_, u8>,
+    tir: FrameRef<'_, u8>,
+    out: FrameMut<'_, u8>,
+    scratch: &mut StripScratchMut<'_>,
+    pipeline: &FuseConfig,
+    max_rows: usize,
+    seq: Option<&mut Sequence>,
+) -> Result<(FuseReport, StripReport), Error> {
     if pipeline.skip != SkipPolicy::None {
         return Err(Error::InvalidParameter { name: "skip" });
     }
@@ -390,26 +440,34 @@ pub fn fuse_strips(
     if out.size() != grid {
         return Err(Error::SizeMismatch { expected: grid, got: out.size() });
     }
+    let link = sequence_link(vis, pipeline, seq)?;
+    let at = Setup { vis, tir, pipeline, grid, max_rows, link };
     match &pipeline.method {
-        Method::Tsifsd(p) => strips_with(p, vis, tir, out, scratch, pipeline, grid, max_rows),
-        Method::Adf(p) => strips_with(p, vis, tir, out, scratch, pipeline, grid, max_rows),
-        Method::Ifevip(p) => strips_with(p, vis, tir, out, scratch, pipeline, grid, max_rows),
-        Method::Adaptive(p) => strips_with(p, vis, tir, out, scratch, pipeline, grid, max_rows),
+        Method::Tsifsd(p) => strips_with(p, out, scratch, at),
+        Method::Adf(p) => strips_with(p, out, scratch, at),
+        Method::Ifevip(p) => strips_with(p, out, scratch, at),
+        Method::Adaptive(p) => strips_with(p, out, scratch, at),
     }
 }
 
-/// [`fuse_strips`] after the checks of the configuration and the grid, with `form`.
-#[allow(clippy::too_many_arguments)]
-fn strips_with<F: StripForm>(
-    form: &F,
-    vis: FrameRef<'_, u8>,
-    tir: FrameRef<'_, u8>,
-    mut out: FrameMut<'_, u8>,
-    scratch: &mut StripScratchMut<'_>,
-    pipeline: &FuseConfig,
+/// What [`strips_with`] runs on once the configuration and the grid are checked.
+struct Setup<'f, 'c, 's> {
+    vis: FrameRef<'f, u8>,
+    tir: FrameRef<'f, u8>,
+    pipeline: &'c FuseConfig,
     grid: (usize, usize),
     max_rows: usize,
+    link: Option<Link<'s>>,
+}
+
+/// [`fuse_strips`] after the checks of the configuration and the grid, with `form`.
+fn strips_with<F: StripForm>(
+    form: &F,
+    mut out: FrameMut<'_, u8>,
+    scratch: &mut StripScratchMut<'_>,
+    at: Setup<'_, '_, '_>,
 ) -> Result<(FuseReport, StripReport), Error> {
+    let Setup { vis, tir, pipeline, grid, max_rows, link } = at;
     let (w, h) = grid;
     let StripPlan { halo, passes, work_words: words, wraps: wrap } = form.plan(grid);
     if scratch.work.len() < words {
@@ -468,6 +526,7 @@ fn strips_with<F: StripForm>(
         out: &mut out,
         report: &mut report,
         scene: &pipeline.scene,
+        link,
     })?;
     let fuse =
         FuseReport { grid, rescaled, guards, skip: SkipReport::none(SkipPolicy::None, grid, rescaled) };

@@ -66,11 +66,12 @@
 //!   sum, is ≈ 5 % and kept).
 
 use crate::methods::adaptive::{AdaptiveParams, Decision, decide, decide_frame, fuse_adaptive};
-use crate::methods::adf::{AdfParams, fuse_adf, fuse_adf_raw};
+use crate::methods::adf::{AdfParams, fuse_adf_linked, fuse_adf_raw};
 use crate::methods::ifevip::{IfevipParams, fuse_ifevip};
 use crate::methods::tsifsd::{TsifsdParams, fuse_tsifsd, fuse_tsifsd_raw};
 use crate::methods::{Guards, Variant};
-use crate::scene::{Decline, Illumination, Rect, Scene, SceneParams, analyze};
+use crate::scene::{Decline, Illumination, Rect, Scene, SceneParams, analyze, band_stats, illumination};
+use crate::sequence::{Link, Sequence};
 use crate::{Error, Filter, FrameMut, FrameRef, ScratchMut, rescale};
 
 /// Which band is rescaled onto the other's grid.
@@ -306,8 +307,22 @@ pub fn fuse_method_decided(
     scratch: &mut ScratchMut<'_>,
     decision: Option<Decision>,
 ) -> Result<Guards, Error> {
+    fuse_method_linked(vis, tir, out, method, scratch, decision, None)
+}
+
+/// [`fuse_method_decided`], in a sequence when `link` is given (ADF's weights; the other
+/// methods ignore it).
+pub(crate) fn fuse_method_linked(
+    vis: FrameRef<'_, u8>,
+    tir: FrameRef<'_, u8>,
+    out: FrameMut<'_, u8>,
+    method: &Method,
+    scratch: &mut ScratchMut<'_>,
+    decision: Option<Decision>,
+    link: Option<&mut Link<'_>>,
+) -> Result<Guards, Error> {
     match method {
-        Method::Adf(p) => fuse_adf(vis, tir, out, p, scratch),
+        Method::Adf(p) => fuse_adf_linked(vis, tir, out, p, scratch, link),
         Method::Tsifsd(p) => fuse_tsifsd(vis, tir, out, p, scratch),
         Method::Ifevip(p) => fuse_ifevip(vis, tir, out, p, scratch),
         Method::Adaptive(p) => {
@@ -343,14 +358,80 @@ pub fn fuse(
     scratch: &mut ScratchMut<'_>,
     pipeline: &FuseConfig,
 ) -> Result<FuseReport, Error> {
+    fuse_maybe_in_sequence(vis, tir, out, scratch, pipeline, None)
+}
+
+/// Fuses the next frame pair of a sequence like [`fuse`], with the frame-global weights the
+/// sequence carries ([`crate::sequence`]: ADF's KL weights from the previous frame, unless
+/// the illumination class, the covariance's size or the parameters changed; the other methods
+/// per frame). [`Sequence::last_step`] then says how the frame was fused. Scene skipping works
+/// as in [`fuse`] (a crop's weights are carried to the next crop). The first frame of a
+/// sequence is [`fuse`]'s bytes; [`crate::strips::fuse_strips_in_sequence`] gives the same
+/// bytes as this for the same frames.
+///
+/// Errors: those of [`fuse`], and [`Error::InvalidParameter`] (`"size_change_percent"`) for
+/// bad sequence parameters. A failed call leaves the carried weights as they were.
+pub fn fuse_in_sequence(
+    vis: FrameRef<'_, u8>,
+    tir: FrameRef<'_, u8>,
+    out: FrameMut<'_, u8>,
+    scratch: &mut ScratchMut<'_>,
+    pipeline: &FuseConfig,
+    seq: &mut Sequence,
+) -> Result<FuseReport, Error> {
+    seq.clear_step();
+    seq.params().validate()?;
+    let carried = *seq;
+    let report = fuse_maybe_in_sequence(vis, tir, out, scratch, pipeline, Some(&mut *seq));
+    match &report {
+        Ok(_) if !matches!(pipeline.method, Method::Adf(_)) => seq.record_per_frame(),
+        // ADF with nothing to fuse (the skip plan found no target): the carry stays.
+        Ok(_) if seq.last_step().is_none() => seq.record_unfused(),
+        Ok(_) => {}
+        Err(_) => {
+            *seq = carried;
+            seq.clear_step();
+        }
+    }
+    report
+}
+
+/// [`fuse`], in a sequence when `seq` is given.
+fn fuse_maybe_in_sequence(
+    vis: FrameRef<'_, u8>,
+    tir: FrameRef<'_, u8>,
+    out: FrameMut<'_, u8>,
+    scratch: &mut ScratchMut<'_>,
+    pipeline: &FuseConfig,
+    seq: Option<&mut Sequence>,
+) -> Result<FuseReport, Error> {
     if pipeline.skip != SkipPolicy::None {
-        return fuse_skipping(vis, tir, out, scratch, pipeline);
+        return fuse_skipping(vis, tir, out, scratch, pipeline, seq);
     }
     pipeline.method.validate()?;
     let decision = adaptive_decision(vis, pipeline)?;
+    let mut link = sequence_link(vis, pipeline, seq)?;
     on_grid(vis, tir, out.size(), scratch, pipeline.rescale, |v, t, s| {
-        fuse_method_decided(v, t, out, &pipeline.method, s, decision)
+        fuse_method_linked(v, t, out, &pipeline.method, s, decision, link.as_mut())
     })
+}
+
+/// The link of an ADF frame to its sequence: the sequence and the illumination class of the
+/// input VIS frame (the scene analysis's rule on the same band statistics). `None` outside a
+/// sequence and for the methods that carry nothing.
+pub(crate) fn sequence_link<'s>(
+    vis: FrameRef<'_, u8>,
+    pipeline: &FuseConfig,
+    seq: Option<&'s mut Sequence>,
+) -> Result<Option<Link<'s>>, Error> {
+    match (seq, &pipeline.method) {
+        (Some(seq), Method::Adf(_)) => {
+            pipeline.scene.validate()?;
+            let illumination = illumination(&band_stats(vis, &pipeline.scene), &pipeline.scene);
+            Ok(Some(Link { seq, illumination }))
+        }
+        _ => Ok(None),
+    }
 }
 
 /// Like [`fuse`], but writes the method's real-valued result before the 8-bit cast, in Q16

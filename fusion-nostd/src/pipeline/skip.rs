@@ -262,6 +262,7 @@ pub(super) fn fuse_skipping(
     mut out: FrameMut<'_, u8>,
     scratch: &mut ScratchMut<'_>,
     pipeline: &FuseConfig,
+    seq: Option<&mut Sequence>,
 ) -> Result<FuseReport, Error> {
     let grid = fusion_grid(vis.size(), tir.size(), pipeline.rescale)?;
     if out.size() != grid {
@@ -281,6 +282,12 @@ pub(super) fn fuse_skipping(
         _ => None,
     };
     let plan = plan(&scene, pipeline, grid, eclipse, decision);
+    // In a sequence, ADF's link with the class the analysis found (the same rule on the same
+    // statistics as outside skipping).
+    let mut link = match (seq, &pipeline.method) {
+        (Some(seq), Method::Adf(_)) => Some(Link { seq, illumination: scene.illumination }),
+        _ => None,
+    };
     let rescaled = scene.rescale_needed;
     let mut report = SkipReport::none(pipeline.skip, grid, rescaled);
     report.illumination = Some(scene.illumination);
@@ -294,7 +301,7 @@ pub(super) fn fuse_skipping(
     let (computed, roi, vis_constant) = match plan {
         Plan::Full(declined) => {
             let mut r = on_grid(vis, tir, grid, scratch, pipeline.rescale, |v, t, s| {
-                fuse_method_decided(v, t, out, &pipeline.method, s, decision)
+                fuse_method_linked(v, t, out, &pipeline.method, s, decision, link.as_mut())
             })?;
             r.skip = SkipReport { declined, ..report };
             return Ok(r);
@@ -348,7 +355,15 @@ pub(super) fn fuse_skipping(
     let mut out_w = out.sub_rect_mut(computed.x0, computed.y0, cw, ch)?;
     let guards = match &pipeline.method {
         _ if crop => {
-            let g = fuse_method_decided(vis_w, tir_w, out_w.reborrow(), &method_here, &mut planes, decision)?;
+            let g = fuse_method_linked(
+                vis_w,
+                tir_w,
+                out_w.reborrow(),
+                &method_here,
+                &mut planes,
+                decision,
+                link.as_mut(),
+            )?;
             fill_outside(&mut out, roi, background);
             report.exact_outside = false;
             report.taken |= Skips::CROP;
@@ -363,7 +378,7 @@ pub(super) fn fuse_skipping(
             };
             let vis_opt = if vis_constant { None } else { Some(vis_w) };
             let level = scene.vis.background;
-            let g = crate::methods::adf::fuse_adf_window(
+            let g = crate::methods::adf::fuse_adf_window_linked(
                 vis_opt,
                 level,
                 tir_w,
@@ -372,6 +387,7 @@ pub(super) fn fuse_skipping(
                 grid.0 * grid.1,
                 p,
                 &mut planes,
+                link.as_mut(),
             )?;
             fill_outside(&mut out, roi, background);
             report.exact_outside = !vis_constant;

@@ -517,6 +517,21 @@ pub fn band_stats(f: FrameRef<'_, u8>, p: &SceneParams) -> BandStats {
     }
 }
 
+/// The illumination class of a VIS band from its statistics ([`band_stats`]): no signal is
+/// [`Illumination::Eclipse`], at least `saturated_percent` of the signal samples at 255 is
+/// [`Illumination::Saturated`], anything else [`Illumination::Light`].
+pub fn illumination(vis: &BandStats, params: &SceneParams) -> Illumination {
+    if vis.signal.is_none() {
+        Illumination::Eclipse
+    } else if u64::from(vis.saturated_samples) * 100
+        >= u64::from(params.saturated_percent) * u64::from(vis.signal_samples.max(1))
+    {
+        Illumination::Saturated
+    } else {
+        Illumination::Light
+    }
+}
+
 /// `r` (in a `from`-sized frame) on a `to`-sized grid, grown by a margin that covers the
 /// rescaler's taps (none when the sizes match), clipped to the grid.
 pub fn map_rect(r: Rect, from: (usize, usize), to: (usize, usize)) -> Rect {
@@ -554,15 +569,7 @@ pub fn analyze(
         (!quiet(&v)).then(|| block_stats(vis, v.spread_q8, params)),
         (!quiet(&t)).then(|| block_stats(tir, t.spread_q8, params)),
     );
-    let illumination = if v.signal.is_none() {
-        Illumination::Eclipse
-    } else if u64::from(v.saturated_samples) * 100
-        >= u64::from(params.saturated_percent) * u64::from(v.signal_samples.max(1))
-    {
-        Illumination::Saturated
-    } else {
-        Illumination::Light
-    };
+    let illumination = illumination(&v, params);
     let on_grid = |b: Option<Rect>, from: (usize, usize)| b.map(|r| map_rect(r, from, grid));
     // A noisy band's box: its blocks', on the grid, grown by the margin.
     let target = |b: &BandStats, blocks: &Option<BlockStats>, size| match blocks {

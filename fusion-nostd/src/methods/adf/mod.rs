@@ -78,6 +78,7 @@ pub(crate) use diffusion::{diffuse_rows, stream_words};
 
 use super::{Guards, Variant, check_sizes};
 use crate::filters::border::Border;
+use crate::sequence::{FrameKey, Link, Pass, Restart};
 use crate::{Error, FrameMut, FrameRef, ScratchMut};
 
 /// Fractional bits of the raw fused value written by [`fuse_adf_raw`] (Q16: `raw / 65536` is
@@ -317,8 +318,57 @@ impl Covariance {
         let [s1, s2, s11, s12, s22] = self.sums;
         let n = pixels as i128;
         let kl = kl_weight(n * s11 - s1 * s1, n * s12 - s1 * s2, n * s22 - s2 * s2, variant);
-        let p_ir = kl.p_ir_q30;
-        Fusion { p_ir, p32: i32::try_from(p_ir).ok(), guards: kl.guards }
+        Fusion::new(kl.p_ir_q30, kl.guards)
+    }
+}
+
+impl Link<'_> {
+    /// The key of a frame of `pixels` covariance pixels fused with `params`.
+    fn key(&self, params: &AdfParams, pixels: usize) -> FrameKey {
+        FrameKey { method: *params, illumination: self.illumination, pixels }
+    }
+
+    /// The carried fusion rule for this frame, or why there is none.
+    pub(crate) fn carried(&self, params: &AdfParams, pixels: usize) -> Result<Fusion, Restart> {
+        self.seq.carried(&self.key(params, pixels)).map(|(p, g)| Fusion::new(p, g))
+    }
+
+    /// Records the frame: fused with `used` (carried when `carried` is `Ok`), its own rule
+    /// `own` carried on.
+    pub(crate) fn record(
+        &mut self,
+        params: &AdfParams,
+        pixels: usize,
+        carried: Result<(), Restart>,
+        used: &Fusion,
+        own: &Fusion,
+    ) {
+        let pass = match carried {
+            Ok(()) => Pass::Carried,
+            Err(r) => Pass::Own(r),
+        };
+        let key = self.key(params, pixels);
+        self.seq.record(&key, pass, used.p_ir, (own.p_ir, own.guards));
+    }
+
+    /// The rule a frame is fused with once its own is known (the whole-frame forms): the
+    /// carried one when the rule allows it, else its own; recorded.
+    fn pick(&mut self, params: &AdfParams, pixels: usize, own: Fusion) -> Fusion {
+        let (used, carried) = match self.carried(params, pixels) {
+            Ok(f) => (f, Ok(())),
+            Err(r) => (own, Err(r)),
+        };
+        self.record(params, pixels, carried, &used, &own);
+        used
+    }
+}
+
+/// The rule of a frame of `pixels` covariance pixels: its own, or in a sequence the one the
+/// link picks.
+fn rule(link: Option<&mut Link<'_>>, params: &AdfParams, pixels: usize, own: Fusion) -> Fusion {
+    match link {
+        Some(l) => l.pick(params, pixels, own),
+        None => own,
     }
 }
 
@@ -333,6 +383,11 @@ pub(crate) struct Fusion {
 }
 
 impl Fusion {
+    /// The rule of the weight `p_ir` (Q30) and the guards it fired.
+    fn new(p_ir: i64, guards: Guards) -> Self {
+        Fusion { p_ir, p32: i32::try_from(p_ir).ok(), guards }
+    }
+
     /// Fuses one row into raw Q16 values.
     #[inline]
     fn raw_row(&self, iv: &[u8], it: &[u8], a: &[i32], out: &mut [i32]) {
@@ -433,6 +488,7 @@ fn run(
     tir: FrameRef<'_, u8>,
     params: &AdfParams,
     scratch: &mut ScratchMut<'_>,
+    link: Option<&mut Link<'_>>,
     mut emit: impl FnMut(&Fusion, usize, &[u8], &[u8], &[i32]),
 ) -> Result<Guards, Error> {
     params.validate()?;
@@ -445,7 +501,7 @@ fn run(
     for ((iv, it), a) in rows() {
         cov.add_row(iv, it, a);
     }
-    let fusion = cov.weights(w * h, params.variant);
+    let fusion = rule(link, params, w * h, cov.weights(w * h, params.variant));
     for (y, ((iv, it), a)) in rows().enumerate() {
         emit(&fusion, y, iv, it, a);
     }
@@ -479,13 +535,25 @@ fn raw_to_u8(raw: i32) -> u8 {
 pub fn fuse_adf(
     vis: FrameRef<'_, u8>,
     tir: FrameRef<'_, u8>,
-    mut out: FrameMut<'_, u8>,
+    out: FrameMut<'_, u8>,
     params: &AdfParams,
     scratch: &mut ScratchMut<'_>,
 ) -> Result<Guards, Error> {
+    fuse_adf_linked(vis, tir, out, params, scratch, None)
+}
+
+/// [`fuse_adf`], in a sequence when `link` is given (the weights the sequence's rule picks).
+pub(crate) fn fuse_adf_linked(
+    vis: FrameRef<'_, u8>,
+    tir: FrameRef<'_, u8>,
+    mut out: FrameMut<'_, u8>,
+    params: &AdfParams,
+    scratch: &mut ScratchMut<'_>,
+    link: Option<&mut Link<'_>>,
+) -> Result<Guards, Error> {
     check_sizes(&vis, &tir, out.size())?;
     let mut saturated = false;
-    let guards = run(vis, tir, params, scratch, |fusion, y, iv, it, a| {
+    let guards = run(vis, tir, params, scratch, link, |fusion, y, iv, it, a| {
         saturated |= fusion.u8_row(iv, it, a, out.row_mut(y));
     })?;
     Ok(if saturated { guards | Guards::OUTPUT_SATURATED } else { guards })
@@ -502,7 +570,7 @@ pub fn fuse_adf_raw(
     scratch: &mut ScratchMut<'_>,
 ) -> Result<Guards, Error> {
     check_sizes(&vis, &tir, raw.size())?;
-    run(vis, tir, params, scratch, |fusion, y, iv, it, a| fusion.raw_row(iv, it, a, raw.row_mut(y)))
+    run(vis, tir, params, scratch, None, |fusion, y, iv, it, a| fusion.raw_row(iv, it, a, raw.row_mut(y)))
 }
 
 /// ADF of a whole frame computed on a window of it, for the pipeline's scene skipping
@@ -519,6 +587,9 @@ pub fn fuse_adf_raw(
 /// whole-frame result bit for bit; the rest of `out` is not written. Returns the guards the
 /// whole frame would fire ([`Guards::OUTPUT_SATURATED`] for the `exact` pixels only).
 ///
+/// In a sequence (`link`), the weights are those the sequence's rule picks for a frame of
+/// `frame_pixels` pixels.
+///
 /// Errors: as [`fuse_adf`], [`Error::InvalidParameter`] (`"rect"`) when `exact` is not inside
 /// the window or `frame_pixels` is smaller than the window, (`"vis_level"`) for a non-zero
 /// constant VIS with the classic (zero-padded) variant.
@@ -527,11 +598,27 @@ pub fn fuse_adf_window(
     vis: Option<FrameRef<'_, u8>>,
     vis_level: u8,
     tir: FrameRef<'_, u8>,
+    out: FrameMut<'_, u8>,
+    exact: crate::frame::Rect,
+    frame_pixels: usize,
+    params: &AdfParams,
+    scratch: &mut ScratchMut<'_>,
+) -> Result<Guards, Error> {
+    fuse_adf_window_linked(vis, vis_level, tir, out, exact, frame_pixels, params, scratch, None)
+}
+
+/// [`fuse_adf_window`], in a sequence when `link` is given.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn fuse_adf_window_linked(
+    vis: Option<FrameRef<'_, u8>>,
+    vis_level: u8,
+    tir: FrameRef<'_, u8>,
     mut out: FrameMut<'_, u8>,
     exact: crate::frame::Rect,
     frame_pixels: usize,
     params: &AdfParams,
     scratch: &mut ScratchMut<'_>,
+    link: Option<&mut Link<'_>>,
 ) -> Result<Guards, Error> {
     params.validate()?;
     if let Some(v) = &vis {
@@ -574,7 +661,7 @@ pub fn fuse_adf_window(
     for (_, _, iv, it, ar) in parts() {
         cov.add_row(iv, it, ar);
     }
-    let fusion = cov.weights(frame_pixels, params.variant);
+    let fusion = rule(link, params, frame_pixels, cov.weights(frame_pixels, params.variant));
     let mut saturated = false;
     for (y, x, iv, it, ar) in parts() {
         let dst = out.row_mut(y).get_mut(ex0 + x..ex0 + x + it.len()).unwrap_or(&mut []);

@@ -236,6 +236,10 @@ pub struct RunSpec {
     /// A registration run instead of a fusion (`fw/src/job.rs`, method 6): the job's thermal
     /// frame onto its visible grid through [`Job::rig`], with this interpolation.
     pub registration: Option<Interpolation>,
+    /// Fuse in the job's sequence (`fusion_nostd::sequence`, flag bit 6): the runs with this
+    /// flag share one sequence, in order; on the job's one pair a run after the first takes
+    /// the first's weights, which are its own, so the output is the per-frame fusion's.
+    pub sequence: bool,
 }
 
 impl RunSpec {
@@ -253,6 +257,7 @@ impl RunSpec {
             thermal: false,
             shutter: false,
             registration: None,
+            sequence: false,
         }
     }
 
@@ -324,8 +329,11 @@ impl RunSpec {
             SkipArg::Roi => 1,
             SkipArg::All => 2,
         };
-        let flags =
-            u8::from(self.stages) | (u8::from(self.fault) << 1) | (skip << 2) | (u8::from(self.strips) << 4);
+        let flags = u8::from(self.stages)
+            | (u8::from(self.fault) << 1)
+            | (skip << 2)
+            | (u8::from(self.strips) << 4)
+            | (u8::from(self.sequence) << 6);
         [method, variant, policy, flags]
     }
 
@@ -386,8 +394,10 @@ impl RunSpec {
             2 => SkipArg::All,
             s => bail!("bad skip level {s}"),
         };
-        ensure!(flags >> 5 == 0, "unknown flags {flags:#x}");
+        ensure!(flags & 0xa0 == 0, "unknown flags {flags:#x}");
         let (stages, fault, strips) = (flags & 1 != 0, flags & 2 != 0, flags & 0x10 != 0);
+        let sequence = flags & 0x40 != 0;
+        ensure!(!(stages && sequence), "a sequence run cannot be staged");
         ensure!(!(stages && skip != SkipArg::None), "a staged run cannot skip");
         ensure!(!(strips && (stages || skip != SkipArg::None)), "a strip run cannot be staged or skip");
         Ok(RunSpec {
@@ -402,6 +412,7 @@ impl RunSpec {
             thermal: false,
             shutter: false,
             registration: None,
+            sequence,
         })
     }
 }
@@ -538,6 +549,8 @@ pub struct RunOut {
     pub skip: Option<SkipOut>,
     /// The strip report of a strip run (`@fw strips` line).
     pub strips: Option<fusion_nostd::strips::StripReport>,
+    /// How a sequence run was fused (`@fw sequence` line: `carried`, `own-first`, …).
+    pub sequence: Option<String>,
 }
 
 impl RunOut {
@@ -619,6 +632,7 @@ pub fn parse_report(console: &str, plugin_log: Option<&str>) -> Result<FwReport>
                     image: None,
                     skip: None,
                     strips: None,
+                    sequence: None,
                 });
             }
             ["result", i, "guards", g, "rescaled", r, "fnv1a", sum, "file", _] => {
@@ -667,6 +681,10 @@ pub fn parse_report(console: &str, plugin_log: Option<&str>) -> Result<FwReport>
                     work_words: words.parse()?,
                     band_bytes: band_bytes.parse()?,
                 });
+            }
+            ["sequence", i, "pass", pass] => {
+                let run = runs.get_mut(i.parse::<usize>()?).context("sequence line for an unknown run")?;
+                run.sequence = Some(pass.to_string());
             }
             ["stack", n] => stack_bytes = Some(n.parse()?),
             ["done", "ok"] => done = true,
@@ -921,6 +939,7 @@ mod tests {
                 thermal: false,
                 shutter: false,
                 registration: None,
+                sequence: false,
             }],
             tir16: None,
             thermal: None,
@@ -933,6 +952,16 @@ mod tests {
         assert_eq!(&b[16..20], &2u32.to_le_bytes());
         assert_eq!(&b[20..24], &1u32.to_le_bytes());
         assert_eq!(&b[24..], &[2, 0, 1, 3]);
+        // A strip run in the job's sequence: flag bits 4 and 6, and back.
+        let seq = RunSpec {
+            strips: true,
+            sequence: true,
+            ..RunSpec::plain(MethodArg::Adf, VariantArg::Flight, RescaleArg::TirUp)
+        };
+        assert_eq!(seq.encode(), [0, 1, 0, 0x50]);
+        assert_eq!(RunSpec::decode(seq.encode())?, seq);
+        assert!(RunSpec::decode([0, 1, 0, 0x41]).is_err(), "a staged sequence run");
+        assert!(RunSpec::decode([0, 1, 0, 0x80]).is_err(), "bit 7");
         let empty = Job { runs: Vec::new(), ..job.clone() };
         assert!(empty.encode().is_err());
         // AGC runs: method 4, the mapping in the variant byte, policy 2; they need the counts.

@@ -380,6 +380,17 @@ pub fn run(opts: &Options) -> Result<Outcome> {
                 strips: true,
                 ..RunSpec::plain(method, VariantArg::Flight, grid.policy())
             });
+            // ADF's sequence mode in strips: the pair twice in the job's sequence, the first with
+            // its own weights (two passes), the second with the first's carried (one pass; its
+            // own weights, so the per-frame fusion's bytes).
+            let sequence = opts.methods.iter().filter(|&&m| m == MethodArg::Adf).flat_map(|&method| {
+                let run = RunSpec {
+                    strips: true,
+                    sequence: true,
+                    ..RunSpec::plain(method, VariantArg::Flight, grid.policy())
+                };
+                [run, run]
+            });
             // The whole pipeline with scene skipping (`--skip all`) on the budget pair: the
             // analysis and the window (the crop semantics for ADF and IFEVIP; issue 38).
             let skipping = opts.methods.iter().map(|&method| RunSpec {
@@ -414,6 +425,7 @@ pub fn run(opts: &Options) -> Result<Outcome> {
                 tir: pair.1.clone(),
                 runs: staged
                     .chain(strips)
+                    .chain(sequence)
                     .chain(skipping)
                     .chain(classic)
                     .chain(agc)
@@ -464,7 +476,7 @@ pub fn run(opts: &Options) -> Result<Outcome> {
             )?;
             out.exact.push((
                 format!(
-                    "{target}: budget pair, {}² grid, flight (whole frame, strips, skipping), TSIFSD classic (whole frame and strips){}",
+                    "{target}: budget pair, {}² grid, flight (whole frame, strips, ADF's sequence mode in strips, skipping), TSIFSD classic (whole frame and strips){}",
                     grid.side(),
                     if job.tir16.is_some() {
                         ", thermal AGC (plateau, linear), thermal front end"
@@ -527,6 +539,40 @@ pub fn run(opts: &Options) -> Result<Outcome> {
                         report: run.strips.context("no strip report")?,
                         count,
                         whole: classic_whole.context("a classic strip run without its whole-frame run")?,
+                    });
+                    continue;
+                }
+                if spec.sequence {
+                    let pass = run.sequence.as_deref().context("no sequence line in a sequence run")?;
+                    if pass == "own-first" {
+                        continue;
+                    }
+                    ensure!(pass == "carried", "{target}: the second sequence run was not carried: {pass}");
+                    let count = run.region("pipeline").context("no pipeline region in a sequence run")?;
+                    let strips = run.strips.context("no strip report")?;
+                    ensure!(
+                        strips.passes == 1,
+                        "{target}: a carried strip run took {} passes",
+                        strips.passes
+                    );
+                    let m = out
+                        .measured
+                        .iter_mut()
+                        .find(|m| m.target == target && m.grid == grid && m.method == spec.method)
+                        .context("a sequence run without its staged run")?;
+                    m.stages.push(Stage {
+                        key: "strips_sequence",
+                        what: "whole pipeline in strips in a sequence, weights carried from the previous frame (one pass)",
+                        count,
+                    });
+                    let whole = m.pipeline();
+                    out.strips.push(StripRun {
+                        target,
+                        grid,
+                        label: format!("{} sequence (carried)", method_key(spec.method)),
+                        report: strips,
+                        count,
+                        whole,
                     });
                     continue;
                 }
@@ -632,6 +678,7 @@ mod tests {
             image: None,
             skip: None,
             strips: None,
+            sequence: None,
         }
     }
 

@@ -618,6 +618,7 @@ mod tests {
                 computed: [c.x0, c.y0, c.x1, c.y1],
             }),
             strips: None,
+            sequence: None,
         };
         assert!(compare_run(&spec, &image, &report, &good).is_empty());
         let mut bad = good.clone();

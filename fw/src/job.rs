@@ -14,7 +14,10 @@
 //!         bits 2–3: scene skip level, 0 none, 1 ROI, 2 all; bit 4: fuse in strips
 //!         (`fusion_nostd::strips::fuse_strips`, the 512 KiB strip scratch, tallest strips;
 //!         not with bits 0 or 2–3); bit 5: thermal front-end runs only, see below;
-//!         bits 6–7 must be 0)
+//!         bit 6: fuse in the job's sequence (`fusion_nostd::sequence`: the runs with this bit
+//!         share one `Sequence`, in order, so a run after another of the same ADF parameters
+//!         and illumination class takes the previous run's weights — one pass in strips; not
+//!         with bit 0); bit 7 must be 0)
 //! ```
 //! An AGC run (method 4) maps `tir16.gray` (the TIR size, `u16` little-endian counts) to 8 bits
 //! with `fusion_nostd::agc_frame` (`AgcParams::plateau(pixels)` or `AgcParams::linear()`, a
@@ -62,6 +65,8 @@ pub struct Run {
     pub strips: bool,
     /// A thermal front-end run: re-level the offsets from `shutter<i>.gray` first.
     pub shutter: bool,
+    /// Fuse in the job's sequence (carried weights).
+    pub sequence: bool,
 }
 
 /// A parsed job.
@@ -131,8 +136,12 @@ impl Job {
                 2 => SkipPolicy::All,
                 _ => return Err("job.bin: bad skip level"),
             };
-            if flags >> 6 != 0 || (flags & 0x20 != 0 && method != 5) {
+            if flags >> 7 != 0 || (flags & 0x20 != 0 && method != 5) || (flags & 0x40 != 0 && method > 3) {
                 return Err("job.bin: unknown flags");
+            }
+            let sequence = flags & 0x40 != 0;
+            if sequence && flags & 1 != 0 {
+                return Err("job.bin: a sequence run cannot be staged");
             }
             if flags & 1 != 0 && skip != SkipPolicy::None {
                 return Err("job.bin: a staged run cannot skip");
@@ -150,6 +159,7 @@ impl Job {
                 fault: flags & 2 != 0,
                 strips,
                 shutter: flags & 0x20 != 0,
+                sequence,
             });
         }
         Ok(Job { vis, tir, runs, n })
@@ -171,6 +181,7 @@ impl Run {
         fault: false,
         strips: false,
         shutter: false,
+        sequence: false,
     };
 
     /// The core configuration of this run.

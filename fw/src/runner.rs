@@ -6,10 +6,12 @@ use crate::{AGC, Meter, OUT, SCRATCH, STRIP_SCRATCH, TIR, TIR16, VIS, fnv1a, job
 use core::fmt::Write;
 use fusion_nostd::methods::adf::{Band, diffuse_pair};
 use fusion_nostd::methods::ifevip::background;
+use fusion_nostd::sequence::{Pass, Restart};
 use fusion_nostd::stages::{adaptive_decision, fuse_method_decided};
 use fusion_nostd::{
     AgcParams, Decline, Filter, FrameMut, FrameRef, FuseConfig, FuseReport, Guards, Method, RescalePolicy,
-    ScratchMut, agc_frame, fuse, fuse_strips, fusion_grid, rescale,
+    ScratchMut, Sequence, agc_frame, fuse, fuse_in_sequence, fuse_strips, fuse_strips_in_sequence,
+    fusion_grid, rescale,
 };
 
 /// What can stop a job.
@@ -145,6 +147,8 @@ pub fn run_job(m: &mut Meter) -> Result<(), FwError> {
     m.region("overhead", || core::hint::black_box(()));
 
     let mut thermal_started = false;
+    // The job's one sequence (the runs with the sequence bit, in order).
+    let mut sequence = Sequence::default();
     for (i, run) in job.runs().enumerate() {
         if run.thermal() {
             let out = out_buf.get_mut(..tir_px).ok_or(FwError::Job("output too large for the image"))?;
@@ -227,8 +231,21 @@ pub fn run_job(m: &mut Meter) -> Result<(), FwError> {
         let report: FuseReport = if run.strips {
             let out_frame = FrameMut::new(&mut *out, w, h)?;
             let mut sv = strip_scratch.view_mut();
-            let (report, s) =
-                m.region("pipeline", || fuse_strips(vis, tir, out_frame, &mut sv, &pipeline, usize::MAX))?;
+            let (report, s) = if run.sequence {
+                m.region("pipeline", || {
+                    fuse_strips_in_sequence(
+                        vis,
+                        tir,
+                        out_frame,
+                        &mut sv,
+                        &pipeline,
+                        usize::MAX,
+                        &mut sequence,
+                    )
+                })?
+            } else {
+                m.region("pipeline", || fuse_strips(vis, tir, out_frame, &mut sv, &pipeline, usize::MAX))?
+            };
             say!(
                 m.con,
                 "@fw strips {} count {} rows {} halo {} passes {} method_rows {} band_rows {} work_words {} band_bytes {}",
@@ -246,8 +263,25 @@ pub fn run_job(m: &mut Meter) -> Result<(), FwError> {
         } else {
             let out_frame = FrameMut::new(&mut *out, w, h)?;
             let mut sv = scratch.view_mut();
-            m.region("pipeline", || fuse(vis, tir, out_frame, &mut sv, &pipeline))?
+            if run.sequence {
+                m.region("pipeline", || {
+                    fuse_in_sequence(vis, tir, out_frame, &mut sv, &pipeline, &mut sequence)
+                })?
+            } else {
+                m.region("pipeline", || fuse(vis, tir, out_frame, &mut sv, &pipeline))?
+            }
         };
+        if run.sequence {
+            let pass = match sequence.last_step().map(|s| s.pass) {
+                Some(Pass::Carried) => "carried",
+                Some(Pass::Own(Restart::First)) => "own-first",
+                Some(Pass::Own(Restart::Illumination)) => "own-illumination",
+                Some(Pass::Own(Restart::Size)) => "own-size",
+                Some(Pass::Own(Restart::Method)) => "own-method",
+                Some(Pass::PerFrame) | None => "per-frame",
+            };
+            say!(m.con, "@fw sequence {} pass {}", i, pass);
+        }
         let sum = fnv1a(out);
         if staged_sum.is_some_and(|s| s != sum) {
             return Err(FwError::StagedMismatch);

@@ -343,6 +343,23 @@ typedef struct FusionRegisterParams {
   uint16_t border_value;
 } FusionRegisterParams;
 
+// What the last frame of a sequence did.
+typedef struct FusionSequenceStep {
+  // A `FusionPass` value.
+  uint32_t pass;
+  // A `FusionRestart` value.
+  uint32_t restart;
+  // The VIS illumination the rule compared: 0 none (per frame), 1 light, 2 eclipse, 3
+  // saturated.
+  uint32_t illumination;
+  // Pixels of the covariance (the grid or the skip plan's crop; 0 per frame).
+  size_t pixels;
+  // ADF's IR weight the frame was fused with, Q30 (`/ 2^30`; 0 per frame).
+  int64_t p_ir_used_q30;
+  // ADF's IR weight of the frame's own covariance, Q30: carried to the next frame.
+  int64_t p_ir_own_q30;
+} FusionSequenceStep;
+
 // One camera's calibration (`fusion_nostd::thermal`): per pixel a Q2.14 gain and an offset in
 // counts (row-major, `width·height` each; both NULL: no correction), and the one-bit bad-pixel
 // map (`⌈width/8⌉` bytes a row, pixel x in bit x mod 8 of byte x/8, 1 = bad; NULL: none).
@@ -539,6 +556,63 @@ enum FusionStatus fusion_register_u16(const struct FusionRig *rig,
                                       uint8_t *scratch,
                                       size_t scratch_bytes,
                                       struct FusionError *error);
+
+// Bytes of one sequence state (a few dozen; align it to 8 bytes). One state per sequence of
+// frames (per camera pair).
+size_t fusion_sequence_state_bytes(void);
+
+// Starts a sequence in `state` (8-byte aligned, at least [`fusion_sequence_state_bytes`]):
+// nothing carried, so the next frame takes its own weights. `size_change_percent` is the largest
+// change of the covariance's pixel count (the grid, or the skip plan's crop) between two frames
+// that still carries the weights, per cent of the smaller (`≥ 100`; 150 is the core's
+// default).
+//
+// # Safety
+// `state` is NULL or points to `bytes` writable bytes; `error` is NULL or writable.
+enum FusionStatus fusion_sequence_init(void *state_ptr,
+                                       size_t bytes,
+                                       uint32_t size_change_percent,
+                                       struct FusionError *error);
+
+// [`crate::fusion_fuse`] for the next frame of the sequence in `state` (started by
+// [`fusion_sequence_init`]): ADF takes the weights the previous frame measured unless the
+// illumination class, the covariance's size or the parameters changed; the other methods are
+// fused per frame. The first frame gives `fusion_fuse`'s bytes. `step` (may be NULL) says how
+// the frame was fused. On an error the state is as it was before the call.
+//
+// # Safety
+// As [`crate::fusion_fuse`]; `state` was initialised by [`fusion_sequence_init`], is used by
+// one call at a time and is not written by anything else; `step` is NULL or writable.
+enum FusionStatus fusion_fuse_in_sequence(void *state_ptr,
+                                          size_t state_bytes,
+                                          const struct FusionConfig *config,
+                                          const struct FusionImage *vis,
+                                          const struct FusionImage *tir,
+                                          const struct FusionImageMut *out,
+                                          void *scratch,
+                                          size_t scratch_bytes,
+                                          struct FusionReport *report,
+                                          struct FusionSequenceStep *step,
+                                          struct FusionError *error);
+
+// [`crate::fusion_fuse_strips`] for the next frame of the sequence in `state`: the bytes of
+// [`fusion_fuse_in_sequence`]; an ADF frame with carried weights takes one pass over the strips
+// (each strip diffused once) instead of two.
+//
+// # Safety
+// As [`fusion_fuse_in_sequence`].
+enum FusionStatus fusion_fuse_strips_in_sequence(void *state_ptr,
+                                                 size_t state_bytes,
+                                                 const struct FusionConfig *config,
+                                                 const struct FusionImage *vis,
+                                                 const struct FusionImage *tir,
+                                                 const struct FusionImageMut *out,
+                                                 void *scratch,
+                                                 size_t scratch_bytes,
+                                                 size_t max_rows,
+                                                 struct FusionReport *report,
+                                                 struct FusionSequenceStep *step,
+                                                 struct FusionError *error);
 
 // One line of English for a status value, NUL-terminated, static (never freed); a value
 // that is no status gives `"unknown error"`.

@@ -2,9 +2,12 @@
 
 use crate::image::{FusionImage, FusionImageMut, Span, deref, disjoint};
 use crate::status::{FusionError, FusionStatus, run};
-use fusion_nostd::pipeline::{FuseConfig, FuseReport, Method, RescalePolicy, SkipPolicy, fusion_grid};
+use fusion_nostd::pipeline::{
+    FuseConfig, FuseReport, Method, RescalePolicy, SkipPolicy, fuse_in_sequence, fusion_grid,
+};
 use fusion_nostd::scene::{Decline, Illumination, Rect};
-use fusion_nostd::strips::{StripReport, StripScratchMut};
+use fusion_nostd::sequence::Sequence;
+use fusion_nostd::strips::{StripReport, StripScratchMut, fuse_strips_in_sequence};
 use fusion_nostd::{ScratchMut, Variant};
 
 /// The size of the strip working set the budgets measure (512 KiB: 256 KiB of work words, 256
@@ -163,7 +166,7 @@ impl FusionConfig {
 }
 
 /// Writes `value` through a caller's out-pointer (NULL → `NullPointer`).
-fn put<T>(out: *mut T, value: T) -> Result<(), FusionError> {
+pub(crate) fn put<T>(out: *mut T, value: T) -> Result<(), FusionError> {
     // SAFETY: the caller passes NULL or a pointer to a writable `T` (header contract).
     let slot = unsafe { out.as_mut() }.ok_or(FusionError::of(FusionStatus::NullPointer))?;
     *slot = value;
@@ -311,7 +314,23 @@ pub unsafe extern "C" fn fusion_fuse(
     report: *mut FusionReport,
     error: *mut FusionError,
 ) -> FusionStatus {
-    run(error, || {
+    run(error, || whole(config, vis, tir, out, scratch, scratch_bytes, report, None))
+}
+
+/// [`fusion_fuse`]'s work, in a sequence when `seq` is given (the state and its bytes, which
+/// must not overlap the output or the scratch).
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn whole(
+    config: *const FusionConfig,
+    vis: *const FusionImage,
+    tir: *const FusionImage,
+    out: *const FusionImageMut,
+    scratch: *mut core::ffi::c_void,
+    scratch_bytes: usize,
+    report: *mut FusionReport,
+    seq: Option<(&mut Sequence, Span)>,
+) -> Result<(), FusionError> {
+    {
         let pipeline = deref(config)?.pipeline()?;
         let (vis, vis_span) = deref(vis)?.view()?;
         let (tir, tir_span) = deref(tir)?.view()?;
@@ -327,18 +346,24 @@ pub unsafe extern "C" fn fusion_fuse(
         }
         disjoint(out.span()?, &[vis_span, tir_span, scratch_span])?;
         disjoint(scratch_span, &[vis_span, tir_span])?;
+        if let Some((_, state_span)) = &seq {
+            disjoint(*state_span, &[vis_span, tir_span, scratch_span, out.span()?])?;
+        }
         // SAFETY: `scratch` is aligned, at least `needed` bytes, and overlaps nothing else here.
         let (words, band) = unsafe { carve(scratch, 3 * pixels, pixels) };
         let (a, rest) = words.split_at_mut(pixels);
         let (b, c) = rest.split_at_mut(pixels);
         let mut planes = ScratchMut::with_band([a, b, c], band);
-        let r = fusion_nostd::fuse(vis, tir, out.view_mut()?, &mut planes, &pipeline)
-            .map_err(FusionError::from_core)?;
+        let r = match seq {
+            None => fusion_nostd::fuse(vis, tir, out.view_mut()?, &mut planes, &pipeline),
+            Some((seq, _)) => fuse_in_sequence(vis, tir, out.view_mut()?, &mut planes, &pipeline, seq),
+        }
+        .map_err(FusionError::from_core)?;
         if !report.is_null() {
             put(report, report_of(&r, None))?;
         }
         Ok(())
-    })
+    }
 }
 
 /// [`fusion_fuse`] strip by strip in a fixed working set: the same bytes and guards. The
@@ -364,24 +389,44 @@ pub unsafe extern "C" fn fusion_fuse_strips(
     report: *mut FusionReport,
     error: *mut FusionError,
 ) -> FusionStatus {
-    run(error, || {
-        let pipeline = deref(config)?.pipeline()?;
-        let (vis, vis_span) = deref(vis)?.view()?;
-        let (tir, tir_span) = deref(tir)?.view()?;
-        let out = deref(out)?;
-        let scratch_span = aligned(scratch, scratch_bytes)?;
-        disjoint(out.span()?, &[vis_span, tir_span, scratch_span])?;
-        disjoint(scratch_span, &[vis_span, tir_span])?;
-        let words = scratch_bytes / 2 / 4;
-        // SAFETY: `scratch` is aligned, `scratch_bytes` long and overlaps nothing else here.
-        let (work, band) = unsafe { carve(scratch, words, scratch_bytes - words * 4) };
-        let mut strips = StripScratchMut::from_slices(work, band);
-        let (r, s) =
-            fusion_nostd::strips::fuse_strips(vis, tir, out.view_mut()?, &mut strips, &pipeline, max_rows)
-                .map_err(FusionError::from_core)?;
-        if !report.is_null() {
-            put(report, report_of(&r, Some(&s)))?;
-        }
-        Ok(())
-    })
+    run(error, || strips(config, vis, tir, out, scratch, scratch_bytes, max_rows, report, None))
+}
+
+/// [`fusion_fuse_strips`]'s work, in a sequence when `seq` is given (as [`whole`]).
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn strips(
+    config: *const FusionConfig,
+    vis: *const FusionImage,
+    tir: *const FusionImage,
+    out: *const FusionImageMut,
+    scratch: *mut core::ffi::c_void,
+    scratch_bytes: usize,
+    max_rows: usize,
+    report: *mut FusionReport,
+    seq: Option<(&mut Sequence, Span)>,
+) -> Result<(), FusionError> {
+    let pipeline = deref(config)?.pipeline()?;
+    let (vis, vis_span) = deref(vis)?.view()?;
+    let (tir, tir_span) = deref(tir)?.view()?;
+    let out = deref(out)?;
+    let scratch_span = aligned(scratch, scratch_bytes)?;
+    disjoint(out.span()?, &[vis_span, tir_span, scratch_span])?;
+    disjoint(scratch_span, &[vis_span, tir_span])?;
+    if let Some((_, state_span)) = &seq {
+        disjoint(*state_span, &[vis_span, tir_span, scratch_span, out.span()?])?;
+    }
+    let words = scratch_bytes / 2 / 4;
+    // SAFETY: `scratch` is aligned, `scratch_bytes` long and overlaps nothing else here.
+    let (work, band) = unsafe { carve(scratch, words, scratch_bytes - words * 4) };
+    let mut scratch = StripScratchMut::from_slices(work, band);
+    let out = out.view_mut()?;
+    let (r, s) = match seq {
+        None => fusion_nostd::strips::fuse_strips(vis, tir, out, &mut scratch, &pipeline, max_rows),
+        Some((seq, _)) => fuse_strips_in_sequence(vis, tir, out, &mut scratch, &pipeline, max_rows, seq),
+    }
+    .map_err(FusionError::from_core)?;
+    if !report.is_null() {
+        put(report, report_of(&r, Some(&s)))?;
+    }
+    Ok(())
 }

@@ -13,6 +13,7 @@
 //! | [`fusion_output_size`], [`fusion_scratch_bytes`] | the fused frame's size and the work memory a pair needs |
 //! | [`fusion_fuse`] | one VIS/TIR pair, whole frame, with the skip policy |
 //! | [`fusion_fuse_strips`] | the same bytes strip by strip in a fixed working set ([`FUSION_STRIP_SCRATCH_BYTES`], 512 KiB) |
+//! | [`fusion_sequence_state_bytes`], [`fusion_sequence_init`], [`fusion_fuse_in_sequence`], [`fusion_fuse_strips_in_sequence`] | a sequence of pairs with ADF's weights carried from frame to frame (one pass over the strips) |
 //! | [`fusion_rescale_u8`], [`fusion_rescale_u16`] | the OpenCV-exact bicubic and area rescalers |
 //! | [`fusion_agc_state_bytes`], [`fusion_agc_init`], [`fusion_agc_frame`] | 14/16-bit thermal counts to 8 bits |
 //! | [`fusion_register_scratch_bytes`], [`fusion_register_u8`], [`fusion_register_u16`] | an offset camera pair's thermal frame onto the visible grid at a range |
@@ -32,7 +33,7 @@
 //! * **Buffers**: an image is `data`, `width`, `height` and a row `stride` in elements
 //!   (`stride ≥ width`); the buffer must hold `(height − 1)·stride + width` elements. The output
 //!   must not overlap an input or the scratch ([`FusionStatus::Overlap`]); scratch and AGC state
-//!   must be 4-byte aligned ([`FusionStatus::Misaligned`]). On an error the output may hold a
+//!   must be 4-byte aligned, a sequence state 8-byte aligned ([`FusionStatus::Misaligned`]). On an error the output may hold a
 //!   partial frame and must not be used.
 #![no_std]
 #![cfg_attr(
@@ -47,6 +48,7 @@ mod agc;
 mod fuse;
 mod image;
 mod registration;
+mod sequence;
 mod status;
 #[cfg(test)]
 mod tests;
@@ -68,6 +70,10 @@ pub use image::{
 pub use registration::{
     FusionCamera, FusionRegisterParams, FusionRig, fusion_register_scratch_bytes, fusion_register_u8,
     fusion_register_u16,
+};
+pub use sequence::{
+    FusionPass, FusionRestart, FusionSequenceStep, fusion_fuse_in_sequence, fusion_fuse_strips_in_sequence,
+    fusion_sequence_init, fusion_sequence_state_bytes,
 };
 pub use status::{FusionError, FusionStatus, fusion_status_text, fusion_version};
 pub use thermal::{

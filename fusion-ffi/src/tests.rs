@@ -732,3 +732,139 @@ fn register_gives_the_core_bytes_and_refuses_bad_calls() {
     assert_ne!(st, FusionStatus::Ok);
     assert!(out.iter().all(|&v| v == 9));
 }
+
+/// Sequence mode: over five frames, for every method and variant (skip none and all), whole
+/// frame and strips, the core's `fuse_in_sequence` bytes and steps frame by frame (ADF:
+/// carried after the first); the state's refusals.
+#[test]
+fn sequences_follow_the_core() {
+    use fusion_nostd::sequence::{Pass, Sequence};
+    let (vs, ts) = ((96usize, 80usize), (48usize, 40usize));
+    let frames: Vec<_> = (0..5).map(|k| (frame(vs.0, vs.1, 10 + k), frame(ts.0, ts.1, 20 + k))).collect();
+    let (w, h) = vs;
+    let mut state = vec![0u64; fusion_sequence_state_bytes().div_ceil(8)];
+    let state_bytes = state.len() * 8;
+    let sp: *mut core::ffi::c_void = state.as_mut_ptr().cast();
+    let most = (0..4).map(|m| core_pipeline(m, 0, 0, 0).scratch_pixels(vs, ts).unwrap()).max().unwrap();
+    let mut s = scratch(FUSION_STRIP_SCRATCH_BYTES.max(most * 13));
+    let sbytes = s.len() * 4;
+    for method in 0..4 {
+        for variant in 0..2 {
+            for (skip, strips) in [(0, false), (2, false), (0, true)] {
+                let cfg = config(method, variant, 0, skip);
+                let core_cfg = core_pipeline(method, variant, 0, skip);
+                let mut core_seq = Sequence::default();
+                assert_eq!(
+                    unsafe { fusion_sequence_init(sp, state_bytes, 150, core::ptr::null_mut()) },
+                    FusionStatus::Ok
+                );
+                for (k, (vis, tir)) in frames.iter().enumerate() {
+                    let pixels = core_cfg.scratch_pixels(vs, ts).unwrap();
+                    let (mut a, mut b, mut c, mut band) =
+                        (vec![0; pixels], vec![0; pixels], vec![0; pixels], vec![0; pixels]);
+                    let mut planes = fusion_nostd::ScratchMut::with_band([&mut a, &mut b, &mut c], &mut band);
+                    let mut expected = vec![0u8; w * h];
+                    fusion_nostd::fuse_in_sequence(
+                        FrameRef::new(vis, vs.0, vs.1).unwrap(),
+                        FrameRef::new(tir, ts.0, ts.1).unwrap(),
+                        FrameMut::new(&mut expected, w, h).unwrap(),
+                        &mut planes,
+                        &core_cfg,
+                        &mut core_seq,
+                    )
+                    .unwrap();
+                    let want = core_seq.last_step().unwrap();
+                    let mut out = vec![0u8; w * h];
+                    let mut step = core::mem::MaybeUninit::<FusionSequenceStep>::uninit();
+                    let (vi, ti, oi) = (
+                        image(vis, vs.0, vs.1, vs.0),
+                        image(tir, ts.0, ts.1, ts.0),
+                        image_mut(&mut out, w, h, w),
+                    );
+                    let st = unsafe {
+                        if strips {
+                            fusion_fuse_strips_in_sequence(
+                                sp,
+                                state_bytes,
+                                &cfg,
+                                &vi,
+                                &ti,
+                                &oi,
+                                s.as_mut_ptr().cast(),
+                                FUSION_STRIP_SCRATCH_BYTES,
+                                23,
+                                core::ptr::null_mut(),
+                                step.as_mut_ptr(),
+                                core::ptr::null_mut(),
+                            )
+                        } else {
+                            fusion_fuse_in_sequence(
+                                sp,
+                                state_bytes,
+                                &cfg,
+                                &vi,
+                                &ti,
+                                &oi,
+                                s.as_mut_ptr().cast(),
+                                sbytes,
+                                core::ptr::null_mut(),
+                                step.as_mut_ptr(),
+                                core::ptr::null_mut(),
+                            )
+                        }
+                    };
+                    assert_eq!(st, FusionStatus::Ok, "{cfg:?} frame {k}");
+                    assert_eq!(out, expected, "{cfg:?} strips {strips} frame {k}");
+                    let step = unsafe { step.assume_init() };
+                    let pass = match want.pass {
+                        Pass::Carried => FusionPass::Carried,
+                        Pass::Own(_) => FusionPass::Own,
+                        Pass::PerFrame => FusionPass::PerFrame,
+                    };
+                    assert_eq!(step.pass, pass as u32, "{cfg:?} frame {k}");
+                    assert_eq!(
+                        (step.pixels, step.p_ir_used_q30, step.p_ir_own_q30),
+                        (want.pixels, want.p_ir_used_q30, want.p_ir_own_q30)
+                    );
+                    if method == 0 && skip == 0 {
+                        let first = if k == 0 { FusionPass::Own } else { FusionPass::Carried };
+                        assert_eq!(step.pass, first as u32, "{cfg:?} frame {k}");
+                        assert_eq!(step.restart, if k == 0 { FusionRestart::First as u32 } else { 0 });
+                    }
+                }
+            }
+        }
+    }
+    // Refusals: an uninitialised state, a misaligned or short one, bad parameters.
+    let mut err = FusionError::of(FusionStatus::Ok);
+    let (vis, tir) = &frames[0];
+    let mut out = vec![0u8; w * h];
+    let cfg = config(0, 0, 0, 0);
+    let mut call = |ptr: *mut core::ffi::c_void, bytes: usize, err: &mut FusionError| unsafe {
+        fusion_fuse_in_sequence(
+            ptr,
+            bytes,
+            &cfg,
+            &image(vis, vs.0, vs.1, vs.0),
+            &image(tir, ts.0, ts.1, ts.0),
+            &image_mut(&mut out, w, h, w),
+            s.as_mut_ptr().cast(),
+            sbytes,
+            core::ptr::null_mut(),
+            core::ptr::null_mut(),
+            err,
+        )
+    };
+    let mut fresh = vec![0u64; state.len()];
+    assert_eq!(call(fresh.as_mut_ptr().cast(), state_bytes, &mut err), FusionStatus::InvalidParameter);
+    assert_eq!(name(&err), "sequence state");
+    assert_eq!(call(sp, state_bytes - 8, &mut err), FusionStatus::ScratchTooSmall);
+    let odd = unsafe { sp.cast::<u8>().add(4).cast() };
+    assert_eq!(call(odd, state_bytes - 8, &mut err), FusionStatus::Misaligned);
+    assert_eq!(call(core::ptr::null_mut(), state_bytes, &mut err), FusionStatus::NullPointer);
+    assert_eq!(
+        unsafe { fusion_sequence_init(sp, state_bytes, 99, &mut err) },
+        FusionStatus::InvalidParameter
+    );
+    assert_eq!(name(&err), "size_change_percent");
+}

@@ -172,10 +172,14 @@ pub fn pair_by_stem(dirs: &[(&Path, &str)]) -> Result<Pairing> {
     Ok((pairs, unpaired))
 }
 
-/// Runs `work` on every item on `jobs` threads (0: every core), in any order; returns the
-/// results in the items' order. A progress bar counts them on a terminal; otherwise one line
-/// per item goes to standard error (`verb [k/n] stem: ok (what R shows)` / `failed: reason`),
-/// unless `--quiet`.
+/// `jobs` for [`run_all`]: one item after another, in order, on the calling thread.
+pub const IN_ORDER: usize = usize::MAX;
+
+/// Runs `work` on every item on `jobs` threads (0: every core), in any order — or, with
+/// `jobs` = [`IN_ORDER`], one after another in the items' order on this thread (a sequence whose
+/// frames depend on the one before); returns the results in the items' order. A progress bar
+/// counts them on a terminal; otherwise one line per item goes to standard error (`verb [k/n]
+/// stem: ok (what R shows)` / `failed: reason`), unless `--quiet`.
 pub fn run_all<T: Send + Sync, R: Send + std::fmt::Display>(
     items: &[(String, T)],
     jobs: usize,
@@ -184,7 +188,7 @@ pub fn run_all<T: Send + Sync, R: Send + std::fmt::Display>(
 ) -> Result<Vec<Result<R>>> {
     use rayon::prelude::*;
     let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(jobs)
+        .num_threads(if jobs == IN_ORDER { 1 } else { jobs })
         .build()
         .context("cannot start the worker threads")?;
     let terminal = std::io::stderr().is_terminal() && !crate::console::quiet();
@@ -202,31 +206,31 @@ pub fn run_all<T: Send + Sync, R: Send + std::fmt::Display>(
     };
     let n = items.len();
     let done = std::sync::atomic::AtomicUsize::new(0);
-    let results = pool.install(|| {
-        items
-            .par_iter()
-            .map(|(stem, item)| {
-                let r = work(stem, item);
-                let k = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
-                if terminal {
-                    bar.inc(1);
-                } else {
-                    match &r {
-                        Ok(v) => {
-                            let v = v.to_string();
-                            if v.is_empty() {
-                                note!("{verb} [{k}/{n}] {stem}: ok")
-                            } else {
-                                note!("{verb} [{k}/{n}] {stem}: ok ({v})")
-                            }
-                        }
-                        Err(e) => note!("{verb} [{k}/{n}] {stem}: failed: {}", crate::console::one_line(e)),
+    let step = |(stem, item): &(String, T)| {
+        let r = work(stem, item);
+        let k = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
+        if terminal {
+            bar.inc(1);
+        } else {
+            match &r {
+                Ok(v) => {
+                    let v = v.to_string();
+                    if v.is_empty() {
+                        note!("{verb} [{k}/{n}] {stem}: ok")
+                    } else {
+                        note!("{verb} [{k}/{n}] {stem}: ok ({v})")
                     }
                 }
-                r
-            })
-            .collect()
-    });
+                Err(e) => note!("{verb} [{k}/{n}] {stem}: failed: {}", crate::console::one_line(e)),
+            }
+        }
+        r
+    };
+    let results = if jobs == IN_ORDER {
+        items.iter().map(step).collect()
+    } else {
+        pool.install(|| items.par_iter().map(step).collect())
+    };
     bar.finish_and_clear();
     Ok(results)
 }

@@ -185,3 +185,73 @@ fn a_caller_window_fuses_that_box_only() {
         assert!(!o.status.success() && err.contains("--window"), "{bad:?}: {err}");
     }
 }
+
+/// `--sequence-mode` on two folders: the pairs in natural name order (frame_9 before
+/// frame_10), each ADF frame with the previous frame's weights — the library's sequence
+/// fuser's bytes over the same frames in that order, whole frame and in strips; the first frame
+/// is the single-pair fusion; a single pair and `--jobs` are refused.
+#[test]
+fn sequence_mode_carries_the_weights_in_name_order() {
+    let dir = tempfile::tempdir().unwrap();
+    let (vd, td) = (dir.path().join("vis"), dir.path().join("tir"));
+    std::fs::create_dir_all(&vd).unwrap();
+    std::fs::create_dir_all(&td).unwrap();
+    let names = ["frame_8", "frame_9", "frame_10", "frame_11", "frame_100"];
+    let frames: Vec<_> =
+        (0..names.len()).map(|k| (frame(64, 48, 3 + 5 * k), frame(32, 24, 40 + 11 * k))).collect();
+    for (name, (v, t)) in names.iter().zip(&frames) {
+        save_gray_u8(&vd.join(format!("{name}.png")), v).unwrap();
+        save_gray_u8(&td.join(format!("{name}.png")), t).unwrap();
+    }
+    let config = fusion_nostd::pipeline::FuseConfig {
+        method: fusion_nostd::pipeline::Method::Adf(fusion_nostd::AdfParams::default()),
+        ..Default::default()
+    };
+    for (strips, form) in [
+        (None, fusion_engine::sequence::Form::WholeFrame),
+        (Some("17"), fusion_engine::sequence::Form::Strips { max_rows: 17 }),
+    ] {
+        let out = dir.path().join(format!("out-{}", strips.unwrap_or("whole")));
+        let mut args = vec!["fuse", "--method", "adf", "--sequence-mode"];
+        if let Some(rows) = strips {
+            args.extend(["--strips", rows]);
+        }
+        args.extend([p(&vd), p(&td), p(&out)]);
+        let o = fusion(&args);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let log = String::from_utf8_lossy(&o.stderr);
+        assert!(log.contains("frame_9: ok (carried weights"), "{log}");
+        let mut seq = fusion_engine::sequence::SequenceFuser::new(
+            config,
+            fusion_nostd::sequence::SequenceParams::default(),
+            form,
+        );
+        for (name, (v, t)) in names.iter().zip(&frames) {
+            let want = seq.fuse(v, t).unwrap();
+            let got = load_gray_u8(&out.join(format!("{name}.png")), ColorPolicy::Refuse).unwrap();
+            assert_eq!(got.data, want.image.data, "{name} ({:?})", want.step.pass);
+        }
+    }
+    // The first frame is the single pair fused alone; the others are not.
+    let single = dir.path().join("single.png");
+    let first = |n: &str| (vd.join(format!("{n}.png")), td.join(format!("{n}.png")));
+    for (name, same) in [("frame_8", true), ("frame_9", false)] {
+        let (v, t) = first(name);
+        let o = fusion(&["fuse", "--method", "adf", p(&v), p(&t), p(&single)]);
+        assert!(o.status.success());
+        let alone = load_gray_u8(&single, ColorPolicy::Refuse).unwrap();
+        let seq =
+            load_gray_u8(&dir.path().join(format!("out-whole/{name}.png")), ColorPolicy::Refuse).unwrap();
+        assert_eq!(alone.data == seq.data, same, "{name}");
+    }
+    let (v, t) = first("frame_8");
+    for args in [
+        vec!["fuse", "--method", "adf", "--sequence-mode", p(&v), p(&t), p(&single)],
+        vec!["fuse", "--method", "adf", "--sequence-mode", "--jobs", "2", p(&vd), p(&td), "x"],
+    ] {
+        let o = fusion(&args);
+        assert_eq!(o.status.code(), Some(1));
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(err.trim().lines().count() == 1 && err.contains("--sequence-mode"), "{err}");
+    }
+}

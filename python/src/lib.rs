@@ -14,6 +14,7 @@ use fusion_io::{Channels, Gray};
 use fusion_metrics::table::Suite;
 use fusion_nostd::pipeline::{FuseConfig, FuseReport, SkipPolicy};
 use fusion_nostd::scene::Rect;
+use fusion_nostd::sequence::{Pass, Restart, Sequence as CoreSequence, SequenceParams};
 use fusion_nostd::{AgcParams, FrameMut, FrameRef};
 use numpy::ndarray::ArrayView2;
 use numpy::{
@@ -148,6 +149,8 @@ fn agc_params(agc: &str, plateau: Option<u32>, pixels: usize) -> PyResult<AgcPar
 }
 
 /// The fused grey frame and what the core reported.
+/// In a sequence (`seq`), the frame takes the weights the sequence carries (the core's
+/// `fuse_in_sequence` / `fuse_strips_in_sequence`).
 fn fuse_gray(
     vis: &Plane<'_, u8>,
     tir: &Plane<'_, u8>,
@@ -155,18 +158,24 @@ fn fuse_gray(
     strips: Option<usize>,
     out: &mut [u8],
     grid: (usize, usize),
+    seq: Option<&mut CoreSequence>,
 ) -> anyhow::Result<FuseReport> {
     let out = FrameMut::new(out, grid.0, grid.1)?;
     if let Some(rows) = strips {
         let mut scratch = fusion_engine::strips::HostStripScratch::default();
-        let (report, _) = fusion_nostd::strips::fuse_strips(
-            vis.view()?,
-            tir.view()?,
-            out,
-            &mut scratch.view_mut(),
-            pipeline,
-            rows,
-        )?;
+        let mut sv = scratch.view_mut();
+        let (report, _) = match seq {
+            None => fusion_nostd::strips::fuse_strips(vis.view()?, tir.view()?, out, &mut sv, pipeline, rows)?,
+            Some(seq) => fusion_nostd::strips::fuse_strips_in_sequence(
+                vis.view()?,
+                tir.view()?,
+                out,
+                &mut sv,
+                pipeline,
+                rows,
+                seq,
+            )?,
+        };
         return Ok(report);
     }
     let pixels = pipeline.scratch_pixels((vis.width, vis.height), (tir.width, tir.height))?;
@@ -177,7 +186,11 @@ fn fuse_gray(
             Some(s) if s.pixels() >= pixels => s,
             _ => kept.insert(fusion_engine::CoreScratch::new(pixels)),
         };
-        Ok(fusion_nostd::fuse(vis.view()?, tir.view()?, out, &mut scratch.view_mut(), pipeline)?)
+        let mut sv = scratch.view_mut();
+        Ok(match seq {
+            None => fusion_nostd::fuse(vis.view()?, tir.view()?, out, &mut sv, pipeline)?,
+            Some(seq) => fusion_nostd::fuse_in_sequence(vis.view()?, tir.view()?, out, &mut sv, pipeline, seq)?,
+        })
     })
 }
 
@@ -237,6 +250,24 @@ fn fuse<'py>(
     window: Option<(usize, usize, usize, usize)>,
     report: bool,
 ) -> PyResult<Py<PyAny>> {
+    let pipeline = configured(method, variant, rescale, skip, strips, window)?;
+    let (image, r) = fuse_frame(py, vis, tir, &pipeline, agc, plateau, strips, None)?;
+    if report {
+        let d = report_dict(py, &r)?;
+        return Ok((image, d).into_pyobject(py)?.into_any().unbind());
+    }
+    Ok(image)
+}
+
+/// The pipeline of `fuse`'s names, with the caller's window and the strips checked.
+fn configured(
+    method: &str,
+    variant: &str,
+    rescale: &str,
+    skip: &str,
+    strips: Option<usize>,
+    window: Option<(usize, usize, usize, usize)>,
+) -> PyResult<FuseConfig> {
     let mut pipeline = pipeline(method, variant, rescale, skip)?;
     if let Some((x0, y0, x1, y1)) = window {
         if skip != "none" {
@@ -257,6 +288,22 @@ fn fuse<'py>(
             "strips run without scene skipping: give skip=\"none\" and no window",
         ));
     }
+    Ok(pipeline)
+}
+
+/// One frame pair as `fuse` takes it (grey or colour VIS, 8-bit or 16-bit TIR), fused with
+/// `pipeline` (in `seq` when given): the image (colour when VIS was) and the core's report.
+#[allow(clippy::too_many_arguments)]
+fn fuse_frame<'py>(
+    py: Python<'py>,
+    vis: &Bound<'py, PyAny>,
+    tir: &Bound<'py, PyAny>,
+    pipeline: &FuseConfig,
+    agc: &str,
+    plateau: Option<u32>,
+    strips: Option<usize>,
+    seq: Option<&mut CoreSequence>,
+) -> PyResult<(Py<PyAny>, FuseReport)> {
     let (vis_in, tir_in) = (Image::of("vis", vis)?, Image::of("tir", tir)?);
     // The visible frame: grey as given, colour as its luminance with the chroma kept.
     let (vis_gray, chroma) = match &vis_in {
@@ -306,7 +353,7 @@ fn fuse<'py>(
     let fused = PyArray2::<u8>::zeros(py, [grid.1, grid.0], false);
     // SAFETY: the array was just created here and no Python code can see it yet.
     let out = unsafe { fused.as_slice_mut() }.map_err(|e| PyValueError::new_err(e.to_string()))?;
-    let r = py.detach(|| fuse_gray(&vis_gray, &tir_gray, &pipeline, strips, out, grid)).map_err(py_err)?;
+    let r = py.detach(|| fuse_gray(&vis_gray, &tir_gray, pipeline, strips, out, grid, seq)).map_err(py_err)?;
     let image: Py<PyAny> = match chroma {
         None => fused.into_any().unbind(),
         Some([cb, cr]) => {
@@ -315,11 +362,101 @@ fn fuse<'py>(
             rgb.interleaved().into_pyarray(py).reshape([grid.1, grid.0, 3])?.into_any().unbind()
         }
     };
-    if report {
-        let d = report_dict(py, &r)?;
-        return Ok((image, d).into_pyobject(py)?.into_any().unbind());
+    Ok((image, r))
+}
+
+/// A sequence of frame pairs fused in order with the core's sequence mode: ADF's KL weights
+/// carried from each frame to the next (one pass over the strips), the first frame and a frame
+/// after a change of illumination class, covariance size (more than `size_change_percent` per
+/// cent) or parameters with its own weights; the other methods per frame. The same bytes as
+/// `fusion fuse --sequence-mode` on a folder of the frames in name order.
+///
+/// Sequence(method="adf", variant="flight", rescale="tir-up", skip="none", *, agc="linear",
+/// plateau=None, strips=None, window=None, size_change_percent=150); `.fuse(vis, tir,
+/// report=False)` as `vistir.fuse` (report=True adds the step: "pass" — "carried", "own",
+/// "per-frame" — "restart", "p_ir_used", "p_ir_own"); `.reset()` forgets the carried weights.
+#[pyclass(module = "vistir")]
+struct Sequence {
+    pipeline: FuseConfig,
+    agc: String,
+    plateau: Option<u32>,
+    strips: Option<usize>,
+    seq: CoreSequence,
+}
+
+#[pymethods]
+impl Sequence {
+    #[new]
+    #[pyo3(signature = (method="adf", variant="flight", rescale="tir-up", skip="none", *, agc="linear", plateau=None, strips=None, window=None, size_change_percent=150))]
+    #[allow(clippy::too_many_arguments)]
+    fn new(
+        method: &str,
+        variant: &str,
+        rescale: &str,
+        skip: &str,
+        agc: &str,
+        plateau: Option<u32>,
+        strips: Option<usize>,
+        window: Option<(usize, usize, usize, usize)>,
+        size_change_percent: u16,
+    ) -> PyResult<Self> {
+        let pipeline = configured(method, variant, rescale, skip, strips, window)?;
+        named::<AgcArg>("agc", agc)?;
+        let params = SequenceParams { size_change_percent };
+        params.validate().map_err(|e| py_err(e.into()))?;
+        Ok(Self { pipeline, agc: agc.to_string(), plateau, strips, seq: CoreSequence::new(params) })
     }
-    Ok(image)
+
+    /// Fuses the next frame pair of the sequence.
+    #[pyo3(signature = (vis, tir, report=false))]
+    fn fuse<'py>(
+        &mut self,
+        py: Python<'py>,
+        vis: &Bound<'py, PyAny>,
+        tir: &Bound<'py, PyAny>,
+        report: bool,
+    ) -> PyResult<Py<PyAny>> {
+        let (image, r) = fuse_frame(
+            py,
+            vis,
+            tir,
+            &self.pipeline,
+            &self.agc,
+            self.plateau,
+            self.strips,
+            Some(&mut self.seq),
+        )?;
+        if !report {
+            return Ok(image);
+        }
+        let d = report_dict(py, &r)?;
+        if let Some(step) = self.seq.last_step() {
+            let (pass, restart) = match step.pass {
+                Pass::Carried => ("carried", None),
+                Pass::Own(r) => (
+                    "own",
+                    Some(match r {
+                        Restart::First => "first",
+                        Restart::Illumination => "illumination",
+                        Restart::Size => "size",
+                        Restart::Method => "method",
+                    }),
+                ),
+                Pass::PerFrame => ("per-frame", None),
+            };
+            let q30 = f64::from(1u32 << 30);
+            d.set_item("pass", pass)?;
+            d.set_item("restart", restart)?;
+            d.set_item("p_ir_used", step.p_ir_used_q30 as f64 / q30)?;
+            d.set_item("p_ir_own", step.p_ir_own_q30 as f64 / q30)?;
+        }
+        Ok((image, d).into_pyobject(py)?.into_any().unbind())
+    }
+
+    /// Forgets the carried weights: the next frame takes its own.
+    fn reset(&mut self) {
+        self.seq.reset();
+    }
 }
 
 /// Rescales a grey image with the core's rescalers (`fusion rescale`): filter "cubic" (Keys,
@@ -599,6 +736,7 @@ fn register<'py>(
 fn vistir(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add_function(wrap_pyfunction!(fuse, m)?)?;
+    m.add_class::<Sequence>()?;
     m.add_function(wrap_pyfunction!(rescale, m)?)?;
     m.add_function(wrap_pyfunction!(correct_thermal, m)?)?;
     m.add_function(wrap_pyfunction!(register, m)?)?;

@@ -85,6 +85,13 @@ pub struct FuseArgs {
     /// report is printed.
     #[arg(long, value_name = "ROWS|max")]
     pub strips: Option<StripRows>,
+    /// Folders as a sequence (core engine, ADF): fuse the pairs one after another in name order,
+    /// each frame with the KL weights the one before measured (`fusion_nostd::sequence`: one
+    /// pass over the strips with --strips); the first frame, and one whose VIS illumination
+    /// class, covariance size (more than 1.5×) or parameters changed, take their own. The other
+    /// methods are fused per frame. Runs on one thread (--jobs is refused).
+    #[arg(long)]
+    pub sequence_mode: bool,
     /// `--agc`, `--plateau`.
     #[command(flatten)]
     pub thermal_agc: crate::cli::agc::AgcChoice,
@@ -239,6 +246,12 @@ pub(super) fn check_options(args: &FuseArgs) -> Result<()> {
                     "--strips works with the core engine's 8-bit output only (no --engine reference, no --raw, no --skip or --window)"
                 );
             }
+            if args.sequence_mode && (engine != EngineArg::Core || args.raw.is_some() || args.jobs.is_some())
+            {
+                bail!(
+                    "--sequence-mode works with the core engine's 8-bit output on one thread (no --engine reference, no --raw, no --jobs)"
+                );
+            }
             if skipping && (engine != EngineArg::Core || args.raw.is_some()) {
                 bail!(
                     "--skip and --window work with the core engine's 8-bit output only (no --engine reference, no --raw)"
@@ -246,9 +259,13 @@ pub(super) fn check_options(args: &FuseArgs) -> Result<()> {
             }
         }
         Err(host) => {
-            if args.strips.is_some() || args.skip != SkipArg::None || args.window.is_some() {
+            if args.strips.is_some()
+                || args.skip != SkipArg::None
+                || args.window.is_some()
+                || args.sequence_mode
+            {
                 bail!(
-                    "{} is a host-only method (f64): --strips, --skip and --window are core options",
+                    "{} is a host-only method (f64): --strips, --skip, --window and --sequence-mode are core options",
                     host.name()
                 );
             }

@@ -108,6 +108,10 @@ pub fn run(args: &FuseArgs) -> Result<()> {
     };
     let items: Vec<(String, PairFiles)> =
         pairs.iter().zip(mapped).map(|((stem, files), m)| (stem.clone(), (files.as_slice(), m))).collect();
+    // --sequence-mode: one sequence, the pairs in name order on this thread.
+    let seq =
+        if args.sequence_mode { super::pair::sequence_fuser(args).map(std::sync::Mutex::new) } else { None };
+    let jobs = if seq.is_some() { fusion_io::folders::IN_ORDER } else { jobs };
     let results = run_all(&items, jobs, "fuse", |_, (files, mapped)| {
         let out = fusion_io::folders::output_path(&args.output, &files[0], ext);
         let mapped = match mapped {
@@ -115,7 +119,7 @@ pub fn run(args: &FuseArgs) -> Result<()> {
             Some(Ok(g)) => Some(g.clone()),
             None => None,
         };
-        fuse_pair_quietly(args, &files[0], &files[1], mapped, &out)
+        fuse_pair_quietly(args, &files[0], &files[1], mapped, &out, seq.as_ref())
     })?;
     let (done, failed) = split_results(&items, results, unpaired);
     let fused = done.len();

@@ -32,11 +32,14 @@ pub fn run(args: &FuseArgs) -> Result<()> {
                     "--shutter-dir follows a sequence's shutter frames: give two folders (one frame: --shutter)"
                 );
             }
+            if args.sequence_mode {
+                bail!("--sequence-mode carries weights from frame to frame: give two folders of frames");
+            }
             if args.jobs.is_some() || args.format.is_some() {
                 bail!("--jobs and --format are for folders; one output's format follows its extension");
             }
             fusion_io::folders::check_output_file(&args.output, &[&args.vis, &args.tir])?;
-            let (report, guards) = fuse_files(args, &args.vis, &args.tir, None, &args.output)?;
+            let (report, guards) = fuse_files(args, &args.vis, &args.tir, None, &args.output, None)?;
             out!("{report}")?;
             if guards != Guards::NONE {
                 note!("fusion: guards: {guards} (fusion_nostd::Guards)");

@@ -6,16 +6,19 @@ use anyhow::{Context, Result, bail};
 use fusion_engine::methods::{
     EngineArg, Fused, RescaleArg, VariantArg, fuse_core, fuse_reference, method_for,
 };
+use fusion_engine::sequence::{Form, SequenceFuser};
 use fusion_engine::thermal::{Column, ThermalChain};
 use fusion_io::npy::encode_npy_f32;
 use fusion_io::{Batch, Channels, Gray, OutFormat, Picture, encode_channels};
 use fusion_nostd::methods::Guards;
 use fusion_nostd::pipeline::{FuseConfig, RescalePolicy, SkipPolicy, Skips, fusion_grid};
+use fusion_nostd::sequence::SequenceParams;
 use fusion_nostd::thermal::ColumnParams;
 use fusion_reference as reference;
 use fusion_reference::study_methods::{HostMethod, cast_u8, drif, fuse_host_u8};
 use fusion_reference::to_f64;
 use std::path::Path;
+use std::sync::Mutex;
 
 /// One line per field of a strip report, as `fusion fuse --strips` prints it.
 pub fn strip_report_text(r: &fusion_nostd::strips::StripReport, grid: (usize, usize)) -> String {
@@ -255,16 +258,48 @@ pub(super) struct GrayResult {
     report: String,
 }
 
-pub(super) fn fuse_gray(args: &FuseArgs, vis: &Gray<u8>, tir: &Gray<u8>) -> Result<GrayResult> {
+/// The core pipeline of the options (`None` for a host-only method).
+pub(super) fn core_pipeline(args: &FuseArgs) -> Option<FuseConfig> {
+    let method = args.method.split().ok()?;
+    Some(FuseConfig {
+        rescale: args.rescale.unwrap_or(RescaleArg::TirUp).into(),
+        method: method_for(method, args.variant.unwrap_or(VariantArg::Flight)),
+        skip: args.window.map_or(args.skip.into(), |w| SkipPolicy::Window(w.0)),
+        ..Default::default()
+    })
+}
+
+/// The sequence a `--sequence-mode` folder run fuses its pairs in (whole frame, or in strips
+/// with `--strips`).
+pub(super) fn sequence_fuser(args: &FuseArgs) -> Option<SequenceFuser> {
+    let form = match args.strips {
+        Some(StripRows(max_rows)) => Form::Strips { max_rows },
+        None => Form::WholeFrame,
+    };
+    Some(SequenceFuser::new(core_pipeline(args)?, SequenceParams::default(), form))
+}
+
+/// Fuses one grey pair; in a `--sequence-mode` run (`seq`), as the sequence's next frame.
+pub(super) fn fuse_gray(
+    args: &FuseArgs,
+    vis: &Gray<u8>,
+    tir: &Gray<u8>,
+    seq: Option<&Mutex<SequenceFuser>>,
+) -> Result<GrayResult> {
     let rescale = args.rescale.unwrap_or(RescaleArg::TirUp);
-    let fused = match args.method.split() {
-        Ok(method) => {
-            let pipeline = FuseConfig {
-                rescale: rescale.into(),
-                method: method_for(method, args.variant.unwrap_or(VariantArg::Flight)),
-                skip: args.window.map_or(args.skip.into(), |w| SkipPolicy::Window(w.0)),
-                ..Default::default()
-            };
+    let fused = match (args.method.split(), core_pipeline(args)) {
+        (Ok(_), Some(pipeline)) => {
+            if let Some(seq) = seq {
+                let mut seq = seq.lock().map_err(|_| anyhow::anyhow!("the sequence's state was lost"))?;
+                let f = seq.fuse(vis, tir)?;
+                let report = match f.strips {
+                    Some(s) => strip_report_text(&s, f.report.grid),
+                    None if pipeline.skip != SkipPolicy::None => skip_report_text(&f.report),
+                    None => String::new(),
+                } + &sequence_step_text(&f.step);
+                let fused = Fused { image: f.image, raw: None, guards: f.report.guards };
+                return Ok(GrayResult { fused, report });
+            }
             let engine = args.engine.unwrap_or(EngineArg::Core);
             if let Some(StripRows(rows)) = args.strips {
                 let mut scratch = fusion_engine::strips::HostStripScratch::default();
@@ -283,9 +318,27 @@ pub(super) fn fuse_gray(args: &FuseArgs, vis: &Gray<u8>, tir: &Gray<u8>) -> Resu
                 EngineArg::Reference => fuse_reference(vis, tir, &pipeline)?,
             }
         }
-        Err(host) => fuse_host_method(vis, tir, host, rescale.into())?,
+        (Err(host), _) => fuse_host_method(vis, tir, host, rescale.into())?,
+        (Ok(_), None) => bail!("no core pipeline for a core method"),
     };
     Ok(GrayResult { fused, report: String::new() })
+}
+
+/// One line on how a frame of a sequence was fused.
+pub fn sequence_step_text(s: &fusion_nostd::sequence::SequenceStep) -> String {
+    use fusion_nostd::sequence::Pass;
+    let q30 = f64::from(1u32 << 30);
+    match s.pass {
+        Pass::Carried => format!(
+            "sequence: carried weights (one pass): p_IR {:.6} (this frame's own {:.6})\n",
+            s.p_ir_used_q30 as f64 / q30,
+            s.p_ir_own_q30 as f64 / q30
+        ),
+        Pass::Own(r) => {
+            format!("sequence: own weights ({r:?} restart): p_IR {:.6}\n", s.p_ir_own_q30 as f64 / q30)
+        }
+        Pass::PerFrame => "sequence: fused per frame (nothing carried)\n".to_string(),
+    }
 }
 
 /// The memory estimate from the headers, before either frame is decoded. The fusion grid is
@@ -324,11 +377,12 @@ pub(super) fn fuse_files(
     tir_path: &Path,
     tir_mapped: Option<Gray<u8>>,
     output: &Path,
+    seq: Option<&Mutex<SequenceFuser>>,
 ) -> Result<(String, Guards)> {
     let format = OutFormat::of(output)?;
     check_memory(args, vis_path, tir_path)?;
     let input = prepare(args, vis_path, tir_path, tir_mapped)?;
-    let GrayResult { fused, report } = fuse_gray(args, &input.vis, &input.tir)?;
+    let GrayResult { fused, report } = fuse_gray(args, &input.vis, &input.tir, seq)?;
     let (vis, tir) = (&input.vis, &input.tir);
     if vis.width * tir.height != vis.height * tir.width {
         note!(
@@ -369,7 +423,12 @@ pub fn fuse_pair_quietly(
     tir: &Path,
     tir_mapped: Option<Gray<u8>>,
     output: &Path,
+    seq: Option<&Mutex<SequenceFuser>>,
 ) -> Result<String> {
-    let (_, guards) = fuse_files(args, vis, tir, tir_mapped, output)?;
-    Ok(if guards == Guards::NONE { String::new() } else { format!("guards: {guards}") })
+    let (report, guards) = fuse_files(args, vis, tir, tir_mapped, output, seq)?;
+    // In a sequence, how the frame was fused (its report's last line).
+    let step =
+        report.lines().rfind(|l| l.starts_with("sequence: ")).map(|l| l.trim_start_matches("sequence: "));
+    let guards = (guards != Guards::NONE).then(|| format!("guards: {guards}"));
+    Ok([step.map(str::to_string), guards].into_iter().flatten().collect::<Vec<_>>().join("; "))
 }

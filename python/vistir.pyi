@@ -69,6 +69,39 @@ def rescale(
     """Rescales a grey image with the core's rescalers (cv2.INTER_CUBIC / cv2.INTER_AREA
     semantics, bit-exact with OpenCV at factor 2); returns (height, width) of the same dtype."""
 
+class Sequence:
+    """A sequence of frame pairs fused in order with the core's sequence mode: ADF's KL weights
+    carried from each frame to the next (one pass over the strips); the first frame, and one
+    whose VIS illumination class, covariance size (more than size_change_percent per cent) or
+    parameters changed, takes its own weights; the other methods are fused per frame. The same
+    bytes as `fusion fuse --sequence-mode` on folders of the frames in name order.
+    """
+
+    def __init__(
+        self,
+        method: Method = "adf",
+        variant: VariantName = "flight",
+        rescale: RescaleName = "tir-up",
+        skip: SkipName = "none",
+        *,
+        agc: AgcName = "linear",
+        plateau: Optional[int] = None,
+        strips: Optional[int] = None,
+        window: Optional[Tuple[int, int, int, int]] = None,
+        size_change_percent: int = 150,
+    ) -> None: ...
+    @overload
+    def fuse(self, vis: Union[Gray8, Rgb8], tir: Union[Gray8, Gray16], report: Literal[False] = False) -> npt.NDArray[np.uint8]: ...
+    @overload
+    def fuse(
+        self, vis: Union[Gray8, Rgb8], tir: Union[Gray8, Gray16], report: Literal[True]
+    ) -> Tuple[npt.NDArray[np.uint8], dict[str, Any]]:
+        """Fuses the next pair as `vistir.fuse` would with these options, the weights carried;
+        report=True adds "pass" ("carried", "own", "per-frame"), "restart" ("first",
+        "illumination", "size", "method" or None), "p_ir_used" and "p_ir_own" to fuse's dict."""
+    def reset(self) -> None:
+        """Forgets the carried weights: the next frame takes its own."""
+
 def correct_thermal(
     raw: Gray16,
     *,

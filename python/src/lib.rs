@@ -165,7 +165,9 @@ fn fuse_gray(
         let mut scratch = fusion_engine::strips::HostStripScratch::default();
         let mut sv = scratch.view_mut();
         let (report, _) = match seq {
-            None => fusion_nostd::strips::fuse_strips(vis.view()?, tir.view()?, out, &mut sv, pipeline, rows)?,
+            None => {
+                fusion_nostd::strips::fuse_strips(vis.view()?, tir.view()?, out, &mut sv, pipeline, rows)?
+            }
             Some(seq) => fusion_nostd::strips::fuse_strips_in_sequence(
                 vis.view()?,
                 tir.view()?,
@@ -189,7 +191,9 @@ fn fuse_gray(
         let mut sv = scratch.view_mut();
         Ok(match seq {
             None => fusion_nostd::fuse(vis.view()?, tir.view()?, out, &mut sv, pipeline)?,
-            Some(seq) => fusion_nostd::fuse_in_sequence(vis.view()?, tir.view()?, out, &mut sv, pipeline, seq)?,
+            Some(seq) => {
+                fusion_nostd::fuse_in_sequence(vis.view()?, tir.view()?, out, &mut sv, pipeline, seq)?
+            }
         })
     })
 }
@@ -353,7 +357,8 @@ fn fuse_frame<'py>(
     let fused = PyArray2::<u8>::zeros(py, [grid.1, grid.0], false);
     // SAFETY: the array was just created here and no Python code can see it yet.
     let out = unsafe { fused.as_slice_mut() }.map_err(|e| PyValueError::new_err(e.to_string()))?;
-    let r = py.detach(|| fuse_gray(&vis_gray, &tir_gray, pipeline, strips, out, grid, seq)).map_err(py_err)?;
+    let r =
+        py.detach(|| fuse_gray(&vis_gray, &tir_gray, pipeline, strips, out, grid, seq)).map_err(py_err)?;
     let image: Py<PyAny> = match chroma {
         None => fused.into_any().unbind(),
         Some([cb, cr]) => {

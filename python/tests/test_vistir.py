@@ -370,3 +370,34 @@ def test_register_refuses_bad_input(tmp_path):
     bad.write_text('{"R": 1}')
     with pytest.raises(ValueError, match="camera_matrix_vis"):
         vistir.register(tir, rig=bad, range=8.0)
+
+
+@pytest.mark.parametrize("strips", [None, 24])
+def test_a_sequence_gives_the_cli_sequence_mode_bytes(tmp_path, strips):
+    """vistir.Sequence over rendered fly-around frames = `fusion fuse --sequence-mode` on their
+    folders (name order), whole frame and in strips; the first frame is `vistir.fuse`'s, the
+    later ones carry the previous frame's weight; reset() starts afresh."""
+    seq_dir = tmp_path / "seq"
+    fusion("--quiet", "render", "--sequence", "flyaround", "--frames", "6", "--vis-size", "128", "--tir-sizes", "64", "--out", seq_dir)
+    options = ["--method", "adf", "--sequence-mode"] + (["--strips", str(strips)] if strips else [])
+    fusion("--quiet", "fuse", *options, seq_dir / "vis", seq_dir / "tir", tmp_path / "out")
+    names = sorted(p.name for p in (seq_dir / "vis").iterdir())
+    seq = vistir.Sequence("adf", strips=strips)
+    previous_own = None
+    for k, name in enumerate(names):
+        vis, tir = vistir.load(seq_dir / "vis" / name), vistir.load(seq_dir / "tir" / name)
+        got, report = seq.fuse(vis, tir, report=True)
+        np.testing.assert_array_equal(got, vistir.load(tmp_path / "out" / (Path(name).stem + ".png")))
+        if k == 0:
+            assert (report["pass"], report["restart"]) == ("own", "first")
+            np.testing.assert_array_equal(got, vistir.fuse(vis, tir, method="adf"))
+        elif report["pass"] == "carried":
+            assert report["p_ir_used"] == previous_own
+        previous_own = report["p_ir_own"]
+    seq.reset()
+    vis, tir = vistir.load(seq_dir / "vis" / names[0]), vistir.load(seq_dir / "tir" / names[0])
+    assert seq.fuse(vis, tir, report=True)[1]["pass"] == "own"
+    with pytest.raises(ValueError, match="size_change_percent"):
+        vistir.Sequence("adf", size_change_percent=99)
+    with pytest.raises(ValueError, match="strips"):
+        vistir.Sequence("adf", skip="roi", strips=8)

@@ -162,6 +162,34 @@ typedef enum FusionSkip {
   FUSION_SKIP_WINDOW = 3,
 } FusionSkip;
 
+// How a frame of a sequence was fused (values of [`FusionSequenceStep::pass`]).
+typedef enum FusionPass {
+  // With the weights carried from the previous frame (one pass in strips).
+  FUSION_PASS_CARRIED = 0,
+  // With the frame's own weights (two passes in strips); [`FusionSequenceStep::restart`]
+  // says why.
+  FUSION_PASS_OWN = 1,
+  // Per frame: the method carries nothing (TSIFSD, IFEVIP, adaptive), or ADF's skip plan
+  // found nothing to fuse.
+  FUSION_PASS_PER_FRAME = 2,
+} FusionPass;
+
+// Why a frame took its own weights (values of [`FusionSequenceStep::restart`]).
+typedef enum FusionRestart {
+  // Not restarted (carried, or per frame).
+  FUSION_RESTART_NO_RESTART = 0,
+  // Nothing carried: the first frame (after [`fusion_sequence_init`], or after a frame of a
+  // method that carries nothing).
+  FUSION_RESTART_FIRST = 1,
+  // The VIS illumination class changed.
+  FUSION_RESTART_ILLUMINATION = 2,
+  // The covariance's pixel count changed by more than the state's
+  // `size_change_percent`.
+  FUSION_RESTART_SIZE = 3,
+  // The method's parameters changed.
+  FUSION_RESTART_METHOD = 4,
+} FusionRestart;
+
 // AGC parameters (`fusion_nostd::AgcParams`). Start from [`fusion_agc_linear`] or
 // [`fusion_agc_plateau`].
 typedef struct FusionAgcParams {

@@ -54,7 +54,7 @@ use fusion_io::{ColorPolicy, Gray, load_gray_u8};
 use fusion_nostd::pipeline::{SkipPolicy, Skips};
 use fusion_nostd::registration::Rig;
 use fusion_nostd::scene::Rect;
-use fusion_nostd::{AdaptiveParams, FuseConfig, Method, RescalePolicy};
+use fusion_nostd::{AdaptiveParams, FuseConfig, Method, RescalePolicy, Sequence};
 use image::GrayImage;
 use rayon::prelude::*;
 use render_host::Camera;
@@ -101,6 +101,9 @@ pub enum Stream {
     Sensor(SensorStage),
     /// A core fusion whose thermal frame comes from the raw counts through the whole front end.
     SensorFused(FuseConfig),
+    /// A core fusion in sequence mode (`fusion_nostd::sequence`): ADF's weights carried from the
+    /// stream's previous frame.
+    InSequence(FuseConfig),
 }
 
 /// How far a raw-sensor stream's thermal frame goes through the front end
@@ -196,6 +199,23 @@ pub fn streams() -> Vec<(String, Stream)> {
             ..FuseConfig::default()
         }),
     ));
+    // ADF in sequence mode (on request: SEQUENCE_SOURCES).
+    for (name, variant, skip) in [
+        ("adf-flight-seq", fusion_nostd::Variant::Flight, SkipPolicy::None),
+        ("adf-classic-seq", fusion_nostd::Variant::Classic, SkipPolicy::None),
+        ("adf-flight-seq-skip", fusion_nostd::Variant::Flight, SkipPolicy::All),
+    ] {
+        let method = Method::Adf(fusion_nostd::AdfParams { variant, ..Default::default() });
+        out.push((
+            name.to_string(),
+            Stream::InSequence(FuseConfig {
+                rescale: RescalePolicy::TirUp,
+                method,
+                skip,
+                ..FuseConfig::default()
+            }),
+        ));
+    }
     for skip in [SkipPolicy::None, SkipPolicy::All] {
         for method in Method::all().into_iter().filter(|m| m.variant().is_some()) {
             let name = if skip == SkipPolicy::None {
@@ -220,11 +240,17 @@ pub fn streams() -> Vec<(String, Stream)> {
 /// The baselines' names: always run, whatever `--sources` says.
 pub const BASELINES: [&str; 2] = ["zero-motion", "oracle"];
 
-/// The sources named in `only` (every source when `None`) and the baselines, in [`streams`]
-/// order.
+/// The sources that run only when named (`fusion navbench --sequence-mode` names them): ADF in
+/// sequence mode, whole frame and with scene skipping (a crop's weights carried).
+pub const SEQUENCE_SOURCES: [&str; 3] = ["adf-flight-seq", "adf-classic-seq", "adf-flight-seq-skip"];
+
+/// The sources named in `only` (every source but [`SEQUENCE_SOURCES`] when `None`) and the
+/// baselines, in [`streams`] order.
 pub fn selected(only: Option<&[String]>) -> Result<Vec<(String, Stream)>> {
     let all = streams();
-    let Some(only) = only else { return Ok(all) };
+    let Some(only) = only else {
+        return Ok(all.into_iter().filter(|(s, _)| !SEQUENCE_SOURCES.contains(&s.as_str())).collect());
+    };
     if let Some(bad) = only.iter().find(|n| !all.iter().any(|(s, _)| s == *n)) {
         let names: Vec<&str> = all.iter().map(|(s, _)| s.as_str()).collect();
         anyhow::bail!("unknown source '{bad}'; the sources are {}", names.join(", "));
@@ -677,6 +703,7 @@ fn stream_image(
     fd: &FrameData,
     window: Rect,
     through: Option<(&Rig, f64)>,
+    sequence: &mut Sequence,
 ) -> Result<(Gray<u8>, f64, f64)> {
     let (w, h) = (fd.vis.width, fd.vis.height);
     let p = &match *stream {
@@ -686,7 +713,7 @@ fn stream_image(
         Stream::Sensor(stage) => {
             return Ok((on_vis_grid(sensor_frame(fd, stage)?, w, h, through)?, 1.0, 1.0));
         }
-        Stream::Fused(p) | Stream::SensorFused(p) => p,
+        Stream::Fused(p) | Stream::SensorFused(p) | Stream::InSequence(p) => p,
         Stream::Loop(p) => FuseConfig { skip: SkipPolicy::Window(window), ..p },
     };
     let tir = match stream {
@@ -699,8 +726,13 @@ fn stream_image(
     let tir = registered.as_ref().unwrap_or(tir);
     let mut out = Gray::<u8>::new(w, h);
     let mut scratch = CoreScratch::new(p.scratch_pixels((w, h), (tir.width, tir.height))?);
-    let report =
-        fusion_nostd::fuse(fd.vis.view()?, tir.view()?, out.view_mut()?, &mut scratch.view_mut(), p)?;
+    let (vis, tir, mut scratch) = (fd.vis.view()?, tir.view()?, scratch.view_mut());
+    let report = match stream {
+        Stream::InSequence(_) => {
+            fusion_nostd::fuse_in_sequence(vis, tir, out.view_mut()?, &mut scratch, p, sequence)?
+        }
+        _ => fusion_nostd::fuse(vis, tir, out.view_mut()?, &mut scratch, p)?,
+    };
     // The window whose pixels are the method's output: the ROI for a crop (the background value
     // is written outside it), the computed window otherwise.
     let win = if report.skip.taken.contains(Skips::CROP) { report.skip.roi } else { report.skip.computed };
@@ -835,6 +867,8 @@ struct StreamState {
     /// Offset rigs: the range the registration last used — the filter's, held while the
     /// filter predicts the target behind the camera or closer than [`MIN_REGISTRATION_RANGE_M`].
     registration_range: f64,
+    /// A sequence-mode stream's carried weights.
+    sequence: Sequence,
 }
 
 /// The registration keeps its last range when the filter predicts the target nearer than this,
@@ -871,6 +905,7 @@ impl SequenceRun<'_> {
             prev_pairwise: None,
             prev_measurement: None,
             registration_range: 0.0,
+            sequence: Sequence::default(),
         };
         // The registration's first range: the initial filter's.
         let first = camera_at(&self.data[0].camera, st.filter.attitude, st.filter.position);
@@ -979,7 +1014,8 @@ impl SequenceRun<'_> {
             row.misregistration_px = median;
             row.misregistration_p95_px = p95;
         }
-        let (img, target_coverage, window_frac) = stream_image(stream, fd, window, through)?;
+        let (img, target_coverage, window_frac) =
+            stream_image(stream, fd, window, through, &mut st.sequence)?;
         row.target_coverage = target_coverage;
         row.window_frac = window_frac;
         row.cnr = cnr(&img.data, &fd.vis_mask, &fd.ring_mask);

@@ -210,16 +210,27 @@ pub struct GuardRow {
     pub moved: Vec<Moved>,
 }
 
-/// The skip guard over the whole summary: every `<stream>-skip` and `<stream>-loop` against
-/// `<stream>`, over all sequences. A figure may move by at most the larger of the two streams'
-/// standard deviations over the seeds, or by 1 % of the unskipped mean where that is larger.
+/// The stream a guarded stream is judged against: `<stream>-skip` and `<stream>-loop` against
+/// `<stream>`; a sequence-mode stream against the same stream fused per frame
+/// (`adf-flight-seq` against `adf-flight`, `adf-flight-seq-skip` against `adf-flight-skip`).
+fn twin(name: &str) -> Option<String> {
+    if name.contains("-seq") {
+        return Some(name.replacen("-seq", "", 1));
+    }
+    name.strip_suffix("-skip").or_else(|| name.strip_suffix("-loop")).map(str::to_string)
+}
+
+/// The guard of issue 38 over the whole summary: every `<stream>-skip` and `<stream>-loop`
+/// against `<stream>`, every sequence-mode stream against its per-frame twin, over all
+/// sequences. A figure may move by at most the larger of the two streams' standard deviations
+/// over the seeds, or by 1 % of the twin's mean where that is larger.
 pub fn skip_guard(s: &SeedSummary) -> Vec<GuardRow> {
     let mut out = Vec::new();
     for (name, phases) in &s.sources {
-        let Some(base) = name.strip_suffix("-skip").or_else(|| name.strip_suffix("-loop")) else { continue };
-        let Some(base_phases) = s.sources.get(base) else { continue };
+        let Some(base) = twin(name) else { continue };
+        let Some(base_phases) = s.sources.get(&base) else { continue };
         let mut row =
-            GuardRow { skipped: name.clone(), unskipped: base.to_string(), figures: 0, moved: Vec::new() };
+            GuardRow { skipped: name.clone(), unskipped: base.clone(), figures: 0, moved: Vec::new() };
         for (phase, figs) in phases {
             let Some(base_figs) = base_phases.get(phase) else { continue };
             for (key, stat) in figs {
@@ -284,6 +295,11 @@ mod tests {
         assert_eq!(g[0].moved.len(), 1, "{g:?}");
         assert_eq!(g[0].moved[0].figure, "all.availability");
         assert!((g[0].moved[0].delta - 0.1).abs() < 1e-12 && (g[0].moved[0].allowed - 0.01).abs() < 1e-12);
+        // Sequence-mode streams against their per-frame twins.
+        assert_eq!(twin("adf-flight-seq").as_deref(), Some("adf-flight"));
+        assert_eq!(twin("adf-flight-seq-skip").as_deref(), Some("adf-flight-skip"));
+        assert_eq!(twin("adaptive-loop").as_deref(), Some("adaptive"));
+        assert_eq!(twin("adf-flight"), None);
     }
 
     #[test]

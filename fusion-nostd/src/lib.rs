@@ -12,6 +12,9 @@
 //! * [`pipeline`] — the per-frame entry point: rescale one band onto the other's grid, fuse.
 //! * [`strips`] — the same pipeline strip by strip in a fixed 512 KiB working set
 //!   ([`fuse_strips`]), bit-identical to the whole-frame run.
+//! * [`sequence`] — a camera sequence fused frame after frame with ADF's KL weights carried from
+//!   the frame before ([`fuse_in_sequence`], [`fuse_strips_in_sequence`]): one pass over the
+//!   strips instead of two.
 //! * [`scene`] — scene analysis (background, noise, target box, illumination) that lets the
 //!   pipeline skip what the scene does not need ([`pipeline::SkipPolicy`]).
 //! * [`thermal`] — the thermal camera's front end on raw focal-plane counts: two-point

@@ -317,3 +317,27 @@ fn a_second_target_is_rendered_and_judged_with_its_own_model() {
     let rows = run_sequence(dir.path(), None, None, false, Registration::Filter).unwrap();
     judge_floor_and_ceiling(&m, &rows);
 }
+
+/// ADF in sequence mode in the judge (issue 38): the sequence-mode sources run only when named;
+/// on their first frame (own weights) they see the per-frame fusion's image, so every measure
+/// of that frame equals the per-frame stream's; later frames carry the previous weights and
+/// their images (so measures) may differ.
+#[test]
+fn sequence_mode_sources_run_on_request_and_start_as_the_per_frame_stream() {
+    use fusion_navbench::bench::{SEQUENCE_SOURCES, selected};
+    let by_default: Vec<String> = selected(None).unwrap().into_iter().map(|(n, _)| n).collect();
+    assert!(SEQUENCE_SOURCES.iter().all(|s| !by_default.iter().any(|n| n == s)), "{by_default:?}");
+    assert!(SEQUENCE_SOURCES.iter().all(|s| streams().iter().any(|(n, _)| n == s)));
+    let dir = tempfile::tempdir().unwrap();
+    render_sequence(&small(SequenceName::Flyaround, 6), dir.path(), false).unwrap();
+    let only: Vec<String> = ["adf-flight", "adf-flight-seq"].map(String::from).to_vec();
+    let rows = run_sequence(dir.path(), None, Some(&only), false, Registration::Filter).unwrap();
+    let of = |src: &str| rows.iter().filter(|r| r.source == src).collect::<Vec<_>>();
+    let (per_frame, seq) = (of("adf-flight"), of("adf-flight-seq"));
+    assert_eq!((per_frame.len(), seq.len()), (6, 6));
+    let a = format!("{:?}", per_frame[0]).replace("\"adf-flight\"", "\"S\"");
+    let b = format!("{:?}", seq[0]).replace("\"adf-flight-seq\"", "\"S\"");
+    assert_eq!(a, b, "frame 0 differs");
+    // Later frames: the images differ where the weights moved (CNR is read off the image).
+    assert!(per_frame.iter().zip(&seq).skip(1).any(|(p, s)| p.cnr != s.cnr), "no frame differs");
+}

@@ -34,10 +34,16 @@ pub struct NavbenchArgs {
     /// VIS size of sequences rendered here (TIR is half).
     #[arg(long, default_value_t = 1024, value_name = "PX")]
     pub vis_size: u32,
-    /// Only these sources, comma-separated (e.g. `vis,tir,adaptive`) [default: all]; the
-    /// baselines `zero-motion` and `oracle` always run.
+    /// Only these sources, comma-separated (e.g. `vis,tir,adaptive`) [default: all but the
+    /// sequence-mode ones, see --sequence-mode]; the baselines `zero-motion` and `oracle`
+    /// always run.
     #[arg(long, value_delimiter = ',', value_name = "NAMES")]
     pub sources: Option<Vec<String>>,
+    /// Also run ADF in sequence mode (`adf-flight-seq`, `adf-classic-seq`, `adf-flight-seq-skip`:
+    /// each frame fused with the KL weights of the stream's previous frame, as `fusion fuse
+    /// --sequence-mode`); they run only when asked, here or by name in --sources.
+    #[arg(long)]
+    pub sequence_mode: bool,
     /// Use the noiseless renders instead of the noisy ones (e.g. the skip windows on clean
     /// frames).
     #[arg(long)]
@@ -71,8 +77,9 @@ pub struct NavbenchArgs {
 /// The phases in table order, then the whole sequence.
 const PHASES: [&str; 4] = ["light", "penumbra", "eclipse", PHASE_ALL];
 
-/// The sources the charts and the answer show, when run.
-const SHOWN: [&str; 6] = ["zero-motion", "oracle", "vis", "tir", "adaptive", "adf-flight"];
+/// The sources the charts and the answer show, when run (`adf-flight-seq` only with
+/// `--sequence-mode`).
+const SHOWN: [&str; 7] = ["zero-motion", "oracle", "vis", "tir", "adaptive", "adf-flight", "adf-flight-seq"];
 
 /// Runs `fusion navbench`.
 pub fn run(args: &NavbenchArgs) -> Result<()> {
@@ -101,7 +108,16 @@ pub fn run(args: &NavbenchArgs) -> Result<()> {
     {
         bail!("--rig: the sequences render square images, the rig's cameras are not square");
     }
-    let only = args.sources.as_deref();
+    // --sequence-mode: the sources asked for (or the default ones) and ADF in sequence mode.
+    let with_sequence: Option<Vec<String>> = args.sequence_mode.then(|| {
+        let names = match &args.sources {
+            Some(s) => s.clone(),
+            None => selected(None).map(|v| v.into_iter().map(|(n, _)| n).collect()).unwrap_or_default(),
+        };
+        let seq = fusion_navbench::bench::SEQUENCE_SOURCES.iter().map(|s| s.to_string());
+        names.into_iter().chain(seq).collect()
+    });
+    let only = with_sequence.as_deref().or(args.sources.as_deref());
     let streams = selected(only)?.len();
     let start = Instant::now();
     let data = args.data.clone().unwrap_or_else(|| args.out.join("data"));
@@ -598,7 +614,8 @@ their spreads over the seeds.\n",
         let _ = writeln!(
             md,
             "## What skipping changes in navigation\n\nEvery figure of every phase (all sequences) of a \
-             skipped or closed-loop stream against its whole-frame stream: a figure *moved* when the means \
+             skipped or closed-loop stream against its whole-frame stream, and of a sequence-mode stream \
+             against the same stream fused per frame: a figure *moved* when the means \
              differ by more than the larger spread over the seeds and by more than 1 % of the whole-frame \
              mean (the guard of issue 38).\n\n\
              | stream | against | figures | moved | largest moves (phase.figure: change, allowed) |\n|---|---|---|---|---|"

@@ -89,6 +89,7 @@ class Sequence:
         strips: Optional[int] = None,
         window: Optional[Tuple[int, int, int, int]] = None,
         size_change_percent: int = 150,
+        window_frames: int = 5,
     ) -> None: ...
     @overload
     def fuse(self, vis: Union[Gray8, Rgb8], tir: Union[Gray8, Gray16], report: Literal[False] = False) -> npt.NDArray[np.uint8]: ...

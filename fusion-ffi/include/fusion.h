@@ -593,13 +593,15 @@ size_t fusion_sequence_state_bytes(void);
 // nothing carried, so the next frame takes its own weights. `size_change_percent` is the largest
 // change of the covariance's pixel count (the grid, or the skip plan's crop) between two frames
 // that still carries the weights, per cent of the smaller (`≥ 100`; 150 is the core's
-// default).
+// default); `window_frames` (0–8; 5 is the core's default): with scene skipping, the target
+// boxes of that many previous frames are joined to each frame's own.
 //
 // # Safety
 // `state` is NULL or points to `bytes` writable bytes; `error` is NULL or writable.
 enum FusionStatus fusion_sequence_init(void *state_ptr,
                                        size_t bytes,
                                        uint32_t size_change_percent,
+                                       uint32_t window_frames,
                                        struct FusionError *error);
 
 // [`crate::fusion_fuse`] for the next frame of the sequence in `state` (started by

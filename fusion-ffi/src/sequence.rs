@@ -111,7 +111,8 @@ fn state<'a>(ptr: *mut core::ffi::c_void, bytes: usize) -> Result<(&'a mut Seque
 /// nothing carried, so the next frame takes its own weights. `size_change_percent` is the largest
 /// change of the covariance's pixel count (the grid, or the skip plan's crop) between two frames
 /// that still carries the weights, per cent of the smaller (`≥ 100`; 150 is the core's
-/// default).
+/// default); `window_frames` (0–8; 5 is the core's default): with scene skipping, the target
+/// boxes of that many previous frames are joined to each frame's own.
 ///
 /// # Safety
 /// `state` is NULL or points to `bytes` writable bytes; `error` is NULL or writable.
@@ -120,12 +121,15 @@ pub unsafe extern "C" fn fusion_sequence_init(
     state_ptr: *mut core::ffi::c_void,
     bytes: usize,
     size_change_percent: u32,
+    window_frames: u32,
     error: *mut FusionError,
 ) -> FusionStatus {
     run(error, || {
         checked(state_ptr, bytes)?;
-        let params =
-            SequenceParams { size_change_percent: u16::try_from(size_change_percent).unwrap_or(u16::MAX) };
+        let params = SequenceParams {
+            size_change_percent: u16::try_from(size_change_percent).unwrap_or(u16::MAX),
+            window_frames: u8::try_from(window_frames).unwrap_or(u8::MAX),
+        };
         params.validate().map_err(FusionError::from_core)?;
         // SAFETY: aligned and at least `size_of::<State>()` writable bytes (checked above).
         unsafe {

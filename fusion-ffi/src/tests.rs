@@ -742,6 +742,8 @@ fn sequences_follow_the_core() {
     let (vs, ts) = ((96usize, 80usize), (48usize, 40usize));
     let frames: Vec<_> = (0..5).map(|k| (frame(vs.0, vs.1, 10 + k), frame(ts.0, ts.1, 20 + k))).collect();
     let (w, h) = vs;
+    // The README's static state of 1 KiB holds it.
+    assert!(fusion_sequence_state_bytes() <= 1024, "{}", fusion_sequence_state_bytes());
     let mut state = vec![0u64; fusion_sequence_state_bytes().div_ceil(8)];
     let state_bytes = state.len() * 8;
     let sp: *mut core::ffi::c_void = state.as_mut_ptr().cast();
@@ -755,7 +757,7 @@ fn sequences_follow_the_core() {
                 let core_cfg = core_pipeline(method, variant, 0, skip);
                 let mut core_seq = Sequence::default();
                 assert_eq!(
-                    unsafe { fusion_sequence_init(sp, state_bytes, 150, core::ptr::null_mut()) },
+                    unsafe { fusion_sequence_init(sp, state_bytes, 150, 5, core::ptr::null_mut()) },
                     FusionStatus::Ok
                 );
                 for (k, (vis, tir)) in frames.iter().enumerate() {
@@ -862,9 +864,11 @@ fn sequences_follow_the_core() {
     let odd = unsafe { sp.cast::<u8>().add(4).cast() };
     assert_eq!(call(odd, state_bytes - 8, &mut err), FusionStatus::Misaligned);
     assert_eq!(call(core::ptr::null_mut(), state_bytes, &mut err), FusionStatus::NullPointer);
-    assert_eq!(
-        unsafe { fusion_sequence_init(sp, state_bytes, 99, &mut err) },
-        FusionStatus::InvalidParameter
-    );
+    let init = |pct: u32, frames: u32, err: &mut FusionError| unsafe {
+        fusion_sequence_init(sp, state_bytes, pct, frames, err)
+    };
+    assert_eq!(init(99, 5, &mut err), FusionStatus::InvalidParameter);
     assert_eq!(name(&err), "size_change_percent");
+    assert_eq!(init(150, 9, &mut err), FusionStatus::InvalidParameter);
+    assert_eq!(name(&err), "window_frames");
 }

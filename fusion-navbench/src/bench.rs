@@ -199,13 +199,17 @@ pub fn streams() -> Vec<(String, Stream)> {
             ..FuseConfig::default()
         }),
     ));
-    // ADF in sequence mode (on request: SEQUENCE_SOURCES).
-    for (name, variant, skip) in [
-        ("adf-flight-seq", fusion_nostd::Variant::Flight, SkipPolicy::None),
-        ("adf-classic-seq", fusion_nostd::Variant::Classic, SkipPolicy::None),
-        ("adf-flight-seq-skip", fusion_nostd::Variant::Flight, SkipPolicy::All),
+    // In sequence mode (on request: SEQUENCE_SOURCES).
+    let (flight, classic) = (fusion_nostd::Variant::Flight, fusion_nostd::Variant::Classic);
+    for (name, kind, variant, skip) in [
+        ("adf-flight-seq", "adf", flight, SkipPolicy::None),
+        ("adf-classic-seq", "adf", classic, SkipPolicy::None),
+        ("adf-flight-seq-skip", "adf", flight, SkipPolicy::All),
+        ("tsifsd-flight-seq-skip", "tsifsd", flight, SkipPolicy::All),
+        ("ifevip-flight-seq-skip", "ifevip", flight, SkipPolicy::All),
+        ("adaptive-seq-skip", "adaptive", flight, SkipPolicy::All),
     ] {
-        let method = Method::Adf(fusion_nostd::AdfParams { variant, ..Default::default() });
+        let method = Method::named(kind, variant).unwrap_or_default();
         out.push((
             name.to_string(),
             Stream::InSequence(FuseConfig {
@@ -241,8 +245,17 @@ pub fn streams() -> Vec<(String, Stream)> {
 pub const BASELINES: [&str; 2] = ["zero-motion", "oracle"];
 
 /// The sources that run only when named (`fusion navbench --sequence-mode` names them): ADF in
-/// sequence mode, whole frame and with scene skipping (a crop's weights carried).
-pub const SEQUENCE_SOURCES: [&str; 3] = ["adf-flight-seq", "adf-classic-seq", "adf-flight-seq-skip"];
+/// sequence mode, whole frame and with scene skipping (a crop's weights carried), and every
+/// method skipping in a sequence (the skip windows joined over the last frames,
+/// `fusion_nostd::sequence::SequenceParams::window_frames`).
+pub const SEQUENCE_SOURCES: [&str; 6] = [
+    "adf-flight-seq",
+    "adf-classic-seq",
+    "adf-flight-seq-skip",
+    "tsifsd-flight-seq-skip",
+    "ifevip-flight-seq-skip",
+    "adaptive-seq-skip",
+];
 
 /// The sources named in `only` (every source but [`SEQUENCE_SOURCES`] when `None`) and the
 /// baselines, in [`streams`] order.

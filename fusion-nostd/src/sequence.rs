@@ -17,6 +17,12 @@
 //!   skip plan) changed by more than [`SequenceParams::size_change_percent`], or the method's
 //!   parameters changed.
 //!
+//! **Skip windows over the sequence.** With scene skipping (`Roi`, `All`), the target boxes
+//! of the last [`SequenceParams::window_frames`] frames (5 by default) are joined to the
+//! frame's own before the skip plan is made, for every method: a target going dim (the
+//! terminator, the eclipse entry, a cold side at the level of space) is still held by the boxes
+//! of the frames that saw it. The caller's window (`SkipPolicy::Window`) is taken as given.
+//!
 //! The rule is the same in the whole-frame pipeline ([`crate::pipeline::fuse_in_sequence`],
 //! with or without scene skipping: a crop's weights are carried to the next crop) and in strips
 //! ([`crate::strips::fuse_strips_in_sequence`]): the two give the same bytes for the same
@@ -64,9 +70,13 @@
 use crate::Error;
 use crate::methods::Guards;
 use crate::methods::adf::AdfParams;
-use crate::scene::Illumination;
+use crate::scene::{Illumination, Rect, Scene};
 
-/// When carried weights are given up for the frame's own.
+/// Most frames whose target boxes a sequence remembers ([`SequenceParams::window_frames`]).
+pub const MAX_WINDOW_FRAMES: usize = 8;
+
+/// When carried weights are given up for the frame's own, and how far back the skip windows
+/// look.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub struct SequenceParams {
     /// Largest change of the covariance's pixel count between two frames (the grid, or the
@@ -74,21 +84,56 @@ pub struct SequenceParams {
     /// (`100..`; 150: a crop may grow or shrink by up to 1.5× in area). A larger change takes
     /// the two-pass form ([`Restart::Size`]).
     pub size_change_percent: u16,
+    /// With scene skipping (`Roi`, `All`): the target boxes of this many previous frames are
+    /// joined to the frame's own (`0..=`[`MAX_WINDOW_FRAMES`]; 0: the frame's own alone). A
+    /// target going dim — the terminator, the eclipse entry, a cold side at the level of space
+    /// — is then still held by the boxes of the frames that saw it. Every method.
+    pub window_frames: u8,
 }
 
 impl Default for SequenceParams {
     fn default() -> Self {
-        Self { size_change_percent: 150 }
+        Self { size_change_percent: 150, window_frames: 5 }
     }
 }
 
 impl SequenceParams {
-    /// Checks the field's range ([`Error::InvalidParameter`] names it).
+    /// Checks every field's range ([`Error::InvalidParameter`] names the field).
     pub fn validate(&self) -> Result<(), Error> {
         if self.size_change_percent < 100 {
             return Err(Error::InvalidParameter { name: "size_change_percent" });
         }
+        if usize::from(self.window_frames) > MAX_WINDOW_FRAMES {
+            return Err(Error::InvalidParameter { name: "window_frames" });
+        }
         Ok(())
+    }
+}
+
+/// The target boxes of the last frames fused with skipping (the scene analysis's own, both
+/// bands and TIR alone), newest last, on one grid.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct Boxes {
+    grid: (usize, usize),
+    target: [Option<Rect>; MAX_WINDOW_FRAMES],
+    target_tir: [Option<Rect>; MAX_WINDOW_FRAMES],
+    len: usize,
+}
+
+impl Boxes {
+    const EMPTY: Boxes = Boxes {
+        grid: (0, 0),
+        target: [None; MAX_WINDOW_FRAMES],
+        target_tir: [None; MAX_WINDOW_FRAMES],
+        len: 0,
+    };
+}
+
+/// `a` joined with `b` (either may be absent).
+fn join(a: Option<Rect>, b: Option<Rect>) -> Option<Rect> {
+    match (a, b) {
+        (Some(a), Some(b)) => Some(a.union(b)),
+        (a, b) => a.or(b),
     }
 }
 
@@ -169,6 +214,7 @@ pub struct Sequence {
     params: SequenceParams,
     carry: Option<Carry>,
     last: Option<SequenceStep>,
+    boxes: Boxes,
 }
 
 impl Default for Sequence {
@@ -180,13 +226,48 @@ impl Default for Sequence {
 impl Sequence {
     /// A sequence with nothing carried yet.
     pub const fn new(params: SequenceParams) -> Self {
-        Self { params, carry: None, last: None }
+        Self { params, carry: None, last: None, boxes: Boxes::EMPTY }
     }
 
-    /// Forgets the carried weights: the next frame takes its own ([`Restart::First`]).
+    /// Forgets the carried weights and the remembered target boxes: the next frame takes its
+    /// own ([`Restart::First`]).
     pub fn reset(&mut self) {
         self.carry = None;
         self.last = None;
+        self.boxes = Boxes::EMPTY;
+    }
+
+    /// The scene analysis of a frame fused with skipping, its target boxes joined with those
+    /// of the last [`SequenceParams::window_frames`] frames on the same grid; the frame's own
+    /// boxes are remembered for the next.
+    pub(crate) fn widen(&mut self, mut scene: Scene) -> Scene {
+        let n = usize::from(self.params.window_frames).min(MAX_WINDOW_FRAMES);
+        if n == 0 {
+            return scene;
+        }
+        let b = &mut self.boxes;
+        if b.grid != scene.grid {
+            *b = Boxes { grid: scene.grid, ..Boxes::EMPTY };
+        }
+        let (own, own_tir) = (scene.target, scene.target_tir);
+        let kept = b.len.min(n);
+        let first = b.len - kept;
+        for k in first..b.len {
+            let (t, tt) = (b.target.get(k).copied().flatten(), b.target_tir.get(k).copied().flatten());
+            scene.target = join(scene.target, t);
+            scene.target_tir = join(scene.target_tir, tt);
+        }
+        // Remember this frame's own boxes (the newest `n`, oldest dropped first).
+        if b.len == MAX_WINDOW_FRAMES {
+            b.target.rotate_left(1);
+            b.target_tir.rotate_left(1);
+            b.len -= 1;
+        }
+        if let (Some(t), Some(tt)) = (b.target.get_mut(b.len), b.target_tir.get_mut(b.len)) {
+            (*t, *tt) = (own, own_tir);
+            b.len += 1;
+        }
+        scene
     }
 
     /// The rule's parameters.

@@ -377,7 +377,9 @@ fn fuse_frame<'py>(
 /// `fusion fuse --sequence-mode` on a folder of the frames in name order.
 ///
 /// Sequence(method="adf", variant="flight", rescale="tir-up", skip="none", *, agc="linear",
-/// plateau=None, strips=None, window=None, size_change_percent=150); `.fuse(vis, tir,
+/// plateau=None, strips=None, window=None, size_change_percent=150, window_frames=5); with
+/// skip="roi" or "all" the target boxes of the last `window_frames` frames are joined to each
+/// frame's own; `.fuse(vis, tir,
 /// report=False)` as `vistir.fuse` (report=True adds the step: "pass" — "carried", "own",
 /// "per-frame" — "restart", "p_ir_used", "p_ir_own"); `.reset()` forgets the carried weights.
 #[pyclass(module = "vistir")]
@@ -392,7 +394,7 @@ struct Sequence {
 #[pymethods]
 impl Sequence {
     #[new]
-    #[pyo3(signature = (method="adf", variant="flight", rescale="tir-up", skip="none", *, agc="linear", plateau=None, strips=None, window=None, size_change_percent=150))]
+    #[pyo3(signature = (method="adf", variant="flight", rescale="tir-up", skip="none", *, agc="linear", plateau=None, strips=None, window=None, size_change_percent=150, window_frames=5))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         method: &str,
@@ -404,10 +406,11 @@ impl Sequence {
         strips: Option<usize>,
         window: Option<(usize, usize, usize, usize)>,
         size_change_percent: u16,
+        window_frames: u8,
     ) -> PyResult<Self> {
         let pipeline = configured(method, variant, rescale, skip, strips, window)?;
         named::<AgcArg>("agc", agc)?;
-        let params = SequenceParams { size_change_percent };
+        let params = SequenceParams { size_change_percent, window_frames };
         params.validate().map_err(|e| py_err(e.into()))?;
         Ok(Self { pipeline, agc: agc.to_string(), plateau, strips, seq: CoreSequence::new(params) })
     }

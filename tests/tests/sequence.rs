@@ -189,7 +189,11 @@ fn the_carry_restarts_on_size_parameters_and_illumination() -> Result<()> {
     assert_eq!(step(&mut s, 240)?, Pass::Own(Restart::Size));
     assert_eq!(step(&mut s, 200)?, Pass::Carried);
     // A tighter rule.
-    let mut tight = SequenceFuser::new(cfg, SequenceParams { size_change_percent: 110 }, Form::WholeFrame);
+    let mut tight = SequenceFuser::new(
+        cfg,
+        SequenceParams { size_change_percent: 110, ..SequenceParams::default() },
+        Form::WholeFrame,
+    );
     assert_eq!(step(&mut tight, 200)?, Pass::Own(Restart::First));
     assert_eq!(step(&mut tight, 208)?, Pass::Carried); // 1.0816
     assert_eq!(step(&mut tight, 220)?, Pass::Own(Restart::Size)); // 1.1187
@@ -228,7 +232,7 @@ fn the_carry_restarts_on_size_parameters_and_illumination() -> Result<()> {
     assert_eq!(s2.fuse(&black, &t)?.step.pass, Pass::Carried);
     assert_eq!(s2.fuse(&v, &t)?.step.pass, Pass::Own(Restart::Illumination));
     // Bad sequence parameters are an error.
-    let mut bad = Sequence::new(SequenceParams { size_change_percent: 99 });
+    let mut bad = Sequence::new(SequenceParams { size_change_percent: 99, ..SequenceParams::default() });
     let r = fuse_in_sequence(v.view()?, t.view()?, out.view_mut()?, &mut scratch.view_mut(), &cfg, &mut bad);
     assert!(matches!(r, Err(fusion_nostd::Error::InvalidParameter { name: "size_change_percent" })), "{r:?}");
     Ok(())
@@ -286,7 +290,9 @@ fn a_failed_frame_leaves_the_sequence_as_it_was() -> Result<()> {
 fn skipping_carries_the_crops_weights() -> Result<()> {
     let frames = flyaround(12)?;
     let cfg = FuseConfig { skip: SkipPolicy::All, ..config(adf(Variant::Flight), RescalePolicy::TirUp) };
-    let mut s = SequenceFuser::new(cfg, SequenceParams::default(), Form::WholeFrame);
+    // The frame's own windows (the windows over the sequence: the next test).
+    let params = SequenceParams { window_frames: 0, ..SequenceParams::default() };
+    let mut s = SequenceFuser::new(cfg, params, Form::WholeFrame);
     let mut previous_own = None;
     let mut carried = 0;
     for (k, (vis, tir)) in frames.iter().enumerate() {
@@ -316,5 +322,53 @@ fn skipping_carries_the_crops_weights() -> Result<()> {
         previous_own = Some(f.step.p_ir_own_q30);
     }
     assert!(carried >= 4, "only {carried} carried crops");
+    Ok(())
+}
+
+/// The skip windows of a sequence: with `window_frames` = N, the target boxes the plan uses are
+/// the scene analysis's own joined with those of the N frames before (recomputed here from
+/// `analyze` frame by frame), for ADF's crop (its ROI is the joined box) and TSIFSD's exact
+/// window; with N = 0 a sequence skips as `fuse` does, byte for byte.
+#[test]
+fn skip_windows_join_the_last_frames_boxes() -> Result<()> {
+    use fusion_nostd::pipeline::Skips;
+    use fusion_nostd::scene::Rect;
+    let frames = flyaround(20)?;
+    let join = |a: Option<Rect>, b: Option<Rect>| match (a, b) {
+        (Some(a), Some(b)) => Some(a.union(b)),
+        (a, b) => a.or(b),
+    };
+    for n in [0u8, 1, 5] {
+        let params = SequenceParams { window_frames: n, ..SequenceParams::default() };
+        for method in [adf(Variant::Flight), Method::Tsifsd(Default::default())] {
+            let cfg = FuseConfig { skip: SkipPolicy::All, ..config(method, RescalePolicy::TirUp) };
+            let mut s = SequenceFuser::new(cfg, params, Form::WholeFrame);
+            let mut own: Vec<(Option<Rect>, Option<Rect>)> = Vec::new();
+            let mut crops = 0;
+            for (k, (vis, tir)) in frames.iter().enumerate() {
+                let f = s.fuse(vis, tir)?;
+                let scene = analyze(vis.view()?, tir.view()?, (vis.width, vis.height), &cfg.scene)?;
+                own.push((scene.target, scene.target_tir));
+                let recent = &own[k.saturating_sub(usize::from(n))..];
+                let target = recent.iter().fold(None, |a, b| join(a, b.0));
+                let target_tir = recent.iter().fold(None, |a, b| join(a, b.1));
+                let eclipse = scene.illumination == Illumination::Eclipse;
+                let expected = if eclipse { target_tir } else { target };
+                let label = format!("window_frames {n} {} frame {k}", method.name());
+                if f.report.skip.taken.contains(Skips::CROP) {
+                    assert_eq!(Some(f.report.skip.roi), expected, "{label}");
+                    crops += 1;
+                } else if let (Method::Tsifsd(_), Some(t)) = (method, expected) {
+                    assert!(f.report.skip.computed.covers(&t), "{label}: {:?} {t:?}", f.report.skip.computed);
+                }
+                if n == 0 && method.name().starts_with("tsifsd") {
+                    assert_eq!(f.image.data, fuse_once(vis, tir, &cfg)?.0.data, "{label}");
+                }
+            }
+            if matches!(method, Method::Adf(_)) {
+                assert!(crops >= 10, "window_frames {n}: {crops} crops");
+            }
+        }
+    }
     Ok(())
 }

@@ -275,7 +275,13 @@ pub(super) fn fuse_skipping(
     if vis.size() != tir.size() {
         scratch.split_band(grid.0 * grid.1)?;
     }
-    let scene = analyze(vis, tir, grid, &pipeline.scene)?;
+    let mut seq = seq;
+    let mut scene = analyze(vis, tir, grid, &pipeline.scene)?;
+    // In a sequence, the target boxes of the last frames joined to this one's (not the caller's
+    // window, which is taken as given).
+    if let (Some(s), false) = (seq.as_deref_mut(), matches!(pipeline.skip, SkipPolicy::Window(_))) {
+        scene = s.widen(scene);
+    }
     let eclipse = pipeline.skip == SkipPolicy::All && scene.illumination == Illumination::Eclipse;
     let decision = match &pipeline.method {
         Method::Adaptive(p) => Some(decide(&scene.vis, p)),

@@ -39,9 +39,11 @@ pub struct NavbenchArgs {
     /// always run.
     #[arg(long, value_delimiter = ',', value_name = "NAMES")]
     pub sources: Option<Vec<String>>,
-    /// Also run ADF in sequence mode (`adf-flight-seq`, `adf-classic-seq`, `adf-flight-seq-skip`:
-    /// each frame fused with the KL weights of the stream's previous frame, as `fusion fuse
-    /// --sequence-mode`); they run only when asked, here or by name in --sources.
+    /// Also run the sequence-mode sources (as `fusion fuse --sequence-mode`): ADF with the KL
+    /// weights of the stream's previous frame (`adf-flight-seq`, `adf-classic-seq`,
+    /// `adf-flight-seq-skip`) and every method skipping with the windows joined over the last
+    /// frames (`tsifsd-flight-seq-skip`, `ifevip-flight-seq-skip`, `adaptive-seq-skip`); they
+    /// run only when asked, here or by name in --sources.
     #[arg(long)]
     pub sequence_mode: bool,
     /// Use the noiseless renders instead of the noisy ones (e.g. the skip windows on clean

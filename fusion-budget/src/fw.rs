@@ -240,6 +240,8 @@ pub struct RunSpec {
     /// flag share one sequence, in order; on the job's one pair a run after the first takes
     /// the first's weights, which are its own, so the output is the per-frame fusion's.
     pub sequence: bool,
+    /// Fuse the run's own frame pair ([`Job::frames`], flag bit 7) instead of the job's.
+    pub own_frames: bool,
 }
 
 impl RunSpec {
@@ -258,6 +260,7 @@ impl RunSpec {
             shutter: false,
             registration: None,
             sequence: false,
+            own_frames: false,
         }
     }
 
@@ -333,7 +336,8 @@ impl RunSpec {
             | (u8::from(self.fault) << 1)
             | (skip << 2)
             | (u8::from(self.strips) << 4)
-            | (u8::from(self.sequence) << 6);
+            | (u8::from(self.sequence) << 6)
+            | (u8::from(self.own_frames) << 7);
         [method, variant, policy, flags]
     }
 
@@ -394,7 +398,7 @@ impl RunSpec {
             2 => SkipArg::All,
             s => bail!("bad skip level {s}"),
         };
-        ensure!(flags & 0xa0 == 0, "unknown flags {flags:#x}");
+        ensure!(flags & 0x20 == 0, "unknown flags {flags:#x}");
         let (stages, fault, strips) = (flags & 1 != 0, flags & 2 != 0, flags & 0x10 != 0);
         let sequence = flags & 0x40 != 0;
         ensure!(!(stages && sequence), "a sequence run cannot be staged");
@@ -413,6 +417,7 @@ impl RunSpec {
             shutter: false,
             registration: None,
             sequence,
+            own_frames: flags & 0x80 != 0,
         })
     }
 }
@@ -437,8 +442,11 @@ pub struct Job {
     pub vis: Gray<u8>,
     /// Thermal frame.
     pub tir: Gray<u8>,
-    /// Runs, in order (at most 32).
+    /// Runs, in order (at most 128).
     pub runs: Vec<RunSpec>,
+    /// The frame pairs of the runs with [`RunSpec::own_frames`], in order (the job's sizes),
+    /// written as `vis<i>.gray` and `tir<i>.gray` for run `i`.
+    pub frames: Vec<(Gray<u8>, Gray<u8>)>,
     /// 16-bit TIR counts of the AGC and thermal runs (the TIR size), written as `tir16.gray`.
     pub tir16: Option<Gray<u16>>,
     /// The thermal front-end runs' raw sequence, tables, map and column parameters.
@@ -476,7 +484,13 @@ pub struct ThermalInputs {
 impl Job {
     /// The `job.bin` bytes.
     pub fn encode(&self) -> Result<Vec<u8>> {
-        ensure!((1..=32).contains(&self.runs.len()), "a job has 1 to 32 runs");
+        ensure!((1..=128).contains(&self.runs.len()), "a job has 1 to 128 runs");
+        let sizes = ((self.vis.width, self.vis.height), (self.tir.width, self.tir.height));
+        ensure!(
+            self.runs.iter().filter(|r| r.own_frames).count() == self.frames.len()
+                && self.frames.iter().all(|(v, t)| ((v.width, v.height), (t.width, t.height)) == sizes),
+            "runs with their own frames need a frame pair each, of the job's sizes"
+        );
         let tir_size = (self.tir.width, self.tir.height);
         ensure!(
             self.runs.iter().all(|r| r.agc.is_none())
@@ -736,6 +750,11 @@ fn emulate(
         let bytes: Vec<u8> = t.data.iter().flat_map(|v| v.to_le_bytes()).collect();
         files.add_bytes(&dir.join("tir16.gray"), &bytes)?;
     }
+    let own = job.runs.iter().enumerate().filter(|(_, r)| r.own_frames).map(|(i, _)| i);
+    for (i, (v, t)) in own.zip(&job.frames) {
+        files.add_bytes(&dir.join(format!("vis{i}.gray")), &v.data)?;
+        files.add_bytes(&dir.join(format!("tir{i}.gray")), &t.data)?;
+    }
     if let Some(t) = &job.thermal {
         let runs = job.runs.iter().enumerate().filter(|(_, r)| r.thermal).map(|(i, _)| i);
         for (i, frame) in runs.zip(&t.frames) {
@@ -849,6 +868,7 @@ pub fn check_fault_exit(
         tir: Gray::new(8, 8),
         runs: vec![spec],
         tir16: None,
+        frames: Vec::new(),
         thermal: None,
         rig: None,
     };
@@ -940,8 +960,10 @@ mod tests {
                 shutter: false,
                 registration: None,
                 sequence: false,
+                own_frames: false,
             }],
             tir16: None,
+            frames: Vec::new(),
             thermal: None,
             rig: None,
         };
@@ -961,7 +983,19 @@ mod tests {
         assert_eq!(seq.encode(), [0, 1, 0, 0x50]);
         assert_eq!(RunSpec::decode(seq.encode())?, seq);
         assert!(RunSpec::decode([0, 1, 0, 0x41]).is_err(), "a staged sequence run");
-        assert!(RunSpec::decode([0, 1, 0, 0x80]).is_err(), "bit 7");
+        // A run with its own frame pair (bit 7): the job carries one pair per such run.
+        let own = RunSpec { own_frames: true, ..seq };
+        assert_eq!(own.encode(), [0, 1, 0, 0xd0]);
+        assert_eq!(RunSpec::decode(own.encode())?, own);
+        let pair = (Gray::new(6, 4), Gray::new(3, 2));
+        let framed = Job { runs: vec![own, own], frames: vec![pair.clone(), pair.clone()], ..job.clone() };
+        assert!(framed.encode().is_ok());
+        assert!(Job { frames: vec![pair], ..framed.clone() }.encode().is_err(), "a run without its pair");
+        let wrong = (Gray::new(4, 4), Gray::new(3, 2));
+        assert!(
+            Job { frames: vec![wrong.clone(), wrong], ..framed }.encode().is_err(),
+            "a pair of another size"
+        );
         let empty = Job { runs: Vec::new(), ..job.clone() };
         assert!(empty.encode().is_err());
         // AGC runs: method 4, the mapping in the variant byte, policy 2; they need the counts.

@@ -286,6 +286,7 @@ fn exactness_jobs(opts: &Options, pair: &(Gray<u8>, Gray<u8>)) -> Result<Vec<(St
             tir: pair.1.clone(),
             runs: all(&[RescaleArg::TirUp, RescaleArg::VisDown]),
             tir16: None,
+            frames: Vec::new(),
             thermal: None,
             rig: None,
         },
@@ -298,6 +299,7 @@ fn exactness_jobs(opts: &Options, pair: &(Gray<u8>, Gray<u8>)) -> Result<Vec<(St
             tir,
             runs: all(&[RescaleArg::TirUp, RescaleArg::VisDown]),
             tir16: None,
+            frames: Vec::new(),
             thermal: None,
             rig: None,
         },
@@ -305,7 +307,15 @@ fn exactness_jobs(opts: &Options, pair: &(Gray<u8>, Gray<u8>)) -> Result<Vec<(St
     for (name, vis, tir) in fusion_io::vifb_pairs(&opts.vifb)? {
         jobs.push((
             format!("VIFB {name} {}x{}", vis.width, vis.height),
-            Job { vis, tir, runs: all(&[RescaleArg::None]), tir16: None, thermal: None, rig: None },
+            Job {
+                vis,
+                tir,
+                runs: all(&[RescaleArg::None]),
+                frames: Vec::new(),
+                tir16: None,
+                thermal: None,
+                rig: None,
+            },
         ));
     }
     Ok(jobs)
@@ -433,6 +443,7 @@ pub fn run(opts: &Options) -> Result<Outcome> {
                     .chain(registration)
                     .collect(),
                 tir16: (grid == Grid::G512).then(|| counts_of(&pair.1)),
+                frames: Vec::new(),
                 thermal: raw,
                 rig,
             };

@@ -12,6 +12,11 @@
 //! IFEVIP and adaptive runs that fuse the whole frame (skip `none`, or a declined skip) take
 //! ~20 s each on QEMU at 1024², so they are emulated on the first `whole_frames` frames of each
 //! set and version only (the host still fuses them all).
+//!
+//! On rendezvous sequences the study also fuses each sequence in sequence mode
+//! (`fusion_nostd::sequence`, rows `all+seq`): per sequence and method one job of its frames in
+//! order (`skip all`; ADF's weights carried, the skip windows joined over the last frames), each
+//! frame checked against the host's `fusion_engine::sequence::SequenceFuser`.
 
 use super::fw::{self, Grid, Job, RunOut, RunSpec, Target};
 use anyhow::{Context, Result, bail, ensure};
@@ -153,6 +158,14 @@ pub struct Row {
     pub roi_psnr: f64,
     /// Largest absolute difference against the unskipped fusion inside the ROI.
     pub roi_max_abs: u8,
+    /// Fused in sequence mode (`fusion_nostd::sequence`: the set's frames one after another in
+    /// one job, ADF's weights carried, the skip windows joined over the last frames).
+    pub sequence: bool,
+}
+
+/// The skip column of a row: the level, `+seq` in sequence mode.
+fn row_skip(r: &Row) -> String {
+    format!("{}{}", skip_key(r.skip), if r.sequence { "+seq" } else { "" })
 }
 
 fn method_name(m: MethodArg) -> &'static str {
@@ -171,7 +184,7 @@ fn csv_text(rows: &[Row]) -> String {
             r.version,
             r.frame,
             method_name(r.method),
-            skip_key(r.skip),
+            row_skip(r),
             r.instructions.map_or_else(String::new, |n| n.to_string()),
             r.window,
             r.taken,
@@ -194,9 +207,9 @@ pub const ALL_SETS: &str = "all";
 /// The summary table: per (set, version, method, skip), frames emulated, mean and worst
 /// instructions, worst / mean, and the issue's targets.
 pub fn summary(rows: &[Row]) -> String {
-    let mut keys: Vec<(&str, &str, MethodArg, SkipArg)> = Vec::new();
+    let mut keys: Vec<(&str, &str, MethodArg, SkipArg, bool)> = Vec::new();
     for r in rows {
-        let k = (r.set, r.version, r.method, r.skip);
+        let k = (r.set, r.version, r.method, r.skip, r.sequence);
         if !keys.contains(&k) {
             keys.push(k);
         }
@@ -210,7 +223,7 @@ pub fn summary(rows: &[Row]) -> String {
         v
     });
     if sets.len() > 1 {
-        let pooled: Vec<_> = keys.iter().map(|&(_, v, m, k)| (ALL_SETS, v, m, k)).collect();
+        let pooled: Vec<_> = keys.iter().map(|&(_, v, m, k, q)| (ALL_SETS, v, m, k, q)).collect();
         for k in pooled {
             if !keys.contains(&k) {
                 keys.push(k);
@@ -221,11 +234,12 @@ pub fn summary(rows: &[Row]) -> String {
         "| set | version | method | skip | frames emulated | mean instr | worst instr | worst/mean | mean window | ROI taken | crop | eclipse plan | declined | target mean | mean ok | worst ≤ 2× mean | ROI PSNR (worst) | ROI max abs | identical to host |\n\
          |---|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---|---:|---|---|---:|---:|---|\n",
     );
-    for (set, ver, method, skip) in keys {
+    for (set, ver, method, skip, sequence) in keys {
         let group: Vec<&Row> = rows
             .iter()
             .filter(|r| {
-                (set == ALL_SETS || r.set == set) && (r.version, r.method, r.skip) == (ver, method, skip)
+                (set == ALL_SETS || r.set == set)
+                    && (r.version, r.method, r.skip, r.sequence) == (ver, method, skip, sequence)
             })
             .collect();
         let counts: Vec<f64> = group.iter().filter_map(|r| r.instructions).map(|n| n as f64).collect();
@@ -264,7 +278,7 @@ pub fn summary(rows: &[Row]) -> String {
             s,
             "| {set} | {ver} | {} | {} | {}/{} | {} | {} | {} | {:.1} % | {roi_taken}/{} | {crop} | {eclipse} | {} | {} | {mean_ok} | {worst_ok} | {} | {max_abs} | {identical}/{} |",
             method_name(method),
-            skip_key(skip),
+            format!("{}{}", skip_key(skip), if sequence { "+seq" } else { "" }),
             counts.len(),
             group.len(),
             if counts.is_empty() { "—".into() } else { millions(mean) },
@@ -405,6 +419,7 @@ pub fn run(opts: &StudyOptions) -> Result<Vec<Row>> {
                         tir: tir.clone(),
                         runs,
                         tir16: None,
+                        frames: Vec::new(),
                         thermal: None,
                         rig: None,
                     };
@@ -463,10 +478,19 @@ pub fn run(opts: &StudyOptions) -> Result<Vec<Row>> {
                         identical,
                         roi_psnr,
                         roi_max_abs,
+                        sequence: false,
                     });
                 }
                 let wall = report.as_ref().map_or(0.0, |r| r.wall.as_secs_f64());
                 progress(&format!("{set} {} frame {frame} ({wall:.0} s):{line}", version(noisy)));
+                let mut batch = fusion_io::Batch::default();
+                batch.add_bytes(&csv_path, csv_text(&rows).as_bytes())?;
+                batch.add_bytes(&md_path, markdown(opts, frames, &rows).as_bytes())?;
+                batch.commit()?;
+            }
+            // Sequence mode: each sequence's frames one after another in one job per method.
+            if let Source::Sequences(_) = &src {
+                sequence_runs(opts, &src, &pairs, noisy, (&image, plugin.as_deref()), &mut rows, &mut diffs)?;
                 let mut batch = fusion_io::Batch::default();
                 batch.add_bytes(&csv_path, csv_text(&rows).as_bytes())?;
                 batch.add_bytes(&md_path, markdown(opts, frames, &rows).as_bytes())?;
@@ -480,6 +504,96 @@ pub fn run(opts: &StudyOptions) -> Result<Vec<Row>> {
     }
     progress(&format!("wrote {}, {} and {}", md_path.display(), csv_path.display(), chart.display()));
     Ok(rows)
+}
+
+/// The sequence-mode rows of one noise version: per sequence and method, the set's frames in
+/// one job (each run its own frame pair, `skip all`, in the job's sequence), compared with the
+/// host's `fusion_engine::sequence::SequenceFuser` over the same frames frame by frame.
+fn sequence_runs(
+    opts: &StudyOptions,
+    src: &Source,
+    pairs: &[(&'static str, usize)],
+    noisy: bool,
+    (image, plugin): (&std::path::Path, Option<&std::path::Path>),
+    rows: &mut Vec<Row>,
+    diffs: &mut Vec<String>,
+) -> Result<()> {
+    use fusion_engine::sequence::{Form, SequenceFuser};
+    let target = opts.target;
+    let mut sets: Vec<&'static str> = pairs.iter().map(|p| p.0).collect();
+    sets.dedup();
+    for set in sets {
+        let frames: Vec<usize> = pairs.iter().filter(|p| p.0 == set).map(|p| p.1).collect();
+        ensure!(frames.len() <= 128, "{set}: a sequence job holds at most 128 frames, not {}", frames.len());
+        let images: Vec<(Gray<u8>, Gray<u8>)> =
+            frames.iter().map(|&f| src.images(set, f, noisy, &opts.tir)).collect::<Result<_>>()?;
+        for method in [MethodArg::Tsifsd, MethodArg::Adf, MethodArg::Ifevip, MethodArg::Adaptive] {
+            let spec = RunSpec {
+                skip: SkipArg::All,
+                sequence: true,
+                own_frames: true,
+                ..RunSpec::plain(method, VariantArg::Flight, RescaleArg::TirUp)
+            };
+            let mut host = SequenceFuser::new(spec.pipeline(), Default::default(), Form::WholeFrame);
+            let expected: Vec<_> = images.iter().map(|(v, t)| host.fuse(v, t)).collect::<Result<_>>()?;
+            let (vis, tir) = images.first().cloned().context("no frames")?;
+            let job = Job {
+                vis,
+                tir,
+                runs: vec![spec; images.len()],
+                frames: images.clone(),
+                tir16: None,
+                thermal: None,
+                rig: None,
+            };
+            let dir =
+                opts.work.join(format!("{target}-skip-{set}-{}-seq-{}", version(noisy), method_name(method)));
+            let report = fw::run_job(target, image, plugin, &job, &dir, opts.timeout)?;
+            let grid = (job.vis.width * job.vis.height) as f64;
+            let mut same_frames = 0;
+            let unskipped = RunSpec {
+                skip: SkipArg::None,
+                ..RunSpec::plain(method, VariantArg::Flight, RescaleArg::TirUp)
+            };
+            for (((&frame, want), run), (v, t)) in frames.iter().zip(&expected).zip(&report.runs).zip(&images)
+            {
+                let (full, _, _) = fuse_once(v, t, &unskipped.pipeline())?;
+                let e = skip_error_in(&want.image, &full, want.report.skip.roi);
+                let d = compare_run(&spec, &want.image, &want.report, run);
+                let same = d.is_empty();
+                same_frames += usize::from(same);
+                for e in d {
+                    diffs.push(format!(
+                        "{set} {} frame {frame} {} all+seq: {e}",
+                        version(noisy),
+                        method_name(method)
+                    ));
+                }
+                rows.push(Row {
+                    set,
+                    version: version(noisy),
+                    frame,
+                    method,
+                    skip: SkipArg::All,
+                    instructions: Some(run.region("pipeline").context("no pipeline region")?),
+                    window: want.report.skip.computed.area() as f64 / grid,
+                    taken: want.report.skip.taken.0,
+                    declined: decline_text(&want.report),
+                    identical: Some(same),
+                    roi_psnr: e.psnr,
+                    roi_max_abs: e.max_abs,
+                    sequence: true,
+                });
+            }
+            progress(&format!(
+                "{set} {} {} in sequence: {} frames, {same_frames} identical to the host",
+                version(noisy),
+                method_name(method),
+                frames.len()
+            ));
+        }
+    }
+    Ok(())
 }
 
 /// Chart `emulator_<target>_frames`: instructions per frame (millions) of every method with
@@ -496,7 +610,7 @@ fn chart_per_frame(opts: &StudyOptions, rows: &[Row]) -> Result<PathBuf> {
     });
     let per_set = rows.iter().map(|r| r.frame).max().unwrap_or(0) + 1;
     let offset = |set: &str| sets.iter().position(|s| *s == set).unwrap_or(0) * per_set;
-    for r in rows.iter().filter(|r| r.version == shown && r.skip == SkipArg::All) {
+    for r in rows.iter().filter(|r| r.version == shown && r.skip == SkipArg::All && !r.sequence) {
         let Some(n) = r.instructions else { continue };
         let name = format!("{} {}", method_name(r.method), skip_key(r.skip));
         let point = ((offset(r.set) + r.frame) as f64, n as f64 / 1e6);
@@ -652,6 +766,7 @@ mod tests {
             identical: Some(true),
             roi_psnr: if frame == 1 { 31.25 } else { f64::INFINITY },
             roi_max_abs: frame as u8,
+            sequence: false,
         };
         let ok = summary(&[row(0, 30_000_000), row(1, 40_000_000)]);
         assert!(ok.contains("| 35.0 M | 40.0 M | 1.14 |") && ok.contains("| yes | yes |"), "{ok}");

@@ -17,7 +17,9 @@
 //!         bit 6: fuse in the job's sequence (`fusion_nostd::sequence`: the runs with this bit
 //!         share one `Sequence`, in order, so a run after another of the same ADF parameters
 //!         and illumination class takes the previous run's weights — one pass in strips; not
-//!         with bit 0); bit 7 must be 0)
+//!         with bit 0); bit 7: the run's own frame pair — run `i` reads `vis<i>.gray` and
+//!         `tir<i>.gray` (the job's sizes) instead of the job's pair, so a job can fuse a
+//!         sequence of frames (methods 0–3 only))
 //! ```
 //! An AGC run (method 4) maps `tir16.gray` (the TIR size, `u16` little-endian counts) to 8 bits
 //! with `fusion_nostd::agc_frame` (`AgcParams::plateau(pixels)` or `AgcParams::linear()`, a
@@ -46,7 +48,7 @@ use fusion_nostd::Variant;
 use fusion_nostd::pipeline::{FuseConfig, Method, RescalePolicy, SkipPolicy};
 
 /// Most runs in one job.
-pub const MAX_RUNS: usize = 32;
+pub const MAX_RUNS: usize = 128;
 /// Longest `job.bin`.
 pub const MAX_LEN: usize = 24 + 4 * MAX_RUNS;
 
@@ -67,6 +69,8 @@ pub struct Run {
     pub shutter: bool,
     /// Fuse in the job's sequence (carried weights).
     pub sequence: bool,
+    /// Fuse the run's own frame pair (`vis<i>.gray`, `tir<i>.gray`).
+    pub own_frames: bool,
 }
 
 /// A parsed job.
@@ -136,7 +140,7 @@ impl Job {
                 2 => SkipPolicy::All,
                 _ => return Err("job.bin: bad skip level"),
             };
-            if flags >> 7 != 0 || (flags & 0x20 != 0 && method != 5) || (flags & 0x40 != 0 && method > 3) {
+            if (flags & 0x20 != 0 && method != 5) || (flags & 0xc0 != 0 && method > 3) {
                 return Err("job.bin: unknown flags");
             }
             let sequence = flags & 0x40 != 0;
@@ -160,6 +164,7 @@ impl Job {
                 strips,
                 shutter: flags & 0x20 != 0,
                 sequence,
+                own_frames: flags & 0x80 != 0,
             });
         }
         Ok(Job { vis, tir, runs, n })
@@ -182,6 +187,7 @@ impl Run {
         strips: false,
         shutter: false,
         sequence: false,
+        own_frames: false,
     };
 
     /// The core configuration of this run.
@@ -255,7 +261,7 @@ pub fn out_name(i: usize, buf: &mut [u8; 16]) -> &str {
     file_name(b"out", i, buf)
 }
 
-/// `<stem><i>.gray` written into `buf` (`shutter31.gray`, the longest a job names, is 14
+/// `<stem><i>.gray` written into `buf` (`shutter127.gray`, the longest a job names, is 15
 /// bytes).
 pub fn file_name<'a>(stem: &[u8], i: usize, buf: &'a mut [u8; 16]) -> &'a str {
     let mut digits = [0u8; 10];

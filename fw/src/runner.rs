@@ -124,8 +124,6 @@ pub fn run_job(m: &mut Meter) -> Result<(), FwError> {
     if semihosting::read_file("tir.gray", tir_slice).map_err(|e| FwError::Io(e, "tir.gray"))? != tir_px {
         return Err(FwError::Job("tir.gray has the wrong length"));
     }
-    let vis = FrameRef::new(&vis_slice[..], vw, vh)?;
-    let tir = FrameRef::new(&tir_slice[..], tw, th)?;
     // The 16-bit counts, read only when a run needs them.
     // SAFETY: single-threaded; the only references to these statics.
     let (tir16_buf, agc) =
@@ -150,6 +148,20 @@ pub fn run_job(m: &mut Meter) -> Result<(), FwError> {
     // The job's one sequence (the runs with the sequence bit, in order).
     let mut sequence = Sequence::default();
     for (i, run) in job.runs().enumerate() {
+        if run.own_frames {
+            // A frame of a sequence: this run's own pair.
+            let mut name = [0u8; 16];
+            let file = job::file_name(b"vis", i, &mut name);
+            if semihosting::read_file(file, vis_slice).map_err(|e| FwError::Io(e, "vis<i>.gray"))? != vis_px {
+                return Err(FwError::Job("vis<i>.gray has the wrong length"));
+            }
+            let file = job::file_name(b"tir", i, &mut name);
+            if semihosting::read_file(file, tir_slice).map_err(|e| FwError::Io(e, "tir<i>.gray"))? != tir_px {
+                return Err(FwError::Job("tir<i>.gray has the wrong length"));
+            }
+        }
+        let vis = FrameRef::new(&vis_slice[..], vw, vh)?;
+        let tir = FrameRef::new(&tir_slice[..], tw, th)?;
         if run.thermal() {
             let out = out_buf.get_mut(..tir_px).ok_or(FwError::Job("output too large for the image"))?;
             say!(m.con, "@fw run {} thermal chain none {}x{}", i, tw, th);

@@ -278,7 +278,7 @@ pub fn summary(rows: &[Row]) -> String {
             s,
             "| {set} | {ver} | {} | {} | {}/{} | {} | {} | {} | {:.1} % | {roi_taken}/{} | {crop} | {eclipse} | {} | {} | {mean_ok} | {worst_ok} | {} | {max_abs} | {identical}/{} |",
             method_name(method),
-            format!("{}{}", skip_key(skip), if sequence { "+seq" } else { "" }),
+            format_args!("{}{}", skip_key(skip), if sequence { "+seq" } else { "" }),
             counts.len(),
             group.len(),
             if counts.is_empty() { "—".into() } else { millions(mean) },

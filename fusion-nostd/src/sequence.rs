@@ -5,7 +5,10 @@
 //! frame needs them before its first output row: [`crate::strips::fuse_strips`] diffuses every
 //! strip twice (once for the covariance, once for the output; 2.07× the whole-frame count on
 //! the Cortex-M7 at 1024²), and a camera read out line by line cannot be fused as it arrives.
-//! In a sequence the weights change slowly from frame to frame, so [`Sequence`] carries them:
+//! In a sequence one frame's weights serve the next ([`Sequence`] carries them): on the rendered
+//! noisy rendezvous sequences they move by about half their value from frame to frame, yet the
+//! carried weights change no pixel of a whole frame by more than 1 level (classic 2; inside a
+//! skip crop up to 82; `BENCHMARKS.md`, "Sequence mode").
 //!
 //! * frame k is fused with the weights **carried** from frame k − 1 ([`Pass::Carried`]), while
 //!   its own covariance is summed on the way (exact integer sums, the same as the two-pass

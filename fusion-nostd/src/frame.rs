@@ -363,6 +363,15 @@ impl Rect {
         x >= self.x0 && x < self.x1 && y >= self.y0 && y < self.y1
     }
 
+    /// The smallest rectangle holding both boxes that are there (`None` when neither is).
+    #[must_use]
+    pub fn join(a: Option<Rect>, b: Option<Rect>) -> Option<Rect> {
+        match (a, b) {
+            (Some(a), Some(b)) => Some(a.union(b)),
+            (a, b) => a.or(b),
+        }
+    }
+
     /// The smallest rectangle holding both (an empty one is ignored).
     #[must_use]
     pub fn union(self, other: Rect) -> Rect {

@@ -132,14 +132,6 @@ impl Boxes {
     };
 }
 
-/// `a` joined with `b` (either may be absent).
-fn join(a: Option<Rect>, b: Option<Rect>) -> Option<Rect> {
-    match (a, b) {
-        (Some(a), Some(b)) => Some(a.union(b)),
-        (a, b) => a.or(b),
-    }
-}
-
 /// Why a frame of a sequence took its own weights (the two-pass form).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum Restart {
@@ -257,8 +249,8 @@ impl Sequence {
         let first = b.len - kept;
         for k in first..b.len {
             let (t, tt) = (b.target.get(k).copied().flatten(), b.target_tir.get(k).copied().flatten());
-            scene.target = join(scene.target, t);
-            scene.target_tir = join(scene.target_tir, tt);
+            scene.target = Rect::join(scene.target, t);
+            scene.target_tir = Rect::join(scene.target_tir, tt);
         }
         // Remember this frame's own boxes (the newest `n`, oldest dropped first).
         if b.len == MAX_WINDOW_FRAMES {
@@ -342,6 +334,30 @@ impl Sequence {
             p_ir_used_q30: 0,
             p_ir_own_q30: 0,
         });
+    }
+
+    /// Runs one frame's fusion `fuse` in this sequence (the pipeline's and the strips' entry
+    /// points): checks the parameters, records a frame of a method that carries nothing (or an
+    /// ADF frame with nothing to fuse), and on an error puts the sequence back as it was.
+    pub(crate) fn frame<R>(
+        &mut self,
+        carries: bool,
+        fuse: impl FnOnce(&mut Sequence) -> Result<R, Error>,
+    ) -> Result<R, Error> {
+        self.clear_step();
+        self.params.validate()?;
+        let before = *self;
+        let result = fuse(self);
+        match &result {
+            Ok(_) if !carries => self.record_per_frame(),
+            Ok(_) if self.last.is_none() => self.record_unfused(),
+            Ok(_) => {}
+            Err(_) => {
+                *self = before;
+                self.clear_step();
+            }
+        }
+        result
     }
 
     /// Marks the last call as failed (nothing to report; the carry is kept as it was).

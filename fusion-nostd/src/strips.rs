@@ -404,19 +404,8 @@ pub fn fuse_strips_in_sequence(
     max_rows: usize,
     seq: &mut Sequence,
 ) -> Result<(FuseReport, StripReport), Error> {
-    seq.clear_step();
-    seq.params().validate()?;
-    let carried = *seq;
-    let report = strips_maybe_in_sequence(vis, tir, out, scratch, pipeline, max_rows, Some(&mut *seq));
-    match &report {
-        Ok(_) if !matches!(pipeline.method, Method::Adf(_)) => seq.record_per_frame(),
-        Ok(_) => {}
-        Err(_) => {
-            *seq = carried;
-            seq.clear_step();
-        }
-    }
-    report
+    let carries = matches!(pipeline.method, Method::Adf(_));
+    seq.frame(carries, |seq| strips_maybe_in_sequence(vis, tir, out, scratch, pipeline, max_rows, Some(seq)))
 }
 
 /// [`fuse_strips`], in a sequence when `seq` is given.

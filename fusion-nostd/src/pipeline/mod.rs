@@ -379,21 +379,8 @@ pub fn fuse_in_sequence(
     pipeline: &FuseConfig,
     seq: &mut Sequence,
 ) -> Result<FuseReport, Error> {
-    seq.clear_step();
-    seq.params().validate()?;
-    let carried = *seq;
-    let report = fuse_maybe_in_sequence(vis, tir, out, scratch, pipeline, Some(&mut *seq));
-    match &report {
-        Ok(_) if !matches!(pipeline.method, Method::Adf(_)) => seq.record_per_frame(),
-        // ADF with nothing to fuse (the skip plan found no target): the carry stays.
-        Ok(_) if seq.last_step().is_none() => seq.record_unfused(),
-        Ok(_) => {}
-        Err(_) => {
-            *seq = carried;
-            seq.clear_step();
-        }
-    }
-    report
+    let carries = matches!(pipeline.method, Method::Adf(_));
+    seq.frame(carries, |seq| fuse_maybe_in_sequence(vis, tir, out, scratch, pipeline, Some(seq)))
 }
 
 /// [`fuse`], in a sequence when `seq` is given.

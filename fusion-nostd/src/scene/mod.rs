@@ -578,10 +578,6 @@ pub fn analyze(
     };
     let (target_vis, target_tir) = (target(&v, &vb, vis.size()), target(&t, &tb, tir.size()));
     let (varying_vis, varying_tir) = (on_grid(v.varying, vis.size()), on_grid(t.varying, tir.size()));
-    let join = |a: Option<Rect>, b: Option<Rect>| match (a, b) {
-        (Some(a), Some(b)) => Some(a.union(b)),
-        (a, b) => a.or(b),
-    };
     let dark = |b: &BandStats| b.background <= params.max_background;
     // Noisy pixels are fine when the block means are quiet; noisy block means (structure in
     // the background, not sensor noise) are not.
@@ -600,9 +596,9 @@ pub fn analyze(
         vis: v,
         tir: t,
         illumination,
-        target: join(target_vis, target_tir),
+        target: Rect::join(target_vis, target_tir),
         target_tir,
-        varying: join(varying_vis, varying_tir),
+        varying: Rect::join(varying_vis, varying_tir),
         varying_tir,
         decline,
         vis_blocks: vb,

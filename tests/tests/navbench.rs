@@ -343,3 +343,47 @@ fn sequence_mode_sources_run_on_request_and_start_as_the_per_frame_stream() {
     // Later frames: the images differ where the weights moved (CNR is read off the image).
     assert!(per_frame.iter().zip(&seq).skip(1).any(|(p, s)| p.cnr != s.cnr), "no frame differs");
 }
+
+/// The adaptive policy's candidate (issue 37, item 6) runs only when named and chooses its fusion
+/// by the core's target box: on a dark, noisy pair a 100 px target keeps the small-target fusion
+/// (the box, grown by the analysis's margin, stays under 160 px), a 220 px target takes the large
+/// one, a pair with no target keeps the small one.
+#[test]
+fn the_policy_candidate_runs_on_request_and_chooses_by_the_target_box() {
+    use fusion_io::Gray;
+    use fusion_navbench::bench::{CANDIDATE_SIDE_PX, CANDIDATE_SOURCES, Stream, by_size, selected};
+    let by_default: Vec<String> = selected(None).unwrap().into_iter().map(|(n, _)| n).collect();
+    assert!(CANDIDATE_SOURCES.iter().all(|s| !by_default.iter().any(|n| n == s)), "{by_default:?}");
+    let named: Vec<String> = CANDIDATE_SOURCES.iter().map(|s| s.to_string()).collect();
+    let chosen = selected(Some(&named)).unwrap();
+    let Some((_, Stream::BySize { small, large, side_px })) =
+        chosen.iter().find(|(n, _)| n == "adaptive-adf160")
+    else {
+        panic!("no candidate in {:?}", chosen.iter().map(|(n, _)| n).collect::<Vec<_>>())
+    };
+    assert_eq!(
+        (small.method.name(), large.method.name(), *side_px),
+        ("adaptive", "adf-flight", CANDIDATE_SIDE_PX)
+    );
+    // A frame `n` px square: background 20 ± 3 levels of noise, a centred square target at 180.
+    let frame = |n: usize, target: usize| {
+        let mut g = Gray::<u8>::new(n, n);
+        let mut state = 0x9E37_79B9_7F4A_7C15u64 ^ (n * 31 + target) as u64;
+        let (a, b) = ((n - target) / 2, (n + target) / 2);
+        for y in 0..n {
+            for x in 0..n {
+                state = state.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1_442_695_040_888_963_407);
+                let noise = ((state >> 60) as i32 % 7) - 3;
+                let level = if target > 0 && (a..b).contains(&x) && (a..b).contains(&y) { 180 } else { 20 };
+                g.data[y * n + x] = (level + noise) as u8;
+            }
+        }
+        g
+    };
+    for (target, large_expected) in [(100, false), (220, true), (0, false)] {
+        let (vis, tir) = (frame(512, target), frame(256, target / 2));
+        let got = by_size(&vis, &tir, *small, *large, *side_px).unwrap();
+        let want = if large_expected { large } else { small };
+        assert_eq!(got.method.name(), want.method.name(), "target {target} px");
+    }
+}

@@ -760,7 +760,7 @@ pub fn by_size(
 ) -> Result<FuseConfig> {
     let grid = (vis.width, vis.height);
     let scene = fusion_nostd::scene::analyze(vis.view()?, tir.view()?, grid, &small.scene)?;
-    let side = scene.target.map_or(0, |r| (r.x1 - r.x0).max(r.y1 - r.y0));
+    let side = scene.target.map_or(0, |r| r.width().max(r.height()));
     Ok(if side < side_px { small } else { large })
 }
 

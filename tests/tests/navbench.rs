@@ -368,12 +368,11 @@ fn the_policy_candidate_runs_on_request_and_chooses_by_the_target_box() {
     // A frame `n` px square: background 20 ± 3 levels of noise, a centred square target at 180.
     let frame = |n: usize, target: usize| {
         let mut g = Gray::<u8>::new(n, n);
-        let mut state = 0x9E37_79B9_7F4A_7C15u64 ^ (n * 31 + target) as u64;
+        let mut rng = render_host::noise::SplitMix64::new((n * 31 + target) as u64);
         let (a, b) = ((n - target) / 2, (n + target) / 2);
         for y in 0..n {
             for x in 0..n {
-                state = state.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1_442_695_040_888_963_407);
-                let noise = ((state >> 60) as i32 % 7) - 3;
+                let noise = (rng.next_u64() % 7) as i32 - 3;
                 let level = if target > 0 && (a..b).contains(&x) && (a..b).contains(&y) { 180 } else { 20 };
                 g.data[y * n + x] = (level + noise) as u8;
             }

@@ -68,6 +68,9 @@
 // Adaptive: glare in VIS; TIR took (part of) some pixels.
 #define FUSION_GUARD_ADAPTIVE_GLARE (1 << 9)
 
+// Adaptive: the target was large; the frame was fused by ADF (flight).
+#define FUSION_GUARD_ADAPTIVE_ADF (1 << 10)
+
 // The size of the strip working set the budgets measure (512 KiB: 256 KiB of work words, 256
 // KiB of band rows). [`fusion_fuse_strips`] takes any size it can fit one strip into.
 #define FUSION_STRIP_SCRATCH_BYTES (512 * 1024)

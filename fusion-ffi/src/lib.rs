@@ -102,6 +102,8 @@ pub const FUSION_GUARD_OUTPUT_SATURATED: u32 = 1 << 7;
 pub const FUSION_GUARD_ADAPTIVE_TIR_ONLY: u32 = 1 << 8;
 /// Adaptive: glare in VIS; TIR took (part of) some pixels.
 pub const FUSION_GUARD_ADAPTIVE_GLARE: u32 = 1 << 9;
+/// Adaptive: the target was large; the frame was fused by ADF (flight).
+pub const FUSION_GUARD_ADAPTIVE_ADF: u32 = 1 << 10;
 
 /// A panic cannot unwind into C: none is reachable from the exported functions (the
 /// `panic-check` link proves it), and if one were, the process would abort.

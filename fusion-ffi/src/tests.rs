@@ -475,6 +475,7 @@ fn constants_and_texts_match_the_core() {
         (FUSION_GUARD_OUTPUT_SATURATED, G::OUTPUT_SATURATED),
         (FUSION_GUARD_ADAPTIVE_TIR_ONLY, G::ADAPTIVE_TIR_ONLY),
         (FUSION_GUARD_ADAPTIVE_GLARE, G::ADAPTIVE_GLARE),
+        (FUSION_GUARD_ADAPTIVE_ADF, G::ADAPTIVE_ADF),
     ];
     assert_eq!(pairs.len(), G::NAMED.len());
     for (c, g) in pairs {

@@ -104,18 +104,6 @@ pub enum Stream {
     /// A core fusion in sequence mode (`fusion_nostd::sequence`): ADF's weights carried from the
     /// stream's previous frame.
     InSequence(FuseConfig),
-    /// A policy candidate: per frame, one of two core fusions chosen by the size of the target
-    /// the core's scene analysis finds (`fusion_nostd::scene::analyze`: the box of both bands'
-    /// signal on the fusion grid) — `small` while the box's longer side is under `side_px` (or
-    /// no target is found), `large` from it on. Every output pixel is a core method's.
-    BySize {
-        /// The fusion of frames with a small (or no) target.
-        small: FuseConfig,
-        /// The fusion of frames with a large target.
-        large: FuseConfig,
-        /// The longer side of the target box from which `large` is used, fusion-grid pixels.
-        side_px: usize,
-    },
 }
 
 /// How far a raw-sensor stream's thermal frame goes through the front end
@@ -232,24 +220,6 @@ pub fn streams() -> Vec<(String, Stream)> {
             }),
         ));
     }
-    // The adaptive policy's candidate (on request: CANDIDATE_SOURCES): the adaptive method on a
-    // small target, ADF (flight) on a large one.
-    out.push((
-        "adaptive-adf160".to_string(),
-        Stream::BySize {
-            small: FuseConfig {
-                rescale: RescalePolicy::TirUp,
-                method: Method::Adaptive(AdaptiveParams::default()),
-                ..FuseConfig::default()
-            },
-            large: FuseConfig {
-                rescale: RescalePolicy::TirUp,
-                method: Method::named("adf", fusion_nostd::Variant::Flight).unwrap_or_default(),
-                ..FuseConfig::default()
-            },
-            side_px: CANDIDATE_SIDE_PX,
-        },
-    ));
     for skip in [SkipPolicy::None, SkipPolicy::All] {
         for method in Method::all().into_iter().filter(|m| m.variant().is_some()) {
             let name = if skip == SkipPolicy::None {
@@ -287,23 +257,11 @@ pub const SEQUENCE_SOURCES: [&str; 6] = [
     "adaptive-seq-skip",
 ];
 
-/// The candidates for the adaptive policy (issue 37, item 6), run only when named: `adaptive-adf160`
-/// ([`Stream::BySize`]: the adaptive method while the target box is under [`CANDIDATE_SIDE_PX`],
-/// ADF flight from it on).
-pub const CANDIDATE_SOURCES: [&str; 1] = ["adaptive-adf160"];
-
-/// The target size from which the policy candidate fuses with ADF, fusion-grid pixels (the
-/// longer side of the scene analysis's target box): a target the model's edges are fitted on
-/// ([`crate::edges::MIN_TARGET_PX`] for its bounding sphere) with room for the box's margin.
-pub const CANDIDATE_SIDE_PX: usize = 160;
-
-/// The sources named in `only` (every source but [`SEQUENCE_SOURCES`] and [`CANDIDATE_SOURCES`]
-/// when `None`) and the baselines, in [`streams`] order.
+/// The sources named in `only` (every source but [`SEQUENCE_SOURCES`] when `None`) and the baselines, in [`streams`] order.
 pub fn selected(only: Option<&[String]>) -> Result<Vec<(String, Stream)>> {
     let all = streams();
     let Some(only) = only else {
-        let on_request = |s: &str| SEQUENCE_SOURCES.contains(&s) || CANDIDATE_SOURCES.contains(&s);
-        return Ok(all.into_iter().filter(|(s, _)| !on_request(s)).collect());
+        return Ok(all.into_iter().filter(|(s, _)| !SEQUENCE_SOURCES.contains(&s.as_str())).collect());
     };
     if let Some(bad) = only.iter().find(|n| !all.iter().any(|(s, _)| s == *n)) {
         let names: Vec<&str> = all.iter().map(|(s, _)| s.as_str()).collect();
@@ -748,22 +706,6 @@ pub fn sensor_frames(dir: &Path, m: &SequenceManifest, n: usize) -> Result<Vec<[
     Ok(out)
 }
 
-/// The fusion [`Stream::BySize`] uses for a frame pair: `small` while the longer side of the
-/// target box the core's scene analysis finds on the VIS grid (with `small.scene`) is under
-/// `side_px` or no target is found, `large` from it on.
-pub fn by_size(
-    vis: &Gray<u8>,
-    tir: &Gray<u8>,
-    small: FuseConfig,
-    large: FuseConfig,
-    side_px: usize,
-) -> Result<FuseConfig> {
-    let grid = (vis.width, vis.height);
-    let scene = fusion_nostd::scene::analyze(vis.view()?, tir.view()?, grid, &small.scene)?;
-    let side = scene.target.map_or(0, |r| r.width().max(r.height()));
-    Ok(if side < side_px { small } else { large })
-}
-
 /// The stream's image of one frame (VIS grid) and, for skip streams, (coverage, window share);
 /// `window`: a closed-loop stream's predicted box; `through`: an offset rig's thermal frame is
 /// registered through it at that range before it is used (`None`: rescaled, as for aligned
@@ -785,7 +727,6 @@ fn stream_image(
         }
         Stream::Fused(p) | Stream::SensorFused(p) | Stream::InSequence(p) => p,
         Stream::Loop(p) => FuseConfig { skip: SkipPolicy::Window(window), ..p },
-        Stream::BySize { small, large, side_px } => by_size(&fd.vis, &fd.tir, small, large, side_px)?,
     };
     let tir = match stream {
         Stream::SensorFused(_) => sensor_frame(fd, SensorStage::Chain)?,

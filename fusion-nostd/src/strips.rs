@@ -17,7 +17,7 @@
 //! | TSIFSD flight | the flight kernel started at the strip's first row: column sums of the 35×35 window and a ring of `2r + 3` rows of lane words | `max(r, 1)` = 17 (the mean's radius; the Scharr rows `y ± 1` lie inside it) | 1 | `(W + 2r + 1) + (2r + 3)·W` words (152.1 KiB at W = 1024) |
 //! | TSIFSD classic | the column sums of the circular 35×35 window slid down the strip, the box row by the circular horizontal pass, the zero-padded median's rows | `max(r, 1)` = 17, plus up to `r` rows from the frame's other edge for the strips near the top and bottom (the circular window wraps; the band keeps a tail for them) | 1 | `4·W` words: column sums and box row of both bands (16 KiB at W = 1024) |
 //! | ADF (both variants) | the diffusion's row pipeline of both bands (all iterations in one group) | `iterations` = 10 | 2: the covariance (global KL weights), then the output | `32 768 + iterations·3·(W + 2) + W` words: the flux table, the pipeline and its output row (252.2 KiB at W = 1024, 10 iterations) |
-//! | adaptive | `methods::adaptive::fuse_adaptive_rows`: column sums of the box slid down the strip, the binomial's rows read in place | `max(n/2, 1)` = 17 | 1 | `2·W` words (8 KiB at W = 1024) |
+//! | adaptive (blend, pass-through; a large target's frame runs ADF's row above) | `methods::adaptive::fuse_adaptive_rows`: column sums of the box slid down the strip, the binomial's rows read in place | `max(n/2, 1)` = 17 | 1 | `2·W` words (8 KiB at W = 1024) |
 //! | IFEVIP (both variants) | `methods::ifevip::stream` (crate-private): the IR onto the quadtree grid a few rows at a time (quadtree block ranges, erosion at every candidate crossing from a ring of rows); the background rows from the leaves' Bézier rows; `R` and the top-`k` keys; the output | pass 1: the vertical taps of the IR onto the `D` grid, less one (9 at 1024 → 512); passes 2 and 3: none | 3: analysis, keys (`R` kept in the output frame), output | the crossings' minima, then per pass its tables and row buffers, up to 32 rows a chunk, and the top-`k` buffer (250.8 KiB at W = 1024, `D` = 512) |
 //!
 //! ADF's weights come from the covariance of the whole frame's detail layers, which no strip
@@ -48,11 +48,12 @@
 //! the wrapped rows).
 
 use crate::methods::Guards;
+use crate::methods::adaptive::{Decided, Decision, decide_frame};
 use crate::pipeline::{
     BandRatio, FuseConfig, FuseReport, Method, RescalePolicy, SkipPolicy, SkipReport, band_ratio,
     band_window, fusion_grid, sequence_link,
 };
-use crate::scene::{Rect, SceneParams};
+use crate::scene::Rect;
 use crate::sequence::{Link, Sequence};
 use crate::{Error, Filter, FrameMut, FrameRef};
 
@@ -359,8 +360,6 @@ pub(crate) struct StripRun<'a, 'f, 'o> {
     pub(crate) out: &'a mut FrameMut<'o, u8>,
     /// The rows and words counted so far.
     pub(crate) report: &'a mut StripReport,
-    /// The scene analysis' thresholds (the adaptive method decides per frame).
-    pub(crate) scene: &'a SceneParams,
     /// In a sequence, the frame's link to it (ADF: the carried weights; `None` otherwise).
     pub(crate) link: Option<Link<'a>>,
 }
@@ -435,7 +434,16 @@ fn strips_maybe_in_sequence(
         Method::Tsifsd(p) => strips_with(p, out, scratch, at),
         Method::Adf(p) => strips_with(p, out, scratch, at),
         Method::Ifevip(p) => strips_with(p, out, scratch, at),
-        Method::Adaptive(p) => strips_with(p, out, scratch, at),
+        // The adaptive method decides on the input frames first; a large target's frame runs
+        // ADF's strip form (its two passes and work words).
+        Method::Adaptive(p) => match decide_frame(vis, tir, grid, &pipeline.scene, p)? {
+            Decision::Adf => {
+                let (mut fuse, strips) = strips_with(&p.adf, out, scratch, at)?;
+                fuse.guards |= Guards::ADAPTIVE_ADF;
+                Ok((fuse, strips))
+            }
+            decision => strips_with(&Decided { params: *p, decision }, out, scratch, at),
+        },
     }
 }
 
@@ -514,7 +522,6 @@ fn strips_with<F: StripForm>(
         work,
         out: &mut out,
         report: &mut report,
-        scene: &pipeline.scene,
         link,
     })?;
     let fuse =

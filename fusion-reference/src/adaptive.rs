@@ -4,7 +4,8 @@
 //! * `B_k`: the `n × n` mean, replicate border ([`super::tsifsd::box_mean`]).
 //! * `G_VIS`: the 3×3 binomial `[1 2 1]ᵀ[1 2 1]/16`, replicate border.
 //! * The per-frame decision is given (the scene analysis's integer counts, shared with the
-//!   core): `TirOnly` gives `I_TIR`.
+//!   core): `TirOnly` gives `I_TIR`; `Adf` is the ADF reference ([`crate::adf::fuse_adf`]
+//!   with the parameters' `adf`).
 //! * Lit share `a = clamp((B_VIS − level − offset) / span, 0, 1)`, quantised as the core does
 //!   (`⌊256·a⌋ / 256`: a stated step of the method, not an implementation error).
 //! * `F = max(B_VIS, B_TIR) + (G_VIS − B_VIS) + (1 − a)(I_TIR − B_TIR)`.
@@ -35,8 +36,10 @@ pub fn fuse_adaptive(
     p: &AdaptiveParams,
     decision: Option<Decision>,
 ) -> Gray<f64> {
-    let Some(Decision::Blend { vis_level }) = decision else {
-        return tir.clone();
+    let vis_level = match decision {
+        Some(Decision::Blend { vis_level }) => vis_level,
+        Some(Decision::Adf) => return crate::adf::fuse_adf(vis, tir, &p.adf),
+        Some(Decision::TirOnly) | None => return tir.clone(),
     };
     let (lit0, span) = (f64::from(vis_level) + f64::from(p.lit_offset), f64::from(p.lit_span));
     let n = usize::from(p.base_size);

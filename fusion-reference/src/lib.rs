@@ -43,8 +43,9 @@ pub mod tsifsd;
 /// reference rescalers (VIS area, TIR bicubic), then the method; the 8-bit image (MATLAB's
 /// `uint8` cast) and the real-valued result before the cast, in 0..255 units.
 pub fn fuse(vis: &Gray<u8>, tir: &Gray<u8>, pipeline: &FuseConfig) -> Result<(Gray<u8>, Gray<f64>)> {
-    // The adaptive method decides on the input VIS frame, before the rescale (as the core).
-    let decision = fusion_nostd::pipeline::adaptive_decision(vis.view()?, pipeline)?;
+    // The adaptive method decides on the input frames, before the rescale (as the core: the
+    // scene analysis's integer counts, shared).
+    let decision = fusion_nostd::pipeline::adaptive_decision(vis.view()?, tir.view()?, pipeline)?;
     let (w, h) = fusion_grid((vis.width, vis.height), (tir.width, tir.height), pipeline.rescale)?;
     let to_grid = |img: &Gray<u8>, filter| {
         if (img.width, img.height) == (w, h) {

@@ -92,7 +92,7 @@ fn staged(
     // its region holds that analysis and the blend.
     let method = &pipeline.method;
     let guards = m.region(tag, || {
-        let decision = adaptive_decision(vis, pipeline)?;
+        let decision = adaptive_decision(vis, tir, pipeline)?;
         fuse_method_decided(vg, tg, out, method, &mut planes, decision)
     })?;
     Ok(guards)

@@ -1,7 +1,8 @@
 //! The adaptive fusion (`fusion_nostd::methods::adaptive`): the integer core against the f64
 //! reference written from the rule, the thermal frame passed through bit for bit when VIS has
 //! no signal (eclipse), clipped VIS replaced by TIR (glare), the target never darkened by a
-//! black band, and the pipeline's decision taken from the input frames.
+//! black band, a large target's frame fused by ADF (whole frame, strips, skipping), and the
+//! pipeline's decision taken from the input frames.
 
 use anyhow::Result;
 use fusion_engine::CoreScratch;
@@ -9,8 +10,12 @@ use fusion_engine::methods::{fuse_core, fuse_reference};
 use fusion_engine::study::Dataset;
 use fusion_io::Gray;
 use fusion_nostd::methods::adaptive::{AdaptiveParams, Decision, decide_frame};
-use fusion_nostd::pipeline::{FuseConfig, Method, RescalePolicy, adaptive_decision, fuse_method_decided};
-use fusion_nostd::scene::SceneParams;
+use fusion_nostd::methods::adf::AdfParams;
+use fusion_nostd::pipeline::{
+    FuseConfig, Method, RescalePolicy, SkipPolicy, adaptive_decision, fuse_method_decided,
+};
+use fusion_nostd::scene::{SceneParams, analyze};
+use fusion_nostd::strips::{StripScratchMut, fuse_strips};
 use fusion_nostd::{Filter, Guards, rescale};
 use render_host::{DatasetConfig, render_dataset};
 
@@ -105,7 +110,14 @@ fn eclipse_passes_the_thermal_frame_through() -> Result<()> {
     for frame in 0..ds.frames() {
         let vis = ds.image("vis_eclipse", frame, true)?;
         let tir = ds.image("tir64", frame, true)?;
-        let d = decide_frame(vis.view()?, &SceneParams::default(), &AdaptiveParams::default())?;
+        let grid = (vis.width, vis.height);
+        let d = decide_frame(
+            vis.view()?,
+            tir.view()?,
+            grid,
+            &SceneParams::default(),
+            &AdaptiveParams::default(),
+        )?;
         assert_eq!(d, Decision::TirOnly, "frame {frame}");
         let fused = fuse_core(&vis, &tir, &adaptive(), false)?;
         assert!(fused.guards.contains(Guards::ADAPTIVE_TIR_ONLY));
@@ -173,7 +185,7 @@ fn the_pipeline_decides_on_the_input_frames() -> Result<()> {
     for set in ["vis_light", "vis_eclipse"] {
         let (vis, tir) = (ds.image(set, 0, true)?, ds.image("tir64", 0, true)?);
         let piped = fuse_core(&vis, &tir, &p, false)?;
-        let decision = adaptive_decision(vis.view()?, &p)?;
+        let decision = adaptive_decision(vis.view()?, tir.view()?, &p)?;
         assert!(decision.is_some());
         let up = upscaled(&tir, vis.width, vis.height);
         let mut out = Gray::new(vis.width, vis.height);
@@ -188,6 +200,120 @@ fn the_pipeline_decides_on_the_input_frames() -> Result<()> {
         )?;
         assert_eq!(out.data, piped.image.data, "{set}");
         assert_eq!(guards, piped.guards, "{set}");
+    }
+    Ok(())
+}
+
+/// A pair with a large target on a mostly empty sky (the analysis reads the noise from the
+/// upper quartile): a `side`-pixel textured block, lit on its left half, on black sensor noise
+/// (VIS `w × h`) and warm all over with its own texture (TIR at half size).
+fn large_target_pair(w: usize, h: usize, side: usize) -> (Gray<u8>, Gray<u8>) {
+    let noise = |i: usize, k: usize| ((i.wrapping_mul(2_654_435_761).wrapping_add(k) >> 13) % 12) as u8;
+    let band = |w: usize, h: usize, side: usize, k: usize, px: &dyn Fn(usize, usize, bool) -> u8| Gray {
+        width: w,
+        height: h,
+        data: (0..w * h)
+            .map(|i| {
+                let (x, y) = (i % w, i / w);
+                let inside =
+                    (w - side) / 2 <= x && x < (w + side) / 2 && (h - side) / 2 <= y && y < (h + side) / 2;
+                px(x, y, inside).saturating_add(noise(i, k))
+            })
+            .collect(),
+    };
+    let vis = band(w, h, side, 1, &|x, y, inside| {
+        if inside && x < w / 2 { 60 + ((x * 7 + y * 13) % 90) as u8 } else { 0 }
+    });
+    let tir = band(w / 2, h / 2, side / 2, 2, &|x, y, inside| {
+        if inside { 110 + ((x * 5 + y * 3) % 50) as u8 } else { 20 }
+    });
+    (vis, tir)
+}
+
+/// A large target (its box's longer side ≥ `adf_from_px` on the grid): the frame is ADF's
+/// (`AdaptiveParams::adf`), bit for bit, whole frame, in strips and skipping, with the
+/// `ADAPTIVE_ADF` guard beside ADF's own; one pixel over the box's side it is the blend again,
+/// which matches its f64 reference; the f64 reference of an ADF frame is ADF's.
+#[test]
+fn a_large_target_is_fused_by_adf() -> Result<()> {
+    let (vis, tir) = large_target_pair(448, 400, 180);
+    let grid = (vis.width, vis.height);
+    let scene = analyze(vis.view()?, tir.view()?, grid, &SceneParams::default())?;
+    let side = scene.target.map_or(0, |r| r.width().max(r.height()));
+    assert!(side >= 160, "the target box's side {side}");
+    let adaptive_at = |from: usize| FuseConfig {
+        method: Method::Adaptive(AdaptiveParams { adf_from_px: from as u16, ..AdaptiveParams::default() }),
+        ..adaptive()
+    };
+    let adf = FuseConfig { method: Method::Adf(AdfParams::default()), ..adaptive() };
+    let (a, b) = (fuse_core(&vis, &tir, &adaptive(), false)?, fuse_core(&vis, &tir, &adf, false)?);
+    assert_eq!(a.image.data, b.image.data, "the default threshold ({side} px box)");
+    assert_eq!(a.guards, b.guards.with(Guards::ADAPTIVE_ADF));
+    let at = fuse_core(&vis, &tir, &adaptive_at(side), false)?;
+    assert_eq!(at.image.data, b.image.data, "at the box's side");
+    for p in [adaptive_at(side + 1), adaptive_at(0)] {
+        let blend = fuse_core(&vis, &tir, &p, false)?;
+        assert!(!blend.guards.contains(Guards::ADAPTIVE_ADF), "{:?}", blend.guards);
+        assert_ne!(blend.image.data, b.image.data, "the blend is not ADF");
+        let reference = fuse_reference(&vis, &tir, &p)?;
+        let differ = blend.image.data.iter().zip(&reference.image.data).filter(|(x, y)| x != y).count();
+        assert!(differ * 1000 < blend.image.data.len(), "{differ} pixels off the blend's reference");
+    }
+    let (ra, rb) = (fuse_reference(&vis, &tir, &adaptive())?, fuse_reference(&vis, &tir, &adf)?);
+    assert_eq!(ra.raw.expect("raw").data, rb.raw.expect("raw").data, "the f64 reference");
+    // Strips: ADF's strip form (two passes), the same bytes and guards as the whole frame.
+    let (mut work, mut band) = (vec![0i32; 1 << 16], vec![0u8; 1 << 18]);
+    let mut out = Gray::new(grid.0, grid.1);
+    let (fused, strips) = fuse_strips(
+        vis.view()?,
+        tir.view()?,
+        out.view_mut()?,
+        &mut StripScratchMut::from_slices(&mut work, &mut band),
+        &adaptive(),
+        64,
+    )?;
+    assert_eq!(out.data, a.image.data, "strips");
+    assert_eq!(fused.guards, a.guards);
+    assert_eq!(strips.passes, 2, "ADF's covariance pass, then its output");
+    // Skipping: ADF's plan and bytes.
+    for skip in [SkipPolicy::Roi, SkipPolicy::All] {
+        let sa = fuse_core(&vis, &tir, &FuseConfig { skip, ..adaptive() }, false)?;
+        let sb = fuse_core(&vis, &tir, &FuseConfig { skip, ..adf }, false)?;
+        assert_eq!(sa.image.data, sb.image.data, "{skip:?}");
+        assert_eq!(sa.guards, sb.guards.with(Guards::ADAPTIVE_ADF), "{skip:?}");
+    }
+    Ok(())
+}
+
+/// On a dark, noisy pair (the analysis takes the box from its block means and grows it by its
+/// margin) the decision follows the target's size: a 100 px target keeps the blend, a 220 px
+/// target takes ADF, a pair with no target keeps the blend.
+#[test]
+fn the_decision_follows_the_target_box_on_noisy_frames() -> Result<()> {
+    // A frame `n` px square: background 20 ± 3 levels of noise, a centred square target at 180.
+    let frame = |n: usize, target: usize| {
+        let mut g = Gray::<u8>::new(n, n);
+        let mut rng = render_host::noise::SplitMix64::new((n * 31 + target) as u64);
+        let (a, b) = ((n - target) / 2, (n + target) / 2);
+        for y in 0..n {
+            for x in 0..n {
+                let noise = (rng.next_u64() % 7) as i32 - 3;
+                let level = if target > 0 && (a..b).contains(&x) && (a..b).contains(&y) { 180 } else { 20 };
+                g.data[y * n + x] = (level + noise) as u8;
+            }
+        }
+        g
+    };
+    for (target, adf) in [(100, false), (220, true), (0, false)] {
+        let (vis, tir) = (frame(512, target), frame(256, target / 2));
+        let d = decide_frame(
+            vis.view()?,
+            tir.view()?,
+            (512, 512),
+            &SceneParams::default(),
+            &AdaptiveParams::default(),
+        )?;
+        assert_eq!(d == Decision::Adf, adf, "target {target} px: {d:?}");
     }
     Ok(())
 }

@@ -9,7 +9,7 @@ use fusion_engine::study::Dataset;
 use fusion_io::{Gray, vifb_pairs};
 use fusion_nostd::pipeline::{FuseConfig, Method, RescalePolicy, SkipPolicy, Skips};
 use fusion_nostd::scene::{Decline, Illumination, Rect, SceneParams, analyze};
-use fusion_nostd::{AdaptiveParams, AdfParams, Error, IfevipParams, TsifsdParams};
+use fusion_nostd::{AdaptiveParams, AdfParams, Error, Guards, IfevipParams, TsifsdParams};
 use render_host::{DatasetConfig, render_dataset};
 
 /// Every method and variant (ADF, TSIFSD, IFEVIP classic and flight; the adaptive method).
@@ -23,6 +23,8 @@ fn pipeline(method: Method, rescale: RescalePolicy, skip: SkipPolicy) -> FuseCon
 
 /// What one comparison found.
 struct Outcome {
+    /// The method the frame ran (the adaptive method's large-target frames are ADF's).
+    ran: Method,
     taken: Skips,
     roi: Rect,
     computed: Rect,
@@ -43,6 +45,13 @@ fn check(
     let (full, full_report, _) = fuse_once(vis, tir, &pipeline(method, rescale, SkipPolicy::None))?;
     let (got, report, _) = fuse_once(vis, tir, &pipeline(method, rescale, skip))?;
     let s = report.skip;
+    let adf = Guards::ADAPTIVE_ADF;
+    assert_eq!(report.guards.contains(adf), full_report.guards.contains(adf), "{name}: one decision");
+    let ran = match method {
+        Method::Adaptive(p) if report.guards.contains(adf) => Method::Adf(p.adf),
+        m => m,
+    };
+    let method = ran;
     assert!(s.computed.covers(&s.roi), "{name}: computed {:?} does not cover roi {:?}", s.computed, s.roi);
     let grid = Rect::full(report.grid);
     assert!(grid.covers(&s.computed), "{name}: window {:?} outside the grid", s.computed);
@@ -93,7 +102,7 @@ fn check(
         e.max_abs,
         e.psnr
     );
-    Ok(Outcome { taken: s.taken, roi: s.roi, computed: s.computed, psnr: e.psnr, declined: s.declined })
+    Ok(Outcome { ran, taken: s.taken, roi: s.roi, computed: s.computed, psnr: e.psnr, declined: s.declined })
 }
 
 /// A dark frame with a textured bright target and optional ±1..2 noise (deterministic).
@@ -399,7 +408,7 @@ fn noisy_sequence_windows_hold_every_target_pixel() -> Result<()> {
                     }
                     assert_eq!(o.declined, None, "{label} {mname} {skip:?}");
                     // The frame-global methods keep their crop's output on the ROI only.
-                    let w = if method.frame_global() {
+                    let w = if o.ran.frame_global() {
                         assert!(o.taken.contains(Skips::CROP), "{label} {mname}: no crop");
                         o.roi
                     } else {
@@ -468,7 +477,7 @@ fn caller_windows_follow_the_same_semantics() -> Result<()> {
                 assert_eq!(o.declined, None, "{label} {name}: the caller's window is never declined");
                 let want = b.intersect(Rect::full(grid));
                 assert!(o.roi.covers(&want), "{label} {name}: roi {:?} misses the box {want:?}", o.roi);
-                if method.frame_global() {
+                if o.ran.frame_global() {
                     assert_eq!(o.roi, want, "{label} {name}: the crop's output is kept on the box");
                 }
                 runs += 1;

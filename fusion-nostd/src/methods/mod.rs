@@ -43,9 +43,12 @@ impl Guards {
     /// Adaptive (a decision): some pixel's smoothed VIS was above the glare level and took
     /// (part of) the TIR pixel instead.
     pub const ADAPTIVE_GLARE: Guards = Guards(1 << 9);
+    /// Adaptive (a decision): the target was large, the frame was fused by ADF
+    /// (`AdaptiveParams::adf`; ADF's own guards are reported beside this one).
+    pub const ADAPTIVE_ADF: Guards = Guards(1 << 10);
 
     /// Every guard with its short name (`fusion fuse` prints these), in bit order.
-    pub const NAMED: [(Guards, &'static str); 10] = [
+    pub const NAMED: [(Guards, &'static str); 11] = [
         (Guards::ADF_ZERO_COVARIANCE, "adf-zero-covariance"),
         (Guards::ADF_DEGENERATE_EIGENVECTOR, "adf-degenerate-eigenvector"),
         (Guards::ADF_WEIGHT_CLAMPED, "adf-weight-clamped"),
@@ -56,6 +59,7 @@ impl Guards {
         (Guards::OUTPUT_SATURATED, "saturated"),
         (Guards::ADAPTIVE_TIR_ONLY, "adaptive-tir-only"),
         (Guards::ADAPTIVE_GLARE, "adaptive-glare"),
+        (Guards::ADAPTIVE_ADF, "adaptive-adf"),
     ];
 
     /// Whether every bit of `other` is set in `self`.

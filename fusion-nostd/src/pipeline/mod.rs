@@ -328,7 +328,7 @@ pub(crate) fn fuse_method_linked(
         Method::Adaptive(p) => {
             let decision = match decision {
                 Some(d) => d,
-                None => decide_frame(vis, &SceneParams::default(), p)?,
+                None => decide_frame(vis, tir, vis.size(), &SceneParams::default(), p)?,
             };
             fuse_adaptive(vis, tir, out, p, decision, scratch)
         }
@@ -336,11 +336,19 @@ pub(crate) fn fuse_method_linked(
 }
 
 /// The adaptive method's per-frame decision for an input pair, as [`fuse`] takes it: the scene
-/// analysis of the VIS frame as given, with `pipeline.scene`. `None` for the other methods.
+/// analysis of both frames as given, on the fusion grid, with `pipeline.scene`. `None` for the
+/// other methods.
 #[doc(hidden)]
-pub fn adaptive_decision(vis: FrameRef<'_, u8>, pipeline: &FuseConfig) -> Result<Option<Decision>, Error> {
+pub fn adaptive_decision(
+    vis: FrameRef<'_, u8>,
+    tir: FrameRef<'_, u8>,
+    pipeline: &FuseConfig,
+) -> Result<Option<Decision>, Error> {
     match &pipeline.method {
-        Method::Adaptive(p) => Ok(Some(decide_frame(vis, &pipeline.scene, p)?)),
+        Method::Adaptive(p) => {
+            let grid = fusion_grid(vis.size(), tir.size(), pipeline.rescale)?;
+            Ok(Some(decide_frame(vis, tir, grid, &pipeline.scene, p)?))
+        }
         _ => Ok(None),
     }
 }
@@ -396,7 +404,7 @@ fn fuse_maybe_in_sequence(
         return fuse_skipping(vis, tir, out, scratch, pipeline, seq);
     }
     pipeline.method.validate()?;
-    let decision = adaptive_decision(vis, pipeline)?;
+    let decision = adaptive_decision(vis, tir, pipeline)?;
     let mut link = sequence_link(vis, pipeline, seq)?;
     on_grid(vis, tir, out.size(), scratch, pipeline.rescale, |v, t, s| {
         fuse_method_linked(v, t, out, &pipeline.method, s, decision, link.as_mut())

@@ -259,7 +259,7 @@ pub(super) fn fill_outside(out: &mut FrameMut<'_, u8>, keep: Rect, value: u8) {
 pub(super) fn fuse_skipping(
     vis: FrameRef<'_, u8>,
     tir: FrameRef<'_, u8>,
-    mut out: FrameMut<'_, u8>,
+    out: FrameMut<'_, u8>,
     scratch: &mut ScratchMut<'_>,
     pipeline: &FuseConfig,
     seq: Option<&mut Sequence>,
@@ -275,23 +275,51 @@ pub(super) fn fuse_skipping(
     if vis.size() != tir.size() {
         scratch.split_band(grid.0 * grid.1)?;
     }
+    let scene = analyze(vis, tir, grid, &pipeline.scene)?;
+    // The adaptive method decides on this frame's own analysis; a large target's frame is
+    // ADF's from here on (its plan, its window forms), with nothing carried in a sequence.
+    match &pipeline.method {
+        Method::Adaptive(p) => match decide(&scene, p) {
+            Decision::Adf => {
+                let adf = FuseConfig { method: Method::Adf(p.adf), ..*pipeline };
+                let mut r = skipping_decided(vis, tir, out, scratch, &adf, seq, scene, None, false)?;
+                r.guards |= Guards::ADAPTIVE_ADF;
+                Ok(r)
+            }
+            d => skipping_decided(vis, tir, out, scratch, pipeline, seq, scene, Some(d), false),
+        },
+        _ => skipping_decided(vis, tir, out, scratch, pipeline, seq, scene, None, true),
+    }
+}
+
+/// [`fuse_skipping`] once the frame is analysed (`scene`) and the adaptive method has decided
+/// (`decision`); `carries`: in a sequence, ADF takes its link (the carried weights).
+#[allow(clippy::too_many_arguments)]
+fn skipping_decided(
+    vis: FrameRef<'_, u8>,
+    tir: FrameRef<'_, u8>,
+    mut out: FrameMut<'_, u8>,
+    scratch: &mut ScratchMut<'_>,
+    pipeline: &FuseConfig,
+    seq: Option<&mut Sequence>,
+    scene: Scene,
+    decision: Option<Decision>,
+    carries: bool,
+) -> Result<FuseReport, Error> {
+    let grid = scene.grid;
     let mut seq = seq;
-    let mut scene = analyze(vis, tir, grid, &pipeline.scene)?;
+    let mut scene = scene;
     // In a sequence, the target boxes of the last frames joined to this one's (not the caller's
     // window, which is taken as given).
     if let (Some(s), false) = (seq.as_deref_mut(), matches!(pipeline.skip, SkipPolicy::Window(_))) {
         scene = s.widen(scene);
     }
     let eclipse = pipeline.skip == SkipPolicy::All && scene.illumination == Illumination::Eclipse;
-    let decision = match &pipeline.method {
-        Method::Adaptive(p) => Some(decide(&scene.vis, p)),
-        _ => None,
-    };
     let plan = plan(&scene, pipeline, grid, eclipse, decision);
     // In a sequence, ADF's link with the class the analysis found (the same rule on the same
     // statistics as outside skipping).
     let mut link = match (seq, &pipeline.method) {
-        (Some(seq), Method::Adf(_)) => Some(Link { seq, illumination: scene.illumination }),
+        (Some(seq), Method::Adf(_)) if carries => Some(Link { seq, illumination: scene.illumination }),
         _ => None,
     };
     let rescaled = scene.rescale_needed;
@@ -302,7 +330,7 @@ pub(super) fn fuse_skipping(
         // level when the TIR frame passes through.
         Some(Decision::TirOnly) => scene.tir.background,
         Some(Decision::Blend { .. }) => scene.vis.background.max(scene.tir.background),
-        None => background_value(&scene),
+        Some(Decision::Adf) | None => background_value(&scene),
     };
     let (computed, roi, vis_constant) = match plan {
         Plan::Full(declined) => {

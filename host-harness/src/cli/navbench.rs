@@ -35,9 +35,8 @@ pub struct NavbenchArgs {
     #[arg(long, default_value_t = 1024, value_name = "PX")]
     pub vis_size: u32,
     /// Only these sources, comma-separated (e.g. `vis,tir,adaptive`) [default: all but the
-    /// sequence-mode ones, see --sequence-mode, and the adaptive policy's candidate
-    /// `adaptive-adf160`: the adaptive method while the target box is under 160 px, ADF flight
-    /// from it on]; the baselines `zero-motion` and `oracle` always run.
+    /// sequence-mode ones, see --sequence-mode]; the baselines `zero-motion` and `oracle`
+    /// always run.
     #[arg(long, value_delimiter = ',', value_name = "NAMES")]
     pub sources: Option<Vec<String>>,
     /// Also run the sequence-mode sources (as `fusion fuse --sequence-mode`): ADF with the KL
@@ -81,9 +80,8 @@ pub struct NavbenchArgs {
 const PHASES: [&str; 4] = ["light", "penumbra", "eclipse", PHASE_ALL];
 
 /// The sources the charts and the answer show, when run (`adf-flight-seq` only with
-/// `--sequence-mode`, `adaptive-adf160` only when named).
-const SHOWN: [&str; 8] =
-    ["zero-motion", "oracle", "vis", "tir", "adaptive", "adaptive-adf160", "adf-flight", "adf-flight-seq"];
+/// `--sequence-mode`).
+const SHOWN: [&str; 7] = ["zero-motion", "oracle", "vis", "tir", "adaptive", "adf-flight", "adf-flight-seq"];
 
 /// Runs `fusion navbench`.
 pub fn run(args: &NavbenchArgs) -> Result<()> {

@@ -13,7 +13,8 @@
 //! (replicate border), `ℓ` the VIS background level and `a` the pixel's **lit share**:
 //!
 //! ```text
-//! per frame:  VIS has no signal  →  out = I_TIR                        (the TIR frame passes through)
+//! per frame:  target box ≥ 160 px →  out = ADF(I_VIS, I_TIR)           (flight; AdaptiveParams::adf)
+//!             VIS has no signal  →  out = I_TIR                        (the TIR frame passes through)
 //! per pixel:  a = clamp((B_VIS − ℓ − lit_offset) / lit_span, 0, 1)     (quantised to ⌊256·a⌋/256)
 //!             F = max(B_VIS, B_TIR) + (G_VIS − B_VIS) + (1 − a)·(I_TIR − B_TIR)
 //!             g = clamp((G_VIS − glare_level) / 16, 0, 1)
@@ -22,7 +23,20 @@
 //!
 //! rounded half away from zero and saturated to `0..=255`.
 //!
-//! * **Per frame** ([`decide`]): VIS has no usable signal when the analysis finds fewer than
+//! * **Per frame** ([`decide`], on the scene analysis of both input frames,
+//!   [`crate::scene::analyze`]): a **large target** — the analysis's target box (both bands,
+//!   on the fusion grid) at least [`AdaptiveParams::adf_from_px`] (160) pixels on its longer
+//!   side — is fused by ADF ([`AdaptiveParams::adf`], the flight variant, per frame: nothing
+//!   carried in a sequence; [`Guards::ADAPTIVE_ADF`]), in light and in eclipse alike. Close
+//!   up, navigation fits the target model's edges and tracks corners over the whole body, and
+//!   ADF's output — both bands' detail at full weight, the base their mean — keeps them where
+//!   the blend keeps the VIS detail on the lit side only: on `flyaround` (a 130–220 px target)
+//!   the filter's availability over six seeds rose from 0.257 ± 0.024 to 0.661 ± 0.191, and on
+//!   `approach` (35–360 px) it stayed inside the seeds' spread (0.365 ± 0.308 against
+//!   0.346 ± 0.281; `BENCHMARKS.md`, "The adaptive policy judged again, on six seeds"). A
+//!   smaller target keeps the rules below, which the navigation benchmark chose for the far
+//!   frames.
+//! * VIS has no usable signal when the analysis finds fewer than
 //!   [`AdaptiveParams::min_vis_samples`] samples above its 6σ noise threshold
 //!   ([`crate::scene::BandStats`]) — eclipse, or the target's unlit side. Then the thermal frame
 //!   passes through unchanged ([`Guards::ADAPTIVE_TIR_ONLY`]): in eclipse the fused stream *is*
@@ -39,7 +53,8 @@
 //!   ([`Guards::ADAPTIVE_GLARE`]).
 //!
 //! The rule was chosen on `fusion navbench` (the rendezvous sequences, study noise) among
-//! variants measured side by side (`BENCHMARKS.md`, "Navigation benchmark"): a frame-wide VIS
+//! variants measured side by side (`BENCHMARKS.md`, "Navigation benchmark"; the ADF
+//! decision was added by the judge of issue 37): a frame-wide VIS
 //! share instead of the per-pixel lit share lost tracking on the frames where VIS sees a sliver
 //! of the target (lost 0.24 against 0.16); no smoothing of the VIS detail left the CNR below the
 //! thermal frame's; smoothing the TIR detail too halved the thermal corners in eclipse.
@@ -61,18 +76,21 @@
 //!
 //! # Memory and strips
 //!
-//! Two rows of column sums (`2·W` `i32` words) slid down the frame; no plane. The row form
-//! ([`fuse_adaptive_rows`]) starts at any row of a window that holds the rows it reads
+//! An ADF frame is ADF's: its scratch, its strip form (two passes, [`crate::strips`]) and its
+//! skip plan. The blend needs two rows of column sums (`2·W` `i32` words) slid down the
+//! frame; no plane. The row form ([`fuse_adaptive_rows`]) starts at any row of a window that holds the rows it reads
 //! (`max(n/2, 1)` above and below, cut at the frame's edges), which is the strip form
 //! ([`crate::strips`]); the whole frame is the window of one strip.
 
 /// The strip form ([`crate::strips::StripForm`]).
 mod strips;
 use super::Guards;
-use crate::scene::{BandStats, SceneParams, band_stats};
+use super::adf::AdfParams;
+use crate::scene::{Scene, SceneParams, analyze};
 use crate::{Error, FrameMut, FrameRef};
 use core::num::NonZeroU32;
 use core::ops::Range;
+pub(crate) use strips::Decided;
 
 /// Parameters of the adaptive fusion. [`Default`] is the setting measured in `BENCHMARKS.md`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -89,11 +107,24 @@ pub struct AdaptiveParams {
     pub lit_span: u8,
     /// Smoothed VIS level from which a pixel fades to TIR (fully at 255), `< 255`.
     pub glare_level: u8,
+    /// Longer side of the scene analysis's target box, fusion-grid pixels, from which the
+    /// frame is fused by ADF ([`AdaptiveParams::adf`]) instead of the blend; 0: never.
+    pub adf_from_px: u16,
+    /// The ADF a frame with a large target is fused with.
+    pub adf: AdfParams,
 }
 
 impl Default for AdaptiveParams {
     fn default() -> Self {
-        Self { base_size: 35, min_vis_samples: 4, lit_offset: 8, lit_span: 48, glare_level: 239 }
+        Self {
+            base_size: 35,
+            min_vis_samples: 4,
+            lit_offset: 8,
+            lit_span: 48,
+            glare_level: 239,
+            adf_from_px: 160,
+            adf: AdfParams::default(),
+        }
     }
 }
 
@@ -109,7 +140,7 @@ impl AdaptiveParams {
         if self.glare_level == 255 {
             return Err(Error::InvalidParameter { name: "glare_level" });
         }
-        Ok(())
+        self.adf.validate()
     }
 
     /// Rows (and columns) the output reads on each side: the box's radius, at least the
@@ -122,6 +153,8 @@ impl AdaptiveParams {
 /// The per-frame decision of the adaptive method, from the scene analysis of the input frames.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum Decision {
+    /// The target is large: the frame is fused by ADF ([`AdaptiveParams::adf`]).
+    Adf,
     /// VIS has no usable signal: the TIR frame passes through.
     TirOnly,
     /// Blend, with the VIS background level the lit share is measured from.
@@ -131,24 +164,33 @@ pub enum Decision {
     },
 }
 
-/// The decision for a frame pair from its VIS band statistics.
-pub fn decide(vis: &BandStats, p: &AdaptiveParams) -> Decision {
-    if vis.signal_samples < p.min_vis_samples.max(1) {
+/// The decision for a frame pair from its scene analysis ([`crate::scene::analyze`], on the
+/// fusion grid): [`Decision::Adf`] when the target box's longer side is at least
+/// [`AdaptiveParams::adf_from_px`] (and that is not 0), else [`Decision::TirOnly`] when VIS
+/// has fewer than [`AdaptiveParams::min_vis_samples`] signal samples, else the blend.
+pub fn decide(scene: &Scene, p: &AdaptiveParams) -> Decision {
+    let side = scene.target.map_or(0, |r| r.width().max(r.height()));
+    if p.adf_from_px != 0 && side >= usize::from(p.adf_from_px) {
+        Decision::Adf
+    } else if scene.vis.signal_samples < p.min_vis_samples.max(1) {
         Decision::TirOnly
     } else {
-        Decision::Blend { vis_level: vis.background }
+        Decision::Blend { vis_level: scene.vis.background }
     }
 }
 
-/// The decision for a frame pair, from the scene analysis's statistics of its VIS frame as
-/// given ([`crate::scene::band_stats`]; the TIR frame is always used).
+/// The decision for an input pair fused on `grid`: [`decide`] on the scene analysis of both
+/// frames as given.
+///
+/// Errors: [`Error::InvalidParameter`] for bad [`SceneParams`].
 pub fn decide_frame(
     vis: FrameRef<'_, u8>,
+    tir: FrameRef<'_, u8>,
+    grid: (usize, usize),
     scene: &SceneParams,
     p: &AdaptiveParams,
 ) -> Result<Decision, Error> {
-    scene.validate()?;
-    Ok(decide(&band_stats(vis, scene), p))
+    Ok(decide(&analyze(vis, tir, grid, scene)?, p))
 }
 
 /// Frame row `y` clamped to `0..=last` (replicate), read from a window starting at frame row
@@ -164,9 +206,11 @@ pub fn work_words(w: usize) -> usize {
     2 * w
 }
 
-/// Fuses a whole same-size pair with the frame's `decision` into `out`. The scratch is checked
-/// against the pipeline's contract (`W·H` per plane, as every method) though only one row of
-/// two planes is used; the strip form needs just those `2·W` words.
+/// Fuses a whole same-size pair with the frame's `decision` into `out`: [`Decision::Adf`] runs
+/// ADF with [`AdaptiveParams::adf`] (and adds [`Guards::ADAPTIVE_ADF`]); the others the
+/// blend. The scratch is checked against the pipeline's contract (`W·H` per plane, as every
+/// method) though the blend uses only one row of two planes; its strip form needs just those
+/// `2·W` words.
 pub fn fuse_adaptive(
     vis: FrameRef<'_, u8>,
     tir: FrameRef<'_, u8>,
@@ -176,6 +220,11 @@ pub fn fuse_adaptive(
     scratch: &mut crate::ScratchMut<'_>,
 ) -> Result<Guards, Error> {
     super::check_sizes(&vis, &tir, out.size())?;
+    if decision == Decision::Adf {
+        p.validate()?;
+        let g = super::adf::fuse_adf(vis, tir, out, &p.adf, scratch)?;
+        return Ok(g.with(Guards::ADAPTIVE_ADF));
+    }
     let (w, h) = vis.size();
     let [a, b, _] = scratch.planes(w.saturating_mul(h))?;
     fuse_adaptive_rows(vis, tir, 0, h, 0..h, &mut out, p, decision, [a, b])
@@ -217,13 +266,18 @@ pub fn fuse_adaptive_rows(
         return Err(Error::InvalidParameter { name: "strip" });
     }
     let mut guards = Guards::NONE;
-    let Decision::Blend { vis_level } = decision else {
-        for (o, y) in out.rows_mut().zip(strip) {
-            for (o, &t) in o.iter_mut().zip(tir.row(y.saturating_sub(y0))) {
-                *o = t;
+    let vis_level = match decision {
+        Decision::Blend { vis_level } => vis_level,
+        Decision::TirOnly => {
+            for (o, y) in out.rows_mut().zip(strip) {
+                for (o, &t) in o.iter_mut().zip(tir.row(y.saturating_sub(y0))) {
+                    *o = t;
+                }
             }
+            return Ok(guards.with(Guards::ADAPTIVE_TIR_ONLY));
         }
-        return Ok(guards.with(Guards::ADAPTIVE_TIR_ONLY));
+        // ADF is a whole method with its own passes: the callers run it, never this form.
+        Decision::Adf => return Err(Error::InvalidParameter { name: "decision" }),
     };
     let [col_v, col_t] = cols;
     let capacity = col_v.len().min(col_t.len());

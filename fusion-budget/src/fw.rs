@@ -295,7 +295,13 @@ impl RunSpec {
     pub fn pipeline(&self) -> fusion_nostd::pipeline::FuseConfig {
         fusion_nostd::pipeline::FuseConfig {
             rescale: self.policy.into(),
-            method: fusion_engine::methods::method_for(self.method, self.variant),
+            method: match (self.method, self.variant) {
+                // The adaptive method's classic run is its blend alone (`fw/src/job.rs`).
+                (MethodArg::Adaptive, VariantArg::Classic) => fusion_nostd::pipeline::Method::Adaptive(
+                    fusion_nostd::methods::adaptive::AdaptiveParams::blend_only(),
+                ),
+                (m, v) => fusion_engine::methods::method_for(m, v),
+            },
             skip: self.skip.into(),
             scene: fusion_nostd::scene::SceneParams::default(),
         }

@@ -413,6 +413,13 @@ pub fn run(opts: &Options) -> Result<Outcome> {
                 let whole = RunSpec::plain(method, VariantArg::Classic, grid.policy());
                 [whole, RunSpec { strips: true, ..whole }]
             });
+            // The adaptive method's blend alone (its variant 0 in the job): what a frame with a
+            // small target costs, beside the budget pair's large target fused by ADF.
+            let blend = opts
+                .methods
+                .iter()
+                .filter(|&&m| m == MethodArg::Adaptive)
+                .map(|&method| RunSpec::plain(method, VariantArg::Classic, grid.policy()));
             // The thermal AGC on the pair's TIR frame as 14-bit counts (the TIR frame is 512² on
             // both grids: measured once, in the 512² job).
             let agc = fw::AgcKind::ALL.into_iter().filter(|_| grid == Grid::G512).map(RunSpec::agc);
@@ -438,6 +445,7 @@ pub fn run(opts: &Options) -> Result<Outcome> {
                     .chain(sequence)
                     .chain(skipping)
                     .chain(classic)
+                    .chain(blend)
                     .chain(agc)
                     .chain(thermal)
                     .chain(registration)
@@ -487,7 +495,7 @@ pub fn run(opts: &Options) -> Result<Outcome> {
             )?;
             out.exact.push((
                 format!(
-                    "{target}: budget pair, {}² grid, flight (whole frame, strips, ADF's sequence mode in strips, skipping), TSIFSD classic (whole frame and strips){}",
+                    "{target}: budget pair, {}² grid, flight (whole frame, strips, ADF's sequence mode in strips, skipping), TSIFSD classic (whole frame and strips), the adaptive blend alone{}",
                     grid.side(),
                     if job.tir16.is_some() {
                         ", thermal AGC (plateau, linear), thermal front end"
@@ -534,6 +542,20 @@ pub fn run(opts: &Options) -> Result<Outcome> {
                         stage: TirStage::Registration(name),
                         count,
                         size: vis_size,
+                    });
+                    continue;
+                }
+                if spec.variant == VariantArg::Classic && spec.method == MethodArg::Adaptive {
+                    let count = run.region("pipeline").context("no pipeline region in a blend run")?;
+                    let m = out
+                        .measured
+                        .iter_mut()
+                        .find(|m| m.target == target && m.grid == grid && m.method == spec.method)
+                        .context("a blend run without its staged run")?;
+                    m.stages.push(Stage {
+                        key: "blend",
+                        what: "whole pipeline, the blend alone (a small target's frame: `AdaptiveParams::blend_only`)",
+                        count,
                     });
                     continue;
                 }

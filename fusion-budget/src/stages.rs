@@ -42,8 +42,8 @@ pub(super) fn remainder_stage(m: MethodArg) -> (&'static str, &'static str) {
         ),
         MethodArg::Ifevip => ("features_reconstruct", "entropy, IR features, peak, reconstruction"),
         MethodArg::Adaptive => (
-            "analysis_blend",
-            "scene analysis of the input frames (the decision), then one pass: box means, VIS binomial, blend",
+            "analysis_fusion",
+            "scene analysis of both input frames (the decision), then the frame's fusion: on the budget pair's large target, ADF flight",
         ),
     }
 }

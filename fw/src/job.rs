@@ -8,7 +8,8 @@
 //! 20      number of runs n (1..=MAX_RUNS)
 //! 24      n × 4 bytes: method (0 ADF, 1 TSIFSD, 2 IFEVIP, 3 adaptive; 4 the thermal AGC;
 //!         5 the thermal front end; 6 registration),
-//!         variant (0 classic, 1 flight; AGC: 0 plateau, 1 linear),
+//!         variant (0 classic, 1 flight; adaptive: 0 the blend alone, `AdaptiveParams::blend_only`,
+//!         1 the default policy; AGC: 0 plateau, 1 linear),
 //!         rescale policy (0 TIR up, 1 VIS down, 2 none), flags (bit 0: measure the stages;
 //!         bit 1: raise a fault instead, to test that a fault ends the emulation with status 1;
 //!         bits 2–3: scene skip level, 0 none, 1 ROI, 2 all; bit 4: fuse in strips
@@ -45,6 +46,7 @@
 //! `SceneParams::default()` (the host builds the same [`FuseConfig`] for its comparison run).
 
 use fusion_nostd::Variant;
+use fusion_nostd::methods::adaptive::AdaptiveParams;
 use fusion_nostd::pipeline::{FuseConfig, Method, RescalePolicy, SkipPolicy};
 
 /// Most runs in one job.
@@ -194,7 +196,11 @@ impl Run {
     pub fn pipeline(&self) -> FuseConfig {
         // `method` numbers the core's `Method::KINDS` (TSIFSD for a number past them).
         let kind = Method::KINDS.get(usize::from(self.method)).copied().unwrap_or("tsifsd");
-        let method = Method::named(kind, self.variant).unwrap_or_default();
+        let method = match (kind, self.variant) {
+            // The adaptive method's variant 0: its blend alone (the budget's small-target cost).
+            ("adaptive", Variant::Classic) => Method::Adaptive(AdaptiveParams::blend_only()),
+            _ => Method::named(kind, self.variant).unwrap_or_default(),
+        };
         FuseConfig { rescale: self.policy, method, skip: self.skip, ..Default::default() }
     }
 

@@ -129,6 +129,12 @@ impl Default for AdaptiveParams {
 }
 
 impl AdaptiveParams {
+    /// The blend alone: [`Default`] without the ADF decision (`adf_from_px` 0) — the rule of
+    /// issue 20, and the cost of a small target's frame in the firmware's budget.
+    pub fn blend_only() -> Self {
+        Self { adf_from_px: 0, ..Self::default() }
+    }
+
     /// Checks every field's documented range ([`Error::InvalidParameter`] names the field).
     pub fn validate(&self) -> Result<(), Error> {
         if self.base_size.is_multiple_of(2) || !(3..=35).contains(&self.base_size) {

@@ -127,7 +127,8 @@ typedef enum FusionMethod {
   FUSION_METHOD_TSIFSD = 1,
   // Infrared feature extraction + visual information preservation.
   FUSION_METHOD_IFEVIP = 2,
-  // Illumination-adaptive two-scale fusion for navigation (no variants).
+  // Illumination-adaptive fusion for navigation: ADF on a large target, else the two-scale
+  // blend or the TIR frame (no variants).
   FUSION_METHOD_ADAPTIVE = 3,
 } FusionMethod;
 

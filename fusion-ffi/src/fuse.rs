@@ -24,7 +24,8 @@ pub enum FusionMethod {
     Tsifsd = 1,
     /// Infrared feature extraction + visual information preservation.
     Ifevip = 2,
-    /// Illumination-adaptive two-scale fusion for navigation (no variants).
+    /// Illumination-adaptive fusion for navigation: ADF on a large target, else the two-scale
+    /// blend or the TIR frame (no variants).
     Adaptive = 3,
 }
 

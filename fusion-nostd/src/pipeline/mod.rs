@@ -47,7 +47,8 @@
 //! * **Noisy frames** (sensor noise above `max_noise_spread`): the target box comes from the
 //!   analysis's block means ([`crate::scene::BlockStats`]), so TSIFSD and the adaptive method
 //!   skip them as above (outside the window: the background value, here the noise's level),
-//!   ADF and IFEVIP with the crop semantics.
+//!   ADF and IFEVIP with the crop semantics. (An adaptive frame with a large target is ADF's:
+//!   it skips with ADF's plans, [`crate::Guards::ADAPTIVE_ADF`].)
 //! * **The caller's window** ([`SkipPolicy::Window`], e.g. a navigation filter's predicted
 //!   target box): the same plans with that box in place of the analysis's target box and no
 //!   size limit — TSIFSD and the adaptive method exact on the ROI, ADF and IFEVIP the crop
@@ -95,9 +96,9 @@ pub enum Method {
     Tsifsd(TsifsdParams),
     /// Infrared feature extraction + visual information preservation.
     Ifevip(IfevipParams),
-    /// Illumination-adaptive two-scale fusion for navigation ([`crate::methods::adaptive`]): the
-    /// per-frame decision (TIR passes through when VIS has no signal) comes from the scene
-    /// analysis of the input VIS frame.
+    /// Illumination-adaptive fusion for navigation ([`crate::methods::adaptive`]): the per-frame
+    /// decision (ADF on a large target, TIR through when VIS has no signal, else the blend)
+    /// comes from the scene analysis of both input frames.
     Adaptive(AdaptiveParams),
 }
 
@@ -282,7 +283,7 @@ pub fn fusion_grid(
 /// Runs one method on two frames of the same size.
 ///
 /// The adaptive method takes its per-frame [`Decision`] from the scene analysis (default
-/// [`SceneParams`]) of this VIS frame; [`fuse`] takes it from the input VIS frame before any
+/// [`SceneParams`]) of these frames; [`fuse`] takes it from the input frames before any
 /// rescale ([`adaptive_decision`]), so call [`fuse_method_decided`] with that decision to get
 /// [`fuse`]'s bits from frames already on the grid.
 #[doc(hidden)]

@@ -370,10 +370,20 @@ pub fn error_chart(
     if let Some(b) = bounds.first_mut().filter(|b| b.name == "zero-motion") {
         b.points.clear();
     }
+    // A line drawn exactly over an earlier one (the adaptive method's large-target frames are
+    // ADF's) says so in the legend.
+    let mut lines = series(&|r| value(r).0);
+    let bits = |l: &Series| l.points.iter().map(|&(x, y)| (x.to_bits(), y.to_bits())).collect::<Vec<_>>();
+    for i in 1..lines.len() {
+        let here = bits(&lines[i]);
+        if let Some(same) = lines[..i].iter().find(|l| bits(l) == here).map(|l| l.name.clone()) {
+            lines[i].name = format!("{} (= {same}, drawn over it)", lines[i].name);
+        }
+    }
     chart_bounded(
         stem,
         Labels { title: &format!("{title} (grey: penumbra and eclipse)"), x: "frame", y },
-        &series(&|r| value(r).0),
+        &lines,
         &bounds,
         Style::LinesLogY,
         &shaded,

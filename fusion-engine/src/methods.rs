@@ -22,7 +22,8 @@ pub enum MethodArg {
     Tsifsd,
     /// Infrared feature extraction + visual information preservation.
     Ifevip,
-    /// Illumination-adaptive fusion for navigation (no variants: `--variant` is ignored).
+    /// Illumination-adaptive fusion for navigation: ADF (flight) on a large target, else the
+    /// blend or the TIR frame (no variants: `--variant` is ignored).
     Adaptive,
 }
 

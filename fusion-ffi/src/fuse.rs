@@ -65,7 +65,8 @@ pub enum FusionSkip {
     /// Fuse only the caller's box [`FusionConfig::window`] (e.g. a navigation filter's
     /// predicted target box), whatever the analysis found: TSIFSD and the adaptive method are
     /// bit-identical to `FUSION_SKIP_NONE` inside it, ADF and IFEVIP fuse the crop as a frame
-    /// of its own (crop semantics, see the core's `pipeline` docs); the background elsewhere.
+    /// of its own (crop semantics, see the core's `pipeline` docs; so does an adaptive frame
+    /// with a large target, which is ADF's); the background elsewhere.
     Window = 3,
 }
 

@@ -16,6 +16,19 @@ pub struct Series {
     pub points: Vec<(f64, f64)>,
 }
 
+/// Renames every series whose points are, bit for bit, an earlier one's to
+/// `"<name> (= <earlier>, drawn over it)"`: a line drawn exactly over another hides it, and the
+/// legend says so.
+pub fn name_identical(series: &mut [Series]) {
+    let bits = |s: &Series| s.points.iter().map(|&(x, y)| (x.to_bits(), y.to_bits())).collect::<Vec<_>>();
+    for i in 1..series.len() {
+        let here = bits(&series[i]);
+        if let Some(same) = series[..i].iter().find(|s| bits(s) == here).map(|s| s.name.clone()) {
+            series[i].name = format!("{} (= {same}, drawn over it)", series[i].name);
+        }
+    }
+}
+
 /// How a chart draws its series.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Style {
@@ -275,6 +288,16 @@ mod tests {
             .unwrap();
         assert!(p.exists());
         assert_eq!(runs(&[(0.0, 1.0), (1.0, f64::NAN), (2.0, 2.0), (3.0, 0.0), (4.0, 1.0)], true).len(), 3);
+    }
+
+    #[test]
+    fn identical_lines_are_named_in_the_legend() {
+        let line = |name: &str, y: f64| Series { name: name.into(), points: vec![(0.0, 1.0), (1.0, y)] };
+        let mut s =
+            vec![line("a", 2.0), line("b", 3.0), line("c", 2.0), line("d", f64::NAN), line("e", f64::NAN)];
+        name_identical(&mut s);
+        let names: Vec<&str> = s.iter().map(|s| s.name.as_str()).collect();
+        assert_eq!(names, ["a", "b", "c (= a, drawn over it)", "d", "e (= d, drawn over it)"]);
     }
 
     #[test]

@@ -8,7 +8,7 @@ use fusion_io::write_bytes;
 use fusion_navbench::bench::{FrameResult, PHASE_ALL, run_sequence, selected, summary};
 use fusion_navbench::registration::Registration;
 use fusion_navbench::seeds::{Figures, SeedSummary, Stat, Verdict, aggregate, verdict};
-use fusion_report::plot::{Labels, Series, Style, chart_bounded, chart_shaded};
+use fusion_report::plot::{Labels, Series, Style, chart_bounded, chart_shaded, name_identical};
 use render_host::sequence::{Phase, SequenceConfig, SequenceName, read_manifest, render_sequence};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -373,13 +373,7 @@ pub fn error_chart(
     // A line drawn exactly over an earlier one (the adaptive method's large-target frames are
     // ADF's) says so in the legend.
     let mut lines = series(&|r| value(r).0);
-    let bits = |l: &Series| l.points.iter().map(|&(x, y)| (x.to_bits(), y.to_bits())).collect::<Vec<_>>();
-    for i in 1..lines.len() {
-        let here = bits(&lines[i]);
-        if let Some(same) = lines[..i].iter().find(|l| bits(l) == here).map(|l| l.name.clone()) {
-            lines[i].name = format!("{} (= {same}, drawn over it)", lines[i].name);
-        }
-    }
+    name_identical(&mut lines);
     chart_bounded(
         stem,
         Labels { title: &format!("{title} (grey: penumbra and eclipse)"), x: "frame", y },

@@ -16,7 +16,8 @@ pub enum FuseMethod {
     Tsifsd,
     /// Infrared feature extraction + visual information preservation (core or f64 reference).
     Ifevip,
-    /// Illumination-adaptive fusion for navigation (core or f64 reference).
+    /// Illumination-adaptive fusion for navigation: ADF on a large target, else the blend or
+    /// the TIR frame (core or f64 reference).
     Adaptive,
     /// Guided-filter fusion, Li et al. 2013 (host f64 only).
     Gff,
@@ -76,7 +77,8 @@ pub struct FuseArgs {
     /// box of the fusion grid, `X0,Y0,X1,Y1` (columns X0..X1, rows Y0..Y1, end excluded), e.g.
     /// a navigation filter's predicted target box. TSIFSD and the adaptive method are
     /// bit-identical to `--skip none` inside it; ADF and IFEVIP fuse the crop as a frame of its
-    /// own; the background value elsewhere. The report is printed.
+    /// own (so does an adaptive frame with a large target, which is ADF's); the background
+    /// value elsewhere. The report is printed.
     #[arg(long, value_name = "X0,Y0,X1,Y1", conflicts_with = "skip")]
     pub window: Option<WindowArg>,
     /// Fuse strip by strip in the flight core's 512 KiB strip scratch (core engine, every

@@ -33,7 +33,7 @@
 //!   the blend keeps the VIS detail on the lit side only: on `flyaround` (a 130–220 px target)
 //!   the filter's availability over six seeds rose from 0.257 ± 0.024 to 0.661 ± 0.191, and on
 //!   `approach` (35–360 px) it stayed inside the seeds' spread (0.365 ± 0.308 against
-//!   0.346 ± 0.281; `BENCHMARKS.md`, "The adaptive policy judged again, on six seeds"). A
+//!   0.346 ± 0.281; `BENCHMARKS.md`, "The adaptive policy in the core"). A
 //!   smaller target keeps the rules below, which the navigation benchmark chose for the far
 //!   frames.
 //! * VIS has no usable signal when the analysis finds fewer than
@@ -53,11 +53,11 @@
 //!   ([`Guards::ADAPTIVE_GLARE`]).
 //!
 //! The rule was chosen on `fusion navbench` (the rendezvous sequences, study noise) among
-//! variants measured side by side (`BENCHMARKS.md`, "Navigation benchmark"; the ADF
-//! decision was added by the judge of issue 37): a frame-wide VIS
-//! share instead of the per-pixel lit share lost tracking on the frames where VIS sees a sliver
-//! of the target (lost 0.24 against 0.16); no smoothing of the VIS detail left the CNR below the
-//! thermal frame's; smoothing the TIR detail too halved the thermal corners in eclipse.
+//! variants measured side by side (`BENCHMARKS.md`, "Navigation benchmark"; the ADF decision
+//! was added under issue 37's judge): a frame-wide VIS share instead of the per-pixel lit share
+//! lost tracking on the frames where VIS sees a sliver of the target (lost 0.24 against 0.16);
+//! no smoothing of the VIS detail left the CNR below the thermal frame's; smoothing the TIR
+//! detail too halved the thermal corners in eclipse.
 //!
 //! # Number formats
 //!
@@ -78,9 +78,9 @@
 //!
 //! An ADF frame is ADF's: its scratch, its strip form (two passes, [`crate::strips`]) and its
 //! skip plan. The blend needs two rows of column sums (`2·W` `i32` words) slid down the
-//! frame; no plane. The row form ([`fuse_adaptive_rows`]) starts at any row of a window that holds the rows it reads
-//! (`max(n/2, 1)` above and below, cut at the frame's edges), which is the strip form
-//! ([`crate::strips`]); the whole frame is the window of one strip.
+//! frame; no plane. The row form ([`fuse_adaptive_rows`]) starts at any row of a window that
+//! holds the rows it reads (`max(n/2, 1)` above and below, cut at the frame's edges), which is
+//! the strip form ([`crate::strips`]); the whole frame is the window of one strip.
 
 /// The strip form ([`crate::strips::StripForm`]).
 mod strips;

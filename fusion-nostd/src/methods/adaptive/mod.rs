@@ -40,7 +40,9 @@
 //!   [`AdaptiveParams::min_vis_samples`] samples above its 6σ noise threshold
 //!   ([`crate::scene::BandStats`]) — eclipse, or the target's unlit side. Then the thermal frame
 //!   passes through unchanged ([`Guards::ADAPTIVE_TIR_ONLY`]): in eclipse the fused stream *is*
-//!   the thermal stream, bit for bit, never darker.
+//!   the thermal stream, bit for bit, never darker. (A large target in eclipse is ADF's: its
+//!   base is the two bands' mean, so the target shows at about half the thermal frame's
+//!   brightness — darker, and the filter holds on it where it does not on the thermal frame.)
 //! * **Base**: the brighter band's local mean. The target is bright in whichever band sees it
 //!   (sunlit in VIS, warm in TIR), so it is never darkened by the other band's black.
 //! * **Detail**: the VIS detail, smoothed by the binomial (σ ≈ 0.7 px: the sensor noise of the

@@ -295,13 +295,11 @@ impl RunSpec {
     pub fn pipeline(&self) -> fusion_nostd::pipeline::FuseConfig {
         fusion_nostd::pipeline::FuseConfig {
             rescale: self.policy.into(),
-            method: match (self.method, self.variant) {
-                // The adaptive method's classic run is its blend alone (`fw/src/job.rs`).
-                (MethodArg::Adaptive, VariantArg::Classic) => fusion_nostd::pipeline::Method::Adaptive(
-                    fusion_nostd::methods::adaptive::AdaptiveParams::blend_only(),
-                ),
-                (m, v) => fusion_engine::methods::method_for(m, v),
-            },
+            method: fusion_nostd::pipeline::Method::for_job(
+                crate::stages::method_key(self.method),
+                self.variant.into(),
+            )
+            .unwrap_or_default(),
             skip: self.skip.into(),
             scene: fusion_nostd::scene::SceneParams::default(),
         }

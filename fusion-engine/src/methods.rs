@@ -91,12 +91,18 @@ impl From<SkipArg> for fusion_nostd::pipeline::SkipPolicy {
     }
 }
 
+impl From<VariantArg> for Variant {
+    fn from(v: VariantArg) -> Self {
+        match v {
+            VariantArg::Classic => Self::Classic,
+            VariantArg::Flight => Self::Flight,
+        }
+    }
+}
+
 /// The core method configuration for a method name and variant.
 pub fn method_for(method: MethodArg, variant: VariantArg) -> Method {
-    let variant = match variant {
-        VariantArg::Classic => Variant::Classic,
-        VariantArg::Flight => Variant::Flight,
-    };
+    let variant = Variant::from(variant);
     match method {
         MethodArg::Adf => Method::Adf(AdfParams { variant, ..AdfParams::default() }),
         MethodArg::Tsifsd => Method::Tsifsd(TsifsdParams { variant, ..TsifsdParams::default() }),

@@ -46,7 +46,6 @@
 //! `SceneParams::default()` (the host builds the same [`FuseConfig`] for its comparison run).
 
 use fusion_nostd::Variant;
-use fusion_nostd::methods::adaptive::AdaptiveParams;
 use fusion_nostd::pipeline::{FuseConfig, Method, RescalePolicy, SkipPolicy};
 
 /// Most runs in one job.
@@ -196,11 +195,7 @@ impl Run {
     pub fn pipeline(&self) -> FuseConfig {
         // `method` numbers the core's `Method::KINDS` (TSIFSD for a number past them).
         let kind = Method::KINDS.get(usize::from(self.method)).copied().unwrap_or("tsifsd");
-        let method = match (kind, self.variant) {
-            // The adaptive method's variant 0: its blend alone (the budget's small-target cost).
-            ("adaptive", Variant::Classic) => Method::Adaptive(AdaptiveParams::blend_only()),
-            _ => Method::named(kind, self.variant).unwrap_or_default(),
-        };
+        let method = Method::for_job(kind, self.variant).unwrap_or_default();
         FuseConfig { rescale: self.policy, method, skip: self.skip, ..Default::default() }
     }
 

@@ -517,6 +517,17 @@ impl Method {
         Self::KINDS.map(|kind| Self::named(kind, Variant::Flight).unwrap_or_default())
     }
 
+    /// The method a firmware job's run names (`fw/src/job.rs`; the budget's host comparison
+    /// builds the same): [`Method::named`], except that the adaptive method's classic variant is
+    /// its blend alone ([`AdaptiveParams::blend_only`], the cost of a small target's frame).
+    #[doc(hidden)]
+    pub fn for_job(kind: &str, variant: Variant) -> Option<Method> {
+        match (kind, variant) {
+            ("adaptive", Variant::Classic) => Some(Method::Adaptive(AdaptiveParams::blend_only())),
+            _ => Self::named(kind, variant),
+        }
+    }
+
     /// The method called `kind` (one of [`Method::KINDS`]) with its default parameters in
     /// `variant` (the adaptive method has one); `None` for another name.
     pub fn named(kind: &str, variant: Variant) -> Option<Method> {

@@ -195,19 +195,17 @@ fn navigation(out: &std::path::Path) -> Result<Navigation> {
     use fusion_navbench::bench::{PHASE_ALL, run_sequence, summary};
     use render_host::sequence::{SequenceConfig, SequenceName, render_sequence};
     let dir = out.join("flyaround");
+    // Navbench's frames at 2 × 2 sub-pixel samples instead of 4 × 4: a quarter of the rays,
+    // so the demo stays within a minute (the sequence at full size: the target is large enough
+    // for the model's edges, and the adaptive method fuses it by ADF).
+    let base = SequenceConfig::new(SequenceName::Flyaround);
     let cfg = SequenceConfig {
         frames: 120,
         vis_size: 1024,
         tir_size: 512,
-        ..SequenceConfig::new(SequenceName::Flyaround)
-    };
-    // Navbench's frames at 2 × 2 sub-pixel samples instead of 4 × 4: a quarter of the rays,
-    // so the demo stays within a minute (the sequence at full size: the target is large enough
-    // for the model's edges, and the adaptive method fuses it by ADF).
-    let cfg = SequenceConfig {
-        vis: render_host::vis::VisParams { samples: 2, ..cfg.vis },
-        tir: render_host::tir::TirParams { samples: 2, ..cfg.tir },
-        ..cfg
+        vis: render_host::vis::VisParams { samples: 2, ..base.vis },
+        tir: render_host::tir::TirParams { samples: 2, ..base.tir },
+        ..base
     };
     if !dir.join("manifest.json").is_file() {
         outln!("rendering a {}-frame fly-around through the eclipse (VIS 1024², TIR 512²) …", cfg.frames)?;

@@ -54,14 +54,15 @@ fn main() -> Result<()> {
         let err = |q: DQuat, p: DVec3| {
             (rotation_vector(q.inverse() * q0).length().to_degrees(), 100.0 * (p - p0).length() / range)
         };
-        let a = fit(&gray, &cam, &model, &edges, q0, p0, 1.0);
+        let whole = fusion_navbench::region::Region::whole(gray.width(), gray.height());
+        let a = fit(&gray, whole, &cam, &model, &edges, (q0, p0), 1.0);
         let sa = 1f64.to_radians();
         // 1° about the camera's x axis, the position moved to keep the target centre in view.
         let dq = DQuat::from_scaled_axis(DVec3::X * sa);
         let q1 = q0 * dq;
         let c = render_host::glam::DMat3::from_quat(q0).transpose() * (scene.centre.as_dvec3() - p0);
         let p1 = scene.centre.as_dvec3() - render_host::glam::DMat3::from_quat(q1) * c;
-        let b = fit(&gray, &cam, &model, &edges, q1, p1, f64::from(cam.focal_px) * 2.0 * sa);
+        let b = fit(&gray, whole, &cam, &model, &edges, (q1, p1), f64::from(cam.focal_px) * 2.0 * sa);
         let show = |r: &Option<fusion_navbench::edges::EdgeFit>| match r {
             Some(r) => {
                 let (ea, ep) = err(r.measurement.attitude, r.measurement.position);

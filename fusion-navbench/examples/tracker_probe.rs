@@ -51,7 +51,8 @@ fn main() -> anyhow::Result<()> {
         let gray = image::GrayImage::from_raw(img.width as u32, img.height as u32, img.data).unwrap();
         let cam = Camera::study(size, f.pose());
         let s = smooth(&gray);
-        let fe = tracker.track(&s, &cam, &model, i as u64);
+        let whole = fusion_navbench::region::Region::whole(s.width(), s.height());
+        let fe = tracker.track(&s, whole, &cam, &model, i as u64);
         let err = fe.pose.map(|r| {
             let m = r.measurement();
             let c = m.covariance;
@@ -87,7 +88,7 @@ fn main() -> anyhow::Result<()> {
         let p90 = res.get(res.len() * 9 / 10).copied().unwrap_or(f64::NAN);
         println!("    true-pose residual of kept tracks: median {med:.2} px, p90 {p90:.2} px");
         if let Some(bbox) = model.image_box(&cam, 0.3)
-            && let Some(seen) = fusion_navbench::silhouette::segment(&s, bbox)
+            && let Some(seen) = fusion_navbench::silhouette::segment(&s, bbox, whole)
             && let Some(at) = model.silhouette(&cam, bbox, 1)
         {
             let Some((p, _)) = fusion_navbench::silhouette::position_measurement(&seen, &at, &cam, &model)
@@ -107,7 +108,7 @@ fn main() -> anyhow::Result<()> {
                 f.range_m
             );
         }
-        let added = tracker.replenish(&s, &cam, &model);
+        let added = tracker.replenish(&s, whole, &cam, &model);
         println!(
             "{i:3} {:?} tracked {:4} inliers {:4} added {:4} err {:?} box {:?}",
             f.phase,

@@ -44,6 +44,7 @@ use super::features::{detect, grow_mask};
 use super::filter::{FilterParams, PoseFilter, PoseMeasurement, rotation_vector};
 use super::model::{TargetModel, camera_at, normalised};
 use super::pose::{MIN_INLIERS, RelativePose, estimate, pnp_ransac};
+use super::region::Region;
 use super::registration::{Registration, misregistration, on_vis_grid};
 use super::silhouette::{position_measurement, segment};
 use super::track::{Feature, describe, match_features, test_pairs};
@@ -706,24 +707,43 @@ pub fn sensor_frames(dir: &Path, m: &SequenceManifest, n: usize) -> Result<Vec<[
     Ok(out)
 }
 
-/// The stream's image of one frame (VIS grid) and, for skip streams, (coverage, window share);
-/// `window`: a closed-loop stream's predicted box; `through`: an offset rig's thermal frame is
-/// registered through it at that range before it is used (`None`: rescaled, as for aligned
-/// cameras).
+/// A stream's image of one frame (VIS grid).
+struct StreamImage {
+    image: Gray<u8>,
+    /// The region holding the scene: the whole frame, or a skipped fusion's window (outside it
+    /// the core writes its background value). On board the navigation knows it too: it is the
+    /// window the fusion reports (or the one the navigation handed in).
+    valid: Region,
+    /// Share of the target pixels (both cameras' masks) inside `valid`.
+    coverage: f64,
+    /// `valid`'s share of the frame.
+    window_frac: f64,
+}
+
+impl StreamImage {
+    fn whole(image: Gray<u8>) -> StreamImage {
+        let valid = Region::whole(image.width as u32, image.height as u32);
+        StreamImage { image, valid, coverage: 1.0, window_frac: 1.0 }
+    }
+}
+
+/// The stream's image of one frame (VIS grid); `window`: a closed-loop stream's predicted box;
+/// `through`: an offset rig's thermal frame is registered through it at that range before it is
+/// used (`None`: rescaled, as for aligned cameras).
 fn stream_image(
     stream: &Stream,
     fd: &FrameData,
     window: Rect,
     through: Option<(&Rig, f64)>,
     sequence: &mut Sequence,
-) -> Result<(Gray<u8>, f64, f64)> {
+) -> Result<StreamImage> {
     let (w, h) = (fd.vis.width, fd.vis.height);
     let p = &match *stream {
         Stream::ZeroMotion | Stream::Oracle => anyhow::bail!("a baseline has no image"),
-        Stream::Vis => return Ok((fd.vis.clone(), 1.0, 1.0)),
-        Stream::Tir => return Ok((on_vis_grid(&fd.tir, w, h, through)?, 1.0, 1.0)),
+        Stream::Vis => return Ok(StreamImage::whole(fd.vis.clone())),
+        Stream::Tir => return Ok(StreamImage::whole(on_vis_grid(&fd.tir, w, h, through)?)),
         Stream::Sensor(stage) => {
-            return Ok((on_vis_grid(sensor_frame(fd, stage)?, w, h, through)?, 1.0, 1.0));
+            return Ok(StreamImage::whole(on_vis_grid(sensor_frame(fd, stage)?, w, h, through)?));
         }
         Stream::Fused(p) | Stream::SensorFused(p) | Stream::InSequence(p) => p,
         Stream::Loop(p) => FuseConfig { skip: SkipPolicy::Window(window), ..p },
@@ -754,7 +774,8 @@ fn stream_image(
         inside += usize::from(win.contains(k % w, k / w));
     }
     let coverage = if total == 0 { 1.0 } else { inside as f64 / total as f64 };
-    Ok((out, coverage, win.area() as f64 / (w * h) as f64))
+    let valid = Region { x0: win.x0 as u32, y0: win.y0 as u32, x1: win.x1 as u32, y1: win.y1 as u32 };
+    Ok(StreamImage { image: out, valid, coverage, window_frac: win.area() as f64 / (w * h) as f64 })
 }
 
 /// Per-frame state the next frame's pairwise matching needs: features with their 3D points.
@@ -1026,16 +1047,16 @@ impl SequenceRun<'_> {
             row.misregistration_px = median;
             row.misregistration_p95_px = p95;
         }
-        let (img, target_coverage, window_frac) =
+        let StreamImage { image: img, valid, coverage, window_frac } =
             stream_image(stream, fd, window, through, &mut st.sequence)?;
-        row.target_coverage = target_coverage;
+        row.target_coverage = coverage;
         row.window_frac = window_frac;
         row.cnr = cnr(&img.data, &fd.vis_mask, &fd.ring_mask);
         let gray =
             GrayImage::from_raw(img.width as u32, img.height as u32, img.data).context("image size")?;
         st.prev_pairwise = Some(self.pairwise(row, &gray, &st.pairs, st.prev_pairwise.as_ref(), i));
         let smoothed = smooth(&gray);
-        let fe = st.tracker.track(&smoothed, &predicted, &self.model, i as u64);
+        let fe = st.tracker.track(&smoothed, valid, &predicted, &self.model, i as u64);
         row.tracks = fe.tracked;
         row.inliers = fe.inliers;
         // The tracks' pose is scored frame to frame, not fed to the filter: its 3D points come
@@ -1045,11 +1066,11 @@ impl SequenceRun<'_> {
         // The absolute cues: the model's edges where the target is large enough to fit them,
         // its outline where it is not.
         // (Nothing has updated the filter since `predicted`.)
-        if !self.edge_update(&smoothed, &predicted, &mut st.filter) {
-            self.outline_update(&smoothed, &predicted, &mut st.filter);
+        if !self.edge_update(&smoothed, valid, &predicted, &mut st.filter) {
+            self.outline_update(&smoothed, valid, &predicted, &mut st.filter);
         }
         let estimate = camera_at(cam, st.filter.attitude, st.filter.position);
-        st.tracker.replenish(&smoothed, &estimate, &self.model);
+        st.tracker.replenish(&smoothed, valid, &estimate, &self.model);
         if i > 0 {
             score_pair(row, st.prev_measurement.as_ref(), m.as_ref(), &self.truth_pair(i));
         }
@@ -1060,7 +1081,13 @@ impl SequenceRun<'_> {
     /// The model's edges fitted around the prediction `estimate` ([`crate::edges::fit`]) into
     /// the filter, when the target is predicted at least [`crate::edges::MIN_TARGET_PX`] wide
     /// and the fit lies inside the filter's gate. Whether the filter took it.
-    fn edge_update(&self, smoothed: &GrayImage, estimate: &Camera, filter: &mut PoseFilter) -> bool {
+    fn edge_update(
+        &self,
+        smoothed: &GrayImage,
+        valid: Region,
+        estimate: &Camera,
+        filter: &mut PoseFilter,
+    ) -> bool {
         let big_enough = self
             .model
             .image_box(estimate, 0.0)
@@ -1075,20 +1102,27 @@ impl SequenceRun<'_> {
         let sigma_px = f64::from(estimate.focal_px) * (sigma_att + sigma_pos / range);
         crate::edges::fit(
             smoothed,
+            valid,
             estimate,
             &self.model,
             self.edges,
-            filter.attitude,
-            filter.position,
+            (filter.attitude, filter.position),
             sigma_px,
         )
         .is_some_and(|fit| filter.update_if_consistent(&fit.measurement))
     }
 
     /// The outline against the model's at the estimate ([`crate::silhouette`]): a position.
-    fn outline_update(&self, smoothed: &GrayImage, estimate: &Camera, filter: &mut PoseFilter) {
+    /// `valid`: the region holding the scene ([`StreamImage::valid`]).
+    fn outline_update(
+        &self,
+        smoothed: &GrayImage,
+        valid: Region,
+        estimate: &Camera,
+        filter: &mut PoseFilter,
+    ) {
         if let Some(bbox) = self.model.image_box(estimate, 0.3)
-            && let Some(seen) = segment(smoothed, bbox)
+            && let Some(seen) = segment(smoothed, bbox, valid)
         {
             let step = ((bbox.2 - bbox.0).max(bbox.3 - bbox.1) / 96).max(1);
             if let Some(at) = self.model.silhouette(estimate, bbox, step)

@@ -15,6 +15,7 @@
 
 use crate::filter::PoseMeasurement;
 use crate::model::{TargetModel, camera_at};
+use crate::region::Region;
 use image::GrayImage;
 use nalgebra::{Matrix6, Vector6};
 use render_host::glam::{DMat3, DQuat, DVec2, DVec3};
@@ -147,7 +148,7 @@ impl ModelEdges {
     pub fn samples(&self, cam: &Camera, model: &TargetModel<'_>, border: f64) -> Vec<EdgeSample> {
         let project =
             |x: DVec3| cam.project(x.as_vec3()).map(|(u, v)| DVec2::new(f64::from(u), f64::from(v)));
-        let (w, h) = (f64::from(cam.width), f64::from(cam.height));
+        let whole = Region::whole(cam.width, cam.height);
         let mut out = Vec::new();
         for c in &self.creases {
             let (Some(pa), Some(pb)) = (project(c.a), project(c.b)) else { continue };
@@ -156,7 +157,7 @@ impl ModelEdges {
                 let t = (k as f64 + 0.5) / n as f64;
                 let x = c.a + (c.b - c.a) * t;
                 let Some(p) = project(x) else { continue };
-                if p.x < border || p.y < border || p.x >= w - border || p.y >= h - border {
+                if !whole.holds(p.x, p.y, border) {
                     continue;
                 }
                 // The local direction of the projection (a lens bends a straight crease).
@@ -196,20 +197,43 @@ fn bilinear(img: &GrayImage, u: f64, v: f64) -> Option<f64> {
     )
 }
 
+/// Shortest search profile, samples: a profile cut shorter by the scene's region has no room
+/// for a step.
+const MIN_PROFILE: usize = 5;
+
 /// The offset (px, along `s.normal`) of the crease's intensity step within `range` px of the
 /// prediction: of the local maxima of the profile's derivative at least [`MIN_STEP`] and
 /// [`STRONG_FRACTION`] of the strongest strong, the nearest to the prediction, refined to
-/// sub-pixel by a parabola.
-pub fn search(img: &GrayImage, s: &EdgeSample, range: f64) -> Option<f64> {
+/// sub-pixel by a parabola. The profile stops where it would leave `valid`, the part of the
+/// image that holds the scene ([`crate::region`]): the edge of a skipped fusion's window is not
+/// the target's; a sample outside it finds nothing, and outside the image `None` as well.
+pub fn search(img: &GrayImage, valid: Region, s: &EdgeSample, range: f64) -> Option<f64> {
     let r = range.ceil() as i32 + 1;
-    let profile: Vec<f64> = (-r..=r)
-        .map(|k| bilinear(img, s.image.x + s.normal.x * f64::from(k), s.image.y + s.normal.y * f64::from(k)))
+    let at = |k: i32| s.image + s.normal * f64::from(k);
+    // Bilinear reads pixel centres within half a pixel of the point.
+    let inside = |k: i32| {
+        let p = at(k);
+        valid.holds(p.x, p.y, 0.5)
+    };
+    if !inside(0) {
+        return None;
+    }
+    let before = (1..=r).take_while(|&k| inside(-k)).last().unwrap_or(0);
+    let after = (1..=r).take_while(|&k| inside(k)).last().unwrap_or(0);
+    let profile: Vec<f64> = (-before..=after)
+        .map(|k| {
+            let p = at(k);
+            bilinear(img, p.x, p.y)
+        })
         .collect::<Option<_>>()?;
+    if profile.len() < MIN_PROFILE {
+        return None;
+    }
     let g: Vec<f64> = (1..profile.len() - 1).map(|i| 0.5 * (profile[i + 1] - profile[i - 1]).abs()).collect();
     let peaks: Vec<(f64, f64)> = (1..g.len() - 1)
         .filter(|&i| g[i] >= MIN_STEP && g[i] >= g[i - 1] && g[i] >= g[i + 1])
         .map(|i| {
-            let offset = (i as i32 + 1 - r) as f64;
+            let offset = (i as i32 + 1 - before) as f64;
             let denom = g[i - 1] - 2.0 * g[i] + g[i + 1];
             let sub = if denom < 0.0 { (0.5 * (g[i - 1] - g[i + 1]) / denom).clamp(-0.5, 0.5) } else { 0.0 };
             (g[i], offset + sub)
@@ -293,14 +317,15 @@ fn moved(attitude: DQuat, position: DVec3, d: &Vector6<f64>) -> (DQuat, DVec3) {
 /// alone decide (the prediction is only the start), so the result is a measurement independent
 /// of the filter: its covariance is [`INFLATION`]` × σ² (Jᵀ W J)⁻¹` (σ the residuals' robust σ)
 /// plus [`FLOOR_ATT_DEG`]² and ([`FLOOR_POS_FRAC`] × range)² on the diagonal. `cam` gives the
-/// intrinsics. `None` with fewer than [`MIN_SAMPLES`] edges found or a singular fit.
+/// intrinsics; `valid` the part of `img` that holds the scene (no search reads past it). `None`
+/// with fewer than [`MIN_SAMPLES`] edges found or a singular fit.
 pub fn fit(
     img: &GrayImage,
+    valid: Region,
     cam: &Camera,
     model: &TargetModel<'_>,
     edges: &ModelEdges,
-    attitude: DQuat,
-    position: DVec3,
+    (attitude, position): (DQuat, DVec3),
     sigma_px: f64,
 ) -> Option<EdgeFit> {
     let (mut q, mut p) = (attitude, position);
@@ -312,7 +337,7 @@ pub fn fit(
             .samples(&at, model, range + BORDER_PX)
             .iter()
             .filter_map(|s| {
-                search(img, s, range).map(|d| Observation {
+                search(img, valid, s, range).map(|d| Observation {
                     point: s.point,
                     found: s.image + s.normal * d,
                     normal: s.normal,
@@ -390,7 +415,8 @@ pub const SUPPORT_TOLERANCE_PX: f64 = 1.5;
 /// Whether the image shows one crease sample where a pose puts it: a step within
 /// [`SUPPORT_TOLERANCE_PX`] ([`search`] over [`SUPPORT_RANGE_PX`]).
 pub fn supported(img: &GrayImage, s: &EdgeSample) -> bool {
-    search(img, s, SUPPORT_RANGE_PX).is_some_and(|d| d.abs() <= SUPPORT_TOLERANCE_PX)
+    search(img, Region::whole(img.width(), img.height()), s, SUPPORT_RANGE_PX)
+        .is_some_and(|d| d.abs() <= SUPPORT_TOLERANCE_PX)
 }
 
 /// How much of the model's outline and creases the image shows at the pose of `cam`
@@ -411,6 +437,33 @@ pub fn support(img: &GrayImage, cam: &Camera, model: &TargetModel<'_>, edges: &M
 mod tests {
     use super::*;
     use render_host::sequence::{SequenceConfig, SequenceName, camera_pose, state};
+
+    /// A crease at x = 40 (90 → 30 grey levels) and, at x = 60, the edge of a skipped fusion's
+    /// window (30 → the background value 0): searched from x = 50 across both, the whole image's
+    /// search takes the window's edge (the stronger step, and as near); searched inside the
+    /// window it finds the crease, and from a point with only the window's edge in reach,
+    /// nothing.
+    #[test]
+    fn the_search_stops_at_the_window() {
+        let img = GrayImage::from_fn(100, 20, |x, _| {
+            image::Luma([if x < 40 {
+                90
+            } else if x < 60 {
+                30
+            } else {
+                0
+            }])
+        });
+        let window = Region { x0: 0, y0: 0, x1: 60, y1: 20 };
+        let at = |x: f64| EdgeSample { point: DVec3::ZERO, image: DVec2::new(x, 10.0), normal: DVec2::X };
+        // Steps lie between pixel centres 39.5 | 40.5 and 59.5 | 60.5: at u = 40 and u = 60.
+        let whole = search(&img, Region::whole(100, 20), &at(52.0), 15.0).expect("a step");
+        assert!((whole - 8.0).abs() < 0.6, "{whole}");
+        let inside = search(&img, window, &at(52.0), 15.0).expect("a step");
+        assert!((inside + 12.0).abs() < 0.6, "{inside}");
+        assert_eq!(search(&img, window, &at(56.0), 3.0), None);
+        assert_eq!(search(&img, window, &at(61.0), 15.0), None, "a sample outside the window");
+    }
 
     /// The distortion's Jacobian against central differences of the lens model itself.
     #[test]
@@ -514,7 +567,8 @@ mod tests {
         let p0 = pose.position.as_dvec3();
         let q = q0 * DQuat::from_scaled_axis(DVec3::new(0.6, -0.8, 0.0).normalize() * 0.3f64.to_radians());
         let p = p0 + DVec3::new(0.015, -0.01, 0.01);
-        let f = fit(&img, &truth, &model, &edges, q, p, 10.0).expect("a fit");
+        let whole = Region::whole(img.width(), img.height());
+        let f = fit(&img, whole, &truth, &model, &edges, (q, p), 10.0).expect("a fit");
         let m = f.measurement;
         let att = crate::filter::rotation_vector(m.attitude.inverse() * q0).length().to_degrees();
         let pos = (m.position - p0).length();

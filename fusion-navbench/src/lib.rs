@@ -18,6 +18,8 @@
 //! * [`silhouette`] — the target's outline against the model's: a position measurement.
 //! * [`registration`] — an offset rig's thermal frame on the visible grid at the filter's
 //!   range, and the misregistration it leaves (from the rendered depth).
+//! * [`region`] — the part of a frame that holds the scene (a skipped fusion's window): the
+//!   front end reads nothing outside it.
 //! * [`filter`] — the navigation filter: an MEKF on the relative attitude and position.
 //! * [`baseline`] — `zero-motion` and `oracle` (ground-truth correspondences).
 //! * [`bench`](mod@bench) — `fusion navbench`'s engine: every source of a sequence through the
@@ -50,6 +52,7 @@ pub mod features;
 pub mod filter;
 pub mod model;
 pub mod pose;
+pub mod region;
 pub mod registration;
 pub mod seeds;
 pub mod silhouette;

@@ -28,6 +28,7 @@
 use crate::features::PRESMOOTH_SIGMA;
 use crate::model::{TargetModel, normalised};
 use crate::pose::{INLIER_THRESHOLD_PX, RefinedPose, estimate};
+use crate::region::Region;
 use crate::warp::{GradientImage, Template};
 use image::GrayImage;
 use imageproc::filter::gaussian_blur_f32;
@@ -131,9 +132,12 @@ impl ModelTracker {
 
     /// Tracks the features into `frame` (already [`smooth`]ed), `predicted` the camera at the
     /// filter's prediction for it, and measures the pose. `index` seeds this frame's RANSAC.
+    /// `valid`: the part of `frame` that holds the scene ([`crate::region`]); a track whose
+    /// window reaches past it is dropped (its window would match the region's edge).
     pub fn track(
         &mut self,
         frame: &GrayImage,
+        valid: Region,
         predicted: &Camera,
         model: &TargetModel,
         index: u64,
@@ -157,8 +161,12 @@ impl ModelTracker {
                     calc_optical_flow_fb(&previous, &pyramid, &from, Some(&guess), params, p.fb_threshold);
                 let gradients = GradientImage::new(frame);
                 let tracks = std::mem::take(&mut self.tracks);
+                let inside = valid.shrunk(p.window as u32 / 2);
                 for (t, r) in tracks.into_iter().zip(&results) {
-                    if r.status != TrackStatus::Tracked || !model.visible(predicted, t.point) {
+                    if r.status != TrackStatus::Tracked
+                        || !inside.holds(f64::from(r.pos.0) + 0.5, f64::from(r.pos.1) + 0.5, 0.0)
+                        || !model.visible(predicted, t.point)
+                    {
                         continue;
                     }
                     let Some(q) = t.template.refine(&gradients, predicted, r.pos) else { continue };
@@ -200,14 +208,22 @@ impl ModelTracker {
 
     /// Tops the tracks up from `frame` (the one just tracked) when fewer than
     /// [`TrackerParams::min_tracks`] remain: corners inside the model's box at the estimate
-    /// `estimate`, back-projected onto the model there.
+    /// `estimate` whose window lies inside `valid` ([`crate::region`]), back-projected onto the
+    /// model there.
     /// Returns how many were added.
-    pub fn replenish(&mut self, frame: &GrayImage, estimate: &Camera, model: &TargetModel) -> usize {
+    pub fn replenish(
+        &mut self,
+        frame: &GrayImage,
+        valid: Region,
+        estimate: &Camera,
+        model: &TargetModel,
+    ) -> usize {
         let p = self.params;
         if self.tracks.len() >= p.min_tracks {
             return 0;
         }
-        let Some((x0, y0, x1, y1)) = model.image_box(estimate, 0.1) else { return 0 };
+        let Some(bbox) = model.image_box(estimate, 0.1) else { return 0 };
+        let Some((x0, y0, x1, y1)) = valid.shrunk(p.window as u32 / 2).clip(bbox) else { return 0 };
         let (w, h) = (x1 - x0, y1 - y0);
         if w < 16 || h < 16 {
             return 0;

@@ -91,11 +91,11 @@ fn main() -> anyhow::Result<()> {
             && let Some(seen) = fusion_navbench::silhouette::segment(&s, bbox, whole)
             && let Some(at) = model.silhouette(&cam, bbox, 1)
         {
-            let Some((p, _)) = fusion_navbench::silhouette::position_measurement(&seen, &at, &cam, &model)
+            let Some((t, _)) = fusion_navbench::silhouette::centre_measurement(&seen, &at, &cam, &model)
             else {
                 continue;
             };
-            let d = p - cam.pose.position.as_dvec3();
+            let d = t - model.centre_in_camera(&cam);
             println!(
                 "    outline at the true pose: area {:.0} vs model {:.0}, centroid ({:.1}, {:.1}) vs ({:.1}, {:.1}), position error {:.3} m of range {:.1}",
                 seen.area,

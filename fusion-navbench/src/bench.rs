@@ -41,12 +41,12 @@
 
 use super::baseline::{observe, surface_points, unit_vector};
 use super::features::{detect, grow_mask};
-use super::filter::{FilterParams, PoseFilter, PoseMeasurement, rotation_vector};
+use super::filter::{FilterParams, PoseFilter, PoseMeasurement, relative_position, rotation_vector};
 use super::model::{TargetModel, camera_at, normalised};
 use super::pose::{MIN_INLIERS, RelativePose, estimate, pnp_ransac};
 use super::region::Region;
 use super::registration::{Registration, misregistration, on_vis_grid};
-use super::silhouette::{position_measurement, segment};
+use super::silhouette::{centre_measurement, segment};
 use super::track::{Feature, describe, match_features, test_pairs};
 use super::tracker::{ModelTracker, TrackerParams, smooth};
 use anyhow::{Context, Result};
@@ -146,12 +146,12 @@ pub const LOOP_MARGIN_PX: f64 = 24.0;
 /// attitude and position in pixels (`f·(σ_θ + σ_p/range)`, the root of each block's trace) and
 /// [`LOOP_MARGIN_PX`]. Empty when the sphere is predicted behind the camera or off the image.
 pub fn predicted_box(model: &TargetModel<'_>, filter: &PoseFilter, intrinsics: &Camera) -> Rect {
-    let predicted = camera_at(intrinsics, filter.attitude, filter.position);
+    let predicted = camera_at(intrinsics, filter.attitude, filter.position());
     let Some((x0, y0, x1, y1)) = model.image_box(&predicted, 0.0) else { return Rect::default() };
     let c = filter.pose_covariance();
     let sigma_att = (c[(0, 0)] + c[(1, 1)] + c[(2, 2)]).max(0.0).sqrt();
     let sigma_pos = (c[(3, 3)] + c[(4, 4)] + c[(5, 5)]).max(0.0).sqrt();
-    let range = filter.position.length().max(1e-3);
+    let range = filter.position().length().max(1e-3);
     let f = f64::from(predicted.focal_px);
     let grow = 3.0 * f * (sigma_att + sigma_pos / range) + LOOP_MARGIN_PX;
     let (w, h) = (f64::from(predicted.width), f64::from(predicted.height));
@@ -803,8 +803,9 @@ fn relative(a: (DQuat, DVec3), b: (DQuat, DVec3)) -> RelativePose {
 /// The filter started on the first frame's true state perturbed by [`INIT_ATT_ERR_DEG`],
 /// [`INIT_POS_ERR_FRAC`], [`INIT_RATE_ERR_DEG_S`] and [`INIT_VEL_ERR_FRAC_S`] in directions
 /// drawn from `seed` (the same for every source of a run): the hand-over from acquisition,
-/// which is out of scope. The true rate and velocity are the first two frames' differences.
-fn initial_filter(first: &FrameData, second: &FrameData, seed: u64) -> PoseFilter {
+/// which is out of scope. The true rate and velocity (of `centre`, the target model's
+/// reference point, in the camera frame) are the first two frames' differences.
+fn initial_filter(first: &FrameData, second: &FrameData, centre: DVec3, seed: u64) -> PoseFilter {
     let mut rng = SplitMix64::new(mix64(seed ^ 0x1A17_0000));
     let (q0, p0) = true_pose(&first.camera);
     let (q1, p1) = true_pose(&second.camera);
@@ -816,19 +817,14 @@ fn initial_filter(first: &FrameData, second: &FrameData, seed: u64) -> PoseFilte
     let mut f = PoseFilter::new(
         q0 * DQuat::from_scaled_axis(unit_vector(&mut rng) * att),
         p0 + unit_vector(&mut rng) * pos,
-        att,
-        pos,
+        centre,
+        (att, pos),
         params,
     );
     f.rate = rotation_vector(q0.inverse() * q1) / dt + unit_vector(&mut rng) * rate;
-    f.velocity = (p1 - p0) / dt + unit_vector(&mut rng) * vel;
+    let (t0, t1) = (relative_position(q0, p0, centre), relative_position(q1, p1, centre));
+    f.target_velocity = (t1 - t0) / dt + unit_vector(&mut rng) * vel;
     f
-}
-
-/// The target's reference point `centre` (target frame) as the camera at `attitude` (camera →
-/// target) and `position` (target frame) sees it: in the camera's frame, m.
-pub fn relative_position(attitude: DQuat, position: DVec3, centre: DVec3) -> DVec3 {
-    render_host::glam::DMat3::from_quat(attitude).transpose() * (centre - position)
 }
 
 /// Fills the filter's measures of `row` against the frame's truth; `centre` is the target
@@ -839,7 +835,7 @@ fn score_filter(row: &mut FrameResult, filter: &PoseFilter, fd: &FrameData, cent
     let (a3, p3) = filter.three_sigma();
     row.att_err_deg = ea.length().to_degrees();
     row.pos_err_pct = 100.0 * ep.length() / fd.range_m;
-    let rel = relative_position(filter.attitude, filter.position, centre) - relative_position(q, p, centre);
+    let rel = relative_position(filter.attitude, filter.position(), centre) - relative_position(q, p, centre);
     row.rel_pos_err_pct = 100.0 * rel.length() / fd.range_m;
     row.att_3sigma_deg = a3.to_degrees();
     row.pos_3sigma_pct = 100.0 * p3 / fd.range_m;
@@ -932,7 +928,7 @@ impl SequenceRun<'_> {
     fn source(&self, source: &str, stream: &Stream) -> Result<Vec<FrameResult>> {
         let mut rows = Vec::with_capacity(self.data.len());
         let mut st = StreamState {
-            filter: initial_filter(&self.data[0], &self.data[1], self.seed),
+            filter: initial_filter(&self.data[0], &self.data[1], self.model.centre(), self.seed),
             tracker: ModelTracker::new(TrackerParams::default(), mix64(self.seed ^ 0x7EAC)),
             pairs: test_pairs(),
             prev_pairwise: None,
@@ -941,12 +937,12 @@ impl SequenceRun<'_> {
             sequence: Sequence::default(),
         };
         // The registration's first range: the initial filter's.
-        let first = camera_at(&self.data[0].camera, st.filter.attitude, st.filter.position);
+        let first = camera_at(&self.data[0].camera, st.filter.attitude, st.filter.position());
         st.registration_range = self.model.centre_in_camera(&first).z;
         if matches!(stream, Stream::ZeroMotion) {
             // No motion: the estimate stays where it started.
             st.filter.rate = DVec3::ZERO;
-            st.filter.velocity = DVec3::ZERO;
+            st.filter.target_velocity = DVec3::ZERO;
         }
         for (i, fd) in self.data.iter().enumerate() {
             let mut row = FrameResult::new(self.name, self.seed, i, fd.phase, source);
@@ -1026,7 +1022,7 @@ impl SequenceRun<'_> {
             Stream::Loop(_) => predicted_box(&self.model, &st.filter, cam),
             _ => Rect::default(),
         };
-        let predicted = camera_at(cam, st.filter.attitude, st.filter.position);
+        let predicted = camera_at(cam, st.filter.attitude, st.filter.position());
         // An offset rig: the thermal frame registered at the range this frame's prediction
         // (or the truth) puts the target centre at, along the VIS axis.
         let through = match (self.rig, self.registration) {
@@ -1069,7 +1065,7 @@ impl SequenceRun<'_> {
         if !self.edge_update(&smoothed, valid, &predicted, &mut st.filter) {
             self.outline_update(&smoothed, valid, &predicted, &mut st.filter);
         }
-        let estimate = camera_at(cam, st.filter.attitude, st.filter.position);
+        let estimate = camera_at(cam, st.filter.attitude, st.filter.position());
         st.tracker.replenish(&smoothed, valid, &estimate, &self.model);
         if i > 0 {
             score_pair(row, st.prev_measurement.as_ref(), m.as_ref(), &self.truth_pair(i));
@@ -1096,7 +1092,7 @@ impl SequenceRun<'_> {
             return false;
         }
         let c = filter.pose_covariance();
-        let range = filter.position.length().max(1e-3);
+        let range = filter.position().length().max(1e-3);
         let sigma_att = (c[(0, 0)] + c[(1, 1)] + c[(2, 2)]).max(0.0).sqrt();
         let sigma_pos = (c[(3, 3)] + c[(4, 4)] + c[(5, 5)]).max(0.0).sqrt();
         let sigma_px = f64::from(estimate.focal_px) * (sigma_att + sigma_pos / range);
@@ -1106,13 +1102,14 @@ impl SequenceRun<'_> {
             estimate,
             &self.model,
             self.edges,
-            (filter.attitude, filter.position),
+            (filter.attitude, filter.position()),
             sigma_px,
         )
         .is_some_and(|fit| filter.update_if_consistent(&fit.measurement))
     }
 
-    /// The outline against the model's at the estimate ([`crate::silhouette`]): a position.
+    /// The outline against the model's at the estimate ([`crate::silhouette`]): the relative
+    /// position.
     /// `valid`: the region holding the scene ([`StreamImage::valid`]).
     fn outline_update(
         &self,
@@ -1126,9 +1123,9 @@ impl SequenceRun<'_> {
         {
             let step = ((bbox.2 - bbox.0).max(bbox.3 - bbox.1) / 96).max(1);
             if let Some(at) = self.model.silhouette(estimate, bbox, step)
-                && let Some((p, r)) = position_measurement(&seen, &at, estimate, &self.model)
+                && let Some((t, r)) = centre_measurement(&seen, &at, estimate, &self.model)
             {
-                filter.update_position(p, &r);
+                filter.update_relative(t, &r);
             }
         }
     }
@@ -1333,28 +1330,6 @@ fn skip_summary(v: &[&FrameResult]) -> SkipSummary {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    /// A camera 8 m from the target's centre, looking at it; the same camera turned by 1° about
-    /// the centre (its attitude turned, its position carried round the centre): the position
-    /// moves by 2 · 8 m · sin(0.5°) = 13.96 cm (1.75 % of the range) while the target's centre
-    /// stays where it was in the camera's frame. A camera moved 10 cm sideways moves the
-    /// relative position by the same 10 cm.
-    #[test]
-    fn relative_position_ignores_a_turn_about_the_centre() {
-        let centre = DVec3::new(0.1, -0.2, 0.3);
-        // Camera axes (columns, target frame): looking along +x from 8 m in front.
-        let q = DQuat::from_mat3(&render_host::glam::DMat3::from_cols(DVec3::Y, DVec3::Z, DVec3::X));
-        let p = centre - DVec3::X * 8.0;
-        assert!((relative_position(q, p, centre) - DVec3::new(0.0, 0.0, 8.0)).length() < 1e-12);
-        let turn = DQuat::from_scaled_axis(DVec3::X * 1f64.to_radians());
-        let q2 = q * turn;
-        let p2 = centre - render_host::glam::DMat3::from_quat(q2) * DVec3::new(0.0, 0.0, 8.0);
-        let moved = (p2 - p).length();
-        assert!((moved - 2.0 * 8.0 * 0.5f64.to_radians().sin()).abs() < 1e-12, "{moved}");
-        assert!((relative_position(q2, p2, centre) - relative_position(q, p, centre)).length() < 1e-12);
-        let side = relative_position(q, p + DVec3::Y * 0.1, centre) - relative_position(q, p, centre);
-        assert!((side.length() - 0.1).abs() < 1e-12);
-    }
 
     #[test]
     fn cnr_of_a_hand_made_case() {

@@ -25,7 +25,7 @@ use crate::region::Region;
 use image::GrayImage;
 use nalgebra::Matrix3;
 use render_host::Camera;
-use render_host::glam::{DMat3, DVec3};
+use render_host::glam::DVec3;
 
 /// 1σ of the centroid's error, px.
 pub const LATERAL_SD_PX: f64 = 5.0;
@@ -123,10 +123,11 @@ pub fn segment(img: &GrayImage, bbox: (u32, u32, u32, u32), valid: Region) -> Op
     (n >= MIN_AREA_PX).then(|| Silhouette { area: n, cx: sx / n, cy: sy / n })
 }
 
-/// The camera position (target frame) that the image's silhouette implies, and its
-/// covariance, given the estimate `cam` and the model's silhouette there; `None` when the
-/// areas differ by more than [`AREA_RATIO_RANGE`].
-pub fn position_measurement(
+/// The target's centre in the camera frame that the image's silhouette implies, and its
+/// covariance (camera frame), given the estimate `cam` and the model's silhouette there; `None`
+/// when the areas differ by more than [`AREA_RATIO_RANGE`]. It says nothing of the attitude:
+/// the filter takes it as a measurement of its relative position alone.
+pub fn centre_measurement(
     image: &Silhouette,
     model_at_estimate: &Silhouette,
     cam: &Camera,
@@ -151,14 +152,12 @@ pub fn position_measurement(
         (a.x - b.x, a.y - b.y)
     };
     let measured = DVec3::new((c.x / c.z + du) * z, (c.y / c.z + dv) * z, z);
-    let rot: DMat3 = cam.pose.rotation.as_dmat3();
-    let position = model.centre() - rot * measured;
     let lateral = LATERAL_SD_PX / f * z;
     let range = RANGE_SD_FRAC * z;
-    let local =
-        Matrix3::from_diagonal(&nalgebra::Vector3::new(lateral * lateral, lateral * lateral, range * range));
-    let r = Matrix3::from_column_slice(&rot.to_cols_array());
-    Some((position, r * local * r.transpose()))
+    Some((
+        measured,
+        Matrix3::from_diagonal(&nalgebra::Vector3::new(lateral * lateral, lateral * lateral, range * range)),
+    ))
 }
 
 #[cfg(test)]
@@ -193,19 +192,27 @@ mod tests {
         Case { scene, mask, truth, wrong, est }
     }
 
+    /// The target centre in the camera frame at the truth and at the wrong estimate (the
+    /// estimate's attitude is the true one).
+    fn centres(model: &TargetModel, est: &Camera, truth: DVec3) -> (DVec3, DVec3) {
+        let q = DQuat::from_mat3(&est.pose.rotation.as_dmat3());
+        (model.centre_in_camera(&camera_at(est, q, truth)), model.centre_in_camera(est))
+    }
+
     /// The true camera's rendered mask, segmented, measured against the model at the wrong
-    /// estimate: the measurement lands within its 2σ of the true position, and much closer
-    /// than the estimate.
+    /// estimate: the measurement lands within its 2σ of the true relative position, and much
+    /// closer than the estimate.
     #[test]
     fn outline_pulls_a_wrong_estimate_back_to_the_truth() {
-        let Case { scene, mask, truth: p, wrong, est } = wrong_estimate();
+        let Case { scene, mask, truth, est, .. } = wrong_estimate();
         let model = TargetModel::new(&scene);
+        let (p, wrong) = centres(&model, &est, truth);
         let bbox = model.image_box(&est, 0.3).unwrap();
         let img =
             GrayImage::from_raw(512, 512, mask.iter().map(|&m| if m { 200 } else { 3 }).collect()).unwrap();
         let seen = segment(&img, bbox, Region::whole(512, 512)).expect("segmented");
         let at_est = model.silhouette(&est, bbox, 1).expect("model silhouette");
-        let (m, cov) = position_measurement(&seen, &at_est, &est, &model).expect("a measurement");
+        let (m, cov) = centre_measurement(&seen, &at_est, &est, &model).expect("a measurement");
         let err = m - p;
         let e = nalgebra::Vector3::new(err.x, err.y, err.z);
         let d2 = (e.transpose() * cov.try_inverse().unwrap() * e)[(0, 0)];
@@ -220,8 +227,9 @@ mod tests {
     /// alone would see nothing darker than the background.
     #[test]
     fn against_the_earth_the_outline_is_what_differs_from_its_surroundings() {
-        let Case { scene, mask, truth: p, wrong, est } = wrong_estimate();
+        let Case { scene, mask, truth, est, .. } = wrong_estimate();
         let model = TargetModel::new(&scene);
+        let (p, wrong) = centres(&model, &est, truth);
         let bbox = model.image_box(&est, 0.3).unwrap();
         let mut rng = render_host::noise::SplitMix64::new(5);
         for target in [100u8, 210] {
@@ -239,7 +247,7 @@ mod tests {
             let img = GrayImage::from_raw(512, 512, data).unwrap();
             let seen = segment(&img, bbox, Region::whole(512, 512)).expect("segmented");
             let at_est = model.silhouette(&est, bbox, 1).expect("model silhouette");
-            let (m, _) = position_measurement(&seen, &at_est, &est, &model).expect("a measurement");
+            let (m, _) = centre_measurement(&seen, &at_est, &est, &model).expect("a measurement");
             let err = m - p;
             assert!(
                 err.length() < 0.3 * (wrong - p).length(),

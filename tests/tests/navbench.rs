@@ -192,7 +192,7 @@ fn the_predicted_box_holds_the_target_and_grows_with_the_uncertainty() {
         let cam = Camera::study(160, f.pose());
         let q = DQuat::from_mat3(&cam.pose.rotation.as_dmat3()).normalize();
         let p = cam.pose.position.as_dvec3();
-        let tight = PoseFilter::new(q, p, 1e-6, 1e-6, FilterParams::default());
+        let tight = PoseFilter::new(q, p, model.centre(), (1e-6, 1e-6), FilterParams::default());
         let b = predicted_box(&model, &tight, &cam);
         let mask =
             fusion_io::load_gray_u8(&dir.path().join(&f.files.vis_mask), fusion_io::ColorPolicy::Refuse)
@@ -201,11 +201,12 @@ fn the_predicted_box_holds_the_target_and_grows_with_the_uncertainty() {
         for k in pixels {
             assert!(b.contains(k % 160, k / 160), "frame {}: target pixel {k} outside {b:?}", f.index);
         }
-        let loose = PoseFilter::new(q, p, 0.2, 0.2 * f64::from(f.range_m), FilterParams::default());
+        let loose =
+            PoseFilter::new(q, p, model.centre(), (0.2, 0.2 * f64::from(f.range_m)), FilterParams::default());
         let big = predicted_box(&model, &loose, &cam);
         assert!(big.covers(&b) && big.area() > b.area(), "frame {}: {big:?} vs {b:?}", f.index);
         assert_eq!(big.area(), 160 * 160, "frame {}: 0.2 rad and 20 % of the range cover the frame", f.index);
-        let behind = PoseFilter::new(q, -p, 1e-6, 1e-6, FilterParams::default());
+        let behind = PoseFilter::new(q, -p, model.centre(), (1e-6, 1e-6), FilterParams::default());
         assert!(predicted_box(&model, &behind, &cam).is_empty(), "frame {}", f.index);
     }
 }

@@ -174,7 +174,6 @@ mod tests {
         scene: Scene,
         mask: Vec<bool>,
         truth: DVec3,
-        wrong: DVec3,
         est: Camera,
     }
 
@@ -189,7 +188,7 @@ mod tests {
         let c = model.centre();
         let wrong = c + (truth - c) * 1.05 + DVec3::new(0.0, 0.0, 0.1);
         let est = camera_at(&camera, q, wrong);
-        Case { scene, mask, truth, wrong, est }
+        Case { scene, mask, truth, est }
     }
 
     /// The target centre in the camera frame at the truth and at the wrong estimate (the
@@ -204,7 +203,7 @@ mod tests {
     /// closer than the estimate.
     #[test]
     fn outline_pulls_a_wrong_estimate_back_to_the_truth() {
-        let Case { scene, mask, truth, est, .. } = wrong_estimate();
+        let Case { scene, mask, truth, est } = wrong_estimate();
         let model = TargetModel::new(&scene);
         let (p, wrong) = centres(&model, &est, truth);
         let bbox = model.image_box(&est, 0.3).unwrap();
@@ -227,7 +226,7 @@ mod tests {
     /// alone would see nothing darker than the background.
     #[test]
     fn against_the_earth_the_outline_is_what_differs_from_its_surroundings() {
-        let Case { scene, mask, truth, est, .. } = wrong_estimate();
+        let Case { scene, mask, truth, est } = wrong_estimate();
         let model = TargetModel::new(&scene);
         let (p, wrong) = centres(&model, &est, truth);
         let bbox = model.image_box(&est, 0.3).unwrap();

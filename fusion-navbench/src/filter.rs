@@ -12,8 +12,9 @@
 //!
 //! **Model.** Constant rate and constant velocity between frames, driven by white angular and
 //! linear acceleration of spectral densities [`FilterParams::angular_accel`] and
-//! [`FilterParams::linear_accel_per_m`] (the latter in proportion to the range; the discretised "nearly constant velocity" model, each axis
-//! `Q = q [[dt³/3, dt²/2], [dt²/2, dt]]`). A tumbling target seen from a chaser on a fly-around
+//! [`FilterParams::linear_accel_per_m`] (the latter in proportion to the range; the
+//! discretised "nearly constant velocity" model, each axis `Q = q [[dt³/3, dt²/2], [dt²/2,
+//! dt]]`). A tumbling target seen from a chaser on a fly-around
 //! is close to that: the relative rate is constant to a fraction of a degree per second. The
 //! translation is carried in the camera frame because the chaser points its camera at the
 //! target: there the target's centre moves only with the range (a fly-around keeps it still,

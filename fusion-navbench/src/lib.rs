@@ -20,7 +20,8 @@
 //!   range, and the misregistration it leaves (from the rendered depth).
 //! * [`region`] — the part of a frame that holds the scene (a skipped fusion's window): the
 //!   front end reads nothing outside it.
-//! * [`filter`] — the navigation filter: an MEKF on the relative attitude and position.
+//! * [`filter`] — the navigation filter: an MEKF on the relative attitude and the target's
+//!   position in the camera's frame.
 //! * [`baseline`] — `zero-motion` and `oracle` (ground-truth correspondences).
 //! * [`bench`](mod@bench) — `fusion navbench`'s engine: every source of a sequence through the
 //!   chain, per frame and per illumination phase.

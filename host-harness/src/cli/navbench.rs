@@ -441,9 +441,10 @@ estimated pose, PnP-RANSAC (SQPnP) + Levenberg–Marquardt. *f2f rot*: the rotat
 relative pose between two consecutive measured poses; *lost*: pairs without it.\n\
 * **Absolute cues**: the model's creases searched along their normals around the prediction and \
 the pose fitted to them (Gauss–Newton, Tukey weights) where the target is predicted ≥ 96 px wide; \
-the outline's position elsewhere.\n\
-* **Filter**: an MEKF on the relative attitude (constant rate) and position (constant velocity), \
-fed by the absolute cues (not by the tracks' pose, which drifts with the estimate its points come \
+the outline's position elsewhere; both read only the part of a frame that holds the scene (a skipped \
+fusion's window).\n\
+* **Filter**: an MEKF on the relative attitude (constant rate) and the target's centre in the \
+camera's frame (constant velocity there: the chaser points at the target), fed by the absolute cues (not by the tracks' pose, which drifts with the estimate its points come \
 from), started on the first frame's truth perturbed by 1° and 1 % of the range. *available*: share of \
 frames with attitude error ≤ 2° and position error ≤ 2 % of range (the position is the camera's in \
 the target's frame, so an attitude error about the target's centre counts in it too: 1° is 1.75 % \

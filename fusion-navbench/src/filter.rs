@@ -1,6 +1,6 @@
 //! The navigation filter over a sequence: a multiplicative extended Kalman filter (MEKF) on the
 //! relative pose of the chaser's camera and the target, fed by pose measurements (the model
-//! edges' fit, the oracle's PnP poses) and position measurements (the outline).
+//! edges' fit, the oracle's PnP poses) and relative-position measurements (the outline).
 //!
 //! **State.** The camera attitude `q` (camera → target, a unit quaternion) and its angular rate
 //! `ω` in the camera frame; the target's reference point (the model's centre, the point the
@@ -14,8 +14,8 @@
 //! linear acceleration of spectral densities [`FilterParams::angular_accel`] and
 //! [`FilterParams::linear_accel_per_m`] (the latter in proportion to the range; the
 //! discretised "nearly constant velocity" model, each axis `Q = q [[dt³/3, dt²/2], [dt²/2,
-//! dt]]`). A tumbling target seen from a chaser on a fly-around
-//! is close to that: the relative rate is constant to a fraction of a degree per second. The
+//! dt]]`). A tumbling target seen from a chaser on a fly-around is close to that: the relative
+//! rate is constant to a fraction of a degree per second. The
 //! translation is carried in the camera frame because the chaser points its camera at the
 //! target: there the target's centre moves only with the range (a fly-around keeps it still,
 //! an approach closes along the boresight), while the camera's position in the target frame
@@ -65,7 +65,7 @@ pub struct FilterParams {
 impl Default for FilterParams {
     fn default() -> Self {
         FilterParams {
-            // A rate that changes by ≈ 0.1°/s over 10 s; a velocity changing by 0.125 % of the
+            // A rate that changes by ≈ 0.1°/s over 10 s; a velocity changing by 0.25 % of the
             // range per s² (the approach's, closing from 50 m to 5 m at a constant time to go,
             // by 0.04 %).
             angular_accel: (0.02f64.to_radians()).powi(2),
@@ -189,9 +189,8 @@ impl PoseFilter {
             pose[(i, i)] = att_sd * att_sd;
             pose[(3 + i, 3 + i)] = pos_sd * pos_sd;
         }
-        let k = to_target_errors(&rotation_matrix(attitude), &v3(target));
         let mut p = Cov12::zeros();
-        Self::set_pose_block(&mut p, &(k * pose * k.transpose()));
+        Self::set_pose_block(&mut p, attitude, target, &pose);
         for i in 0..3 {
             p[(3 + i, 3 + i)] = params.initial_rate_sd.powi(2);
             p[(9 + i, 9 + i)] = params.initial_velocity_sd.powi(2);
@@ -210,8 +209,11 @@ impl PoseFilter {
         }
     }
 
-    /// Writes `m`, a covariance of `(δθ, δt)`, into those blocks of `p`.
-    fn set_pose_block(p: &mut Cov12, m: &Matrix6<f64>) {
+    /// Writes `pose`, a covariance of the pose errors `(δθ, δp)` at `attitude` and `target`, into
+    /// the `(δθ, δt)` blocks of `p` ([`to_target_errors`]).
+    fn set_pose_block(p: &mut Cov12, attitude: DQuat, target: DVec3, pose: &Matrix6<f64>) {
+        let k = to_target_errors(&rotation_matrix(attitude), &v3(target));
+        let m = k * pose * k.transpose();
         const IDX: [usize; 6] = [0, 1, 2, 6, 7, 8];
         for (r, &i) in IDX.iter().enumerate() {
             for (c, &j) in IDX.iter().enumerate() {
@@ -375,9 +377,8 @@ impl PoseFilter {
         }
         self.attitude = m.attitude.normalize();
         self.target = target;
-        let k = to_target_errors(&rotation_matrix(self.attitude), &v3(target));
         let mut p = Cov12::zeros();
-        Self::set_pose_block(&mut p, &(k * m.covariance * k.transpose()));
+        Self::set_pose_block(&mut p, self.attitude, target, &m.covariance);
         for i in 0..3 {
             p[(3 + i, 3 + i)] = self.params.restart_rate_sd.powi(2);
             p[(9 + i, 9 + i)] = self.params.restart_velocity_sd.powi(2);

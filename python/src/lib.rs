@@ -738,11 +738,50 @@ fn register<'py>(
     }
 }
 
+/// The cases of a campaign file (`fusion campaign plan FILE --json`), and the plan's
+/// fingerprint: JSON text `{"name", "fingerprint", "cases": [...]}` (`vistir.campaign` parses it).
+#[pyfunction]
+fn _campaign_plan(py: Python<'_>, path: PathBuf) -> PyResult<String> {
+    py.detach(|| -> anyhow::Result<String> {
+        let file = fusion_campaign::file::CampaignFile::read(&path)?;
+        let cases = fusion_campaign::plan::plan(&file)?;
+        let fingerprint = fusion_campaign::plan::fingerprint(&file.name, &cases);
+        Ok(serde_json::to_string(&serde_json::json!({
+            "name": file.name,
+            "fingerprint": fingerprint,
+            "cases": cases,
+        }))?)
+    })
+    .map_err(py_err)
+}
+
+/// Runs one campaign case (its JSON, as planned): renders its sequence into a scratch folder
+/// under `scratch` (removed afterwards), judges every stream; returns its rows as JSON text.
+/// `threads`: the worker threads it may use (0: every core).
+#[pyfunction]
+#[pyo3(signature = (case, scratch, threads=0))]
+fn _campaign_case(py: Python<'_>, case: &str, scratch: PathBuf, threads: usize) -> PyResult<String> {
+    let case: fusion_campaign::plan::Case =
+        serde_json::from_str(case).map_err(|e| PyValueError::new_err(format!("not a campaign case: {e}")))?;
+    py.detach(|| -> anyhow::Result<String> {
+        fusion_io::console::set_quiet(true);
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build()?;
+        let rows = pool.install(|| fusion_campaign::case::run(&case, &scratch))?;
+        Ok(serde_json::to_string(&rows)?)
+    })
+    .map_err(py_err)
+}
+
 /// VIS/TIR image fusion for spacecraft navigation: the flight core, the metrics and the
 /// renderer from Python.
 #[pymodule]
-fn vistir(m: &Bound<'_, PyModule>) -> PyResult<()> {
+fn _vistir(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    // What a campaign records as the code that produced its results: the package version and
+    // the commit it was built from (`+dirty` with uncommitted changes), from build.rs.
+    m.add("_code_version", concat!(env!("CARGO_PKG_VERSION"), "+", env!("VISTIR_GIT_REV")))?;
+    m.add_function(wrap_pyfunction!(_campaign_plan, m)?)?;
+    m.add_function(wrap_pyfunction!(_campaign_case, m)?)?;
     m.add_function(wrap_pyfunction!(fuse, m)?)?;
     m.add_class::<Sequence>()?;
     m.add_function(wrap_pyfunction!(rescale, m)?)?;

@@ -5,6 +5,7 @@ use clap::{Parser, Subcommand};
 pub mod agc;
 pub mod bench;
 pub mod budget;
+pub mod campaign;
 pub mod demo;
 pub mod eval;
 pub mod fuse;
@@ -68,6 +69,9 @@ pub enum Command {
     /// without skipping) of the rendezvous sequences through a feature-based front end, per
     /// illumination phase, against the rendered ground truth.
     Navbench(navbench::NavbenchArgs),
+    /// Monte Carlo campaigns of the navigation judge: `plan FILE` lists the cases with their
+    /// stable ids (runs: `vistir-campaign run`, the Python package on Dask).
+    Campaign(campaign::CampaignArgs),
 }
 
 /// Runs one parsed command line.
@@ -107,5 +111,6 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
             render::run(&args)
         }
         Command::Navbench(args) => navbench::run(&args),
+        Command::Campaign(args) => campaign::run(&args),
     }
 }

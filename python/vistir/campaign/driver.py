@@ -207,10 +207,12 @@ def run(
                             futures[f] = case
                         for f in as_completed(list(futures)):
                             case = futures.pop(f)
-                            if f.status == "finished":
-                                record(case, f.result())
+                            try:
+                                result = f.result()
+                            except Exception as e:  # KilledWorker, or the case's own error
+                                record(case, exc=e)
                             else:
-                                record(case, exc=f.exception())
+                                record(case, result)
                             f.release()
                     finally:
                         client.close()

@@ -150,7 +150,8 @@ def run(
     (a Dask scheduler's address), `slurm` (keyword arguments of dask_jobqueue.SLURMCluster,
     plus `jobs`), `cluster` (any Dask cluster object), or `serial=True` (in this process, no
     Dask: the reference a distributed run must equal). `allowed_failures`: how many workers a
-    case may kill before it is recorded as failed. Returns what the run did; the merged table
+    case may kill before it is recorded as failed (set on the clusters started here; an
+    existing scheduler applies its own `distributed.scheduler.allowed-failures`). Returns what the run did; the merged table
     is written once every planned case is finished."""
     start = time.monotonic()
     p = plan(file)
@@ -158,12 +159,16 @@ def run(
     with Store(out) as store:
         _check_state(store, p, allow_changed)
         records = store.records()
-        finished = {
-            cid
-            for cid, r in records.items()
-            if cid in set(p.ids)
-            and (r["status"] == "done" and store.case_path(cid).exists() or r["status"] == "failed" and not retry_failed)
-        }
+        planned = set(p.ids)
+
+        def is_finished(cid: str, r: Dict) -> bool:
+            if cid not in planned:
+                return False
+            if r["status"] == "done":
+                return store.case_path(cid).exists()
+            return not retry_failed
+
+        finished = {cid for cid, r in records.items() if is_finished(cid, r)}
         todo = [c for c in p.cases if c["id"] not in finished]
         scratch_dir = scratch or tempfile.gettempdir()
         bar = _Progress(len(p.cases), len(finished), p.name, progress)
@@ -225,6 +230,6 @@ def run(
         ok = [cid for cid in p.ids if records.get(cid, {}).get("status") == "done"]
         results = store.merge(ok) if complete and ok else None
         for cid, r in records.items():
-            if r["status"] == "failed" and cid in set(p.ids):
+            if r["status"] == "failed" and cid in planned:
                 failures.setdefault(cid, r.get("reason", ""))
     return RunSummary(len(p.cases), len(finished), done, failed, time.monotonic() - start, results, failures)

@@ -180,6 +180,19 @@ def report(out) -> Path:
         cells = [_fmt(bootstrap_mean(g[c].to_numpy(dtype=float)), 2 if c in ("nees", "att_rms_deg", "pos_rms_pct") else 3) for c, _, _ in MEASURES]
         lines.append(f"| {s} | {g.case_id.nunique()} | " + " | ".join(cells) + " |")
     lines.append("")
+    # Each illumination phase the sequences pass through (a case counts where its frames fall in it).
+    phases = [ph for ph in ("light", "penumbra", "eclipse") if ph in set(df["phase"])]
+    if phases:
+        lines += ["## By illumination phase", "", "navigation availability (cases whose sequence passes through the phase):", ""]
+        lines += ["| trajectory | phase | cases | " + " | ".join(sources) + " |", "|---" * (len(sources) + 3) + "|"]
+        for traj in sorted(df["trajectory"].unique()):
+            for ph in phases:
+                g = df[(df.trajectory == traj) & (df.phase == ph)]
+                if g.empty:
+                    continue
+                cells = [_fmt(bootstrap_mean(g[g.source == s]["availability"].to_numpy(dtype=float)), 2) for s in sources]
+                lines.append(f"| {traj} | {ph} | {g.case_id.nunique()} | " + " | ".join(cells) + " |")
+        lines.append("")
     for col, label in axes:
         lines += [f"## By {label}", ""]
         for m, mlabel, _ in MEASURES[:2]:

@@ -5,7 +5,7 @@
 //! and every stream judged, summarised over cases.
 //!
 //! This crate is the part every engine shares, one module per stage:
-//! * [`file`] — the campaign file (TOML), read and checked with one-line errors.
+//! * [`file`](mod@file) — the campaign file (TOML), read and checked with one-line errors.
 //! * [`plan`] — its cases in a fixed order, each with a stable id (a hash of its parameters and
 //!   the campaign seed) and a sensor seed drawn from the id, so a rerun is bit-identical.
 //! * [`case`] — one case run: rendered into a scratch folder, judged, one row per stream and

@@ -38,7 +38,12 @@ fn the_plan_is_the_product_of_the_axes_with_stable_distinct_ids() {
     // Each combination once, each replica with its own sensor seed.
     let mut combos = std::collections::BTreeSet::new();
     for c in &cases {
-        let key = (c.trajectory.as_str(), c.sun_phase_deg.map(f64::to_bits), c.earth_km.map(f64::to_bits), c.replica);
+        let key = (
+            c.trajectory.as_str(),
+            c.sun_phase_deg.map(f64::to_bits),
+            c.earth_km.map(f64::to_bits),
+            c.replica,
+        );
         assert!(combos.insert(key));
     }
     let seeds: std::collections::BTreeSet<u64> = cases.iter().map(|c| c.seed).collect();
@@ -116,7 +121,10 @@ fn a_case_renders_what_it_names() {
     let file = parse(&BASE.replace(r#"["flyaround", "approach"]"#, r#"["radial", "flyaround"]"#)).unwrap();
     for c in plan(&file).unwrap() {
         let cfg = sequence_config(&c);
-        assert_eq!((cfg.name, cfg.frames, cfg.vis_size, cfg.tir_size, cfg.seed), (c.trajectory, 6, 96, 48, c.seed));
+        assert_eq!(
+            (cfg.name, cfg.frames, cfg.vis_size, cfg.tir_size, cfg.seed),
+            (c.trajectory, 6, 96, 48, c.seed)
+        );
         assert_eq!(cfg.sun_phase_deg, c.sun_phase_deg);
         let km = cfg.earth.map(|e| e.altitude_m / 1000.0);
         match (c.trajectory.as_str(), c.earth_km) {
@@ -168,12 +176,21 @@ fn a_case_run_gives_the_judges_figures_per_stream_and_phase() {
     .unwrap();
     let direct = fusion_navbench::bench::summary(&frames);
     for r in &rows {
-        assert_eq!((r.case_id.as_str(), r.seed, r.trajectory.as_str()), (case.id.as_str(), case.seed, "flyaround"));
+        assert_eq!(
+            (r.case_id.as_str(), r.seed, r.trajectory.as_str()),
+            (case.id.as_str(), case.seed, "flyaround")
+        );
         assert_eq!(r.sun_phase_deg, Some(45.0));
         assert!(!r.earth && r.earth_km.is_none());
         assert_eq!(r.figures, direct.by_sequence["flyaround"][&r.source][&r.phase]);
     }
     // The oracle holds navigation, the zero-motion guess does not.
-    let avail = |s: &str| rows.iter().find(|r| r.source == s && r.phase == "all").unwrap().figures.availability;
-    assert!(avail("oracle") > 0.9 && avail("zero-motion") < 0.5, "{} {}", avail("oracle"), avail("zero-motion"));
+    let avail =
+        |s: &str| rows.iter().find(|r| r.source == s && r.phase == "all").unwrap().figures.availability;
+    assert!(
+        avail("oracle") > 0.9 && avail("zero-motion") < 0.5,
+        "{} {}",
+        avail("oracle"),
+        avail("zero-motion")
+    );
 }

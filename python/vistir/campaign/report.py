@@ -39,6 +39,8 @@ BASELINES = ("zero-motion", "oracle")
 RESAMPLES = 2000
 #: Fewest cases of a condition for a verdict on it (a bootstrap of fewer says little).
 MIN_CASES = 5
+#: Below this mean availability no stream is named to fly: every one has lost navigation.
+USABLE = 0.10
 
 
 def bootstrap_mean(values: np.ndarray, seed: int = 0) -> Tuple[float, float, float]:
@@ -121,6 +123,8 @@ def _best(df, streams: Sequence[str]) -> str:
     a, b = per[best].align(per[second], join="inner")
     _, lo, _ = bootstrap_mean((a - b).to_numpy(dtype=float))
     mean_best = float(per[best].mean())
+    if mean_best < USABLE:
+        return f"none navigates (best: {best}, {mean_best:.2f})"
     if a.size < MIN_CASES:
         return f"{best} ({mean_best:.2f}; {a.size} cases, too few for a verdict)"
     if lo > 0:
@@ -214,7 +218,8 @@ def report(out) -> Path:
         "",
         "Per condition, the stream with the highest mean availability; in bold where the paired bootstrap "
         "interval of its difference to the runner-up (the same cases) lies above zero, else both named; "
-        f"no verdict on fewer than {MIN_CASES} cases.",
+        f"no verdict on fewer than {MIN_CASES} cases; none where even the best keeps navigation on "
+        f"less than {USABLE:.0%} of the frames.",
         "",
         "| " + " | ".join(dict(AXES)[k] for k in keys) + " | stream to fly (availability) |",
         "|---" * (len(keys) + 1) + "|",

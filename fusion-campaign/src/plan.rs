@@ -178,3 +178,33 @@ pub fn fingerprint(name: &str, cases: &[Case]) -> String {
     }
     hex16(&h.finalize().into())
 }
+
+/// The plan as a table, as `fusion campaign plan` and `vistir-campaign plan` print it: a header
+/// line with the name, case count, fingerprint and streams, then one tab-separated line per case.
+pub fn table(name: &str, cases: &[Case]) -> String {
+    fn num(v: Option<f64>, none: &str) -> String {
+        v.map_or(none.to_string(), |x| {
+            format!("{x:.6}").trim_end_matches('0').trim_end_matches('.').to_string()
+        })
+    }
+    let mut out = format!(
+        "# campaign {name}: {} cases, plan {}, streams {}\nid\ttrajectory\ttarget\tearth_km\tsun_phase_deg\tglare\treplica\tseed\n",
+        cases.len(),
+        fingerprint(name, cases),
+        cases.first().map(|c| c.sources.join(",")).unwrap_or_default()
+    );
+    for c in cases {
+        out += &format!(
+            "{}\t{}\t{}\t{}\t{}\t{}\t{}\t{}\n",
+            c.id,
+            c.trajectory.as_str(),
+            c.target.as_str(),
+            num(c.earth_km, "-"),
+            num(c.sun_phase_deg, "own"),
+            c.glare,
+            c.replica,
+            c.seed
+        );
+    }
+    out
+}

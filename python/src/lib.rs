@@ -738,8 +738,9 @@ fn register<'py>(
     }
 }
 
-/// The cases of a campaign file (`fusion campaign plan FILE --json`), and the plan's
-/// fingerprint: JSON text `{"name", "fingerprint", "cases": [...]}` (`vistir.campaign` parses it).
+/// The cases of a campaign file (`fusion campaign plan FILE --json`), the plan's fingerprint and
+/// its table (as `fusion campaign plan FILE` prints it): JSON text `{"name", "fingerprint",
+/// "table", "cases": [...]}` (`vistir.campaign` parses it).
 #[pyfunction]
 fn _campaign_plan(py: Python<'_>, path: PathBuf) -> PyResult<String> {
     py.detach(|| -> anyhow::Result<String> {
@@ -749,6 +750,7 @@ fn _campaign_plan(py: Python<'_>, path: PathBuf) -> PyResult<String> {
         Ok(serde_json::to_string(&serde_json::json!({
             "name": file.name,
             "fingerprint": fingerprint,
+            "table": fusion_campaign::plan::table(&file.name, &cases),
             "cases": cases,
         }))?)
     })

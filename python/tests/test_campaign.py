@@ -199,6 +199,10 @@ def test_the_plan_is_the_clis(reference):
         pytest.fail(f"the fusion CLI is not at {FUSION}: build it or set FUSION_BIN")
     cli = json.loads(subprocess.run([str(FUSION), "campaign", "plan", str(f), "--json"], capture_output=True, text=True, check=True).stdout)
     assert cli == campaign.plan(f).cases
+    # The table both commands print is one function's.
+    table = subprocess.run([str(FUSION), "campaign", "plan", str(f)], capture_output=True, text=True, check=True).stdout
+    ours = subprocess.run([sys.executable, "-m", "vistir.campaign", "plan", str(f)], capture_output=True, text=True, check=True).stdout
+    assert ours == table and table.count("\n") == 2 + len(cli)
 
 
 def test_the_report(reference, tmp_path):

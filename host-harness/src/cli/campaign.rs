@@ -5,7 +5,7 @@
 use anyhow::Result;
 use clap::{Args, Subcommand};
 use fusion_campaign::file::CampaignFile;
-use fusion_campaign::plan::{fingerprint, plan};
+use fusion_campaign::plan::{plan, table};
 use fusion_io::outln;
 use std::path::PathBuf;
 
@@ -30,10 +30,6 @@ pub enum CampaignCommand {
     },
 }
 
-fn opt(v: Option<f64>, none: &str) -> String {
-    v.map_or(none.to_string(), |x| format!("{x:.6}").trim_end_matches('0').trim_end_matches('.').to_string())
-}
-
 /// Runs `fusion campaign`.
 pub fn run(args: &CampaignArgs) -> Result<()> {
     match &args.command {
@@ -44,27 +40,7 @@ pub fn run(args: &CampaignArgs) -> Result<()> {
                 outln!("{}", serde_json::to_string_pretty(&cases)?)?;
                 return Ok(());
             }
-            outln!(
-                "# campaign {}: {} cases, plan {}, streams {}",
-                f.name,
-                cases.len(),
-                fingerprint(&f.name, &cases),
-                cases.first().map(|c| c.sources.join(",")).unwrap_or_default()
-            )?;
-            outln!("id\ttrajectory\ttarget\tearth_km\tsun_phase_deg\tglare\treplica\tseed")?;
-            for c in &cases {
-                outln!(
-                    "{}\t{}\t{}\t{}\t{}\t{}\t{}\t{}",
-                    c.id,
-                    c.trajectory.as_str(),
-                    c.target.as_str(),
-                    opt(c.earth_km, "-"),
-                    opt(c.sun_phase_deg, "own"),
-                    c.glare,
-                    c.replica,
-                    c.seed
-                )?;
-            }
+            fusion_io::console::stdout_write(format_args!("{}", table(&f.name, &cases)))?;
             Ok(())
         }
     }

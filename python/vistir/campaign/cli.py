@@ -48,14 +48,7 @@ def main(argv=None) -> int:
         from .store import CampaignError
 
         if args.verb == "plan":
-            p = driver.plan(args.file)
-            print(f"# campaign {p.name}: {len(p.cases)} cases, plan {p.fingerprint}")
-            print("id\ttrajectory\ttarget\tearth_km\tsun_phase_deg\tglare\treplica\tseed")
-            for c in p.cases:
-                print(
-                    f"{c['id']}\t{c['trajectory']}\t{c['target']}\t{c['earth_km'] if c['earth_km'] is not None else '-'}\t"
-                    f"{c['sun_phase_deg'] if c['sun_phase_deg'] is not None else 'own'}\t{str(c['glare']).lower()}\t{c['replica']}\t{c['seed']}"
-                )
+            print(driver.plan(args.file).table, end="")
             return 0
         if args.verb == "run":
             slurm = None

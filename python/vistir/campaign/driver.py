@@ -37,6 +37,7 @@ class Plan:
     fingerprint: str
     cases: List[Dict]
     text: str
+    table: str
 
     @property
     def ids(self) -> List[str]:
@@ -46,7 +47,7 @@ class Plan:
 def plan(file) -> Plan:
     """Reads and plans a campaign file (the same cases and ids as `fusion campaign plan`)."""
     p = json.loads(_vistir._campaign_plan(str(file)))
-    return Plan(p["name"], p["fingerprint"], p["cases"], Path(file).read_text())
+    return Plan(p["name"], p["fingerprint"], p["cases"], Path(file).read_text(), p["table"])
 
 
 @dataclass

@@ -84,6 +84,9 @@ def main(argv=None) -> int:
     except (CampaignError, ValueError, OSError) as e:
         print(f"vistir-campaign: {' '.join(str(e).split())}", file=sys.stderr)
         return 1
+    except KeyboardInterrupt:
+        print("vistir-campaign: interrupted; the finished cases are kept, run the same command again to resume", file=sys.stderr)
+        return 130
 
 
 if __name__ == "__main__":

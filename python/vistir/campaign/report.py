@@ -136,7 +136,6 @@ def report(out) -> Path:
     """Writes DIR/results.parquet (merged), DIR/report.md, DIR/report.json and the charts;
     returns the markdown's path."""
     import pandas as pd
-    import pyarrow.parquet as pq
 
     out = Path(out)
     with Store(out) as store:
@@ -148,9 +147,7 @@ def report(out) -> Path:
         failed = {c: r.get("reason", "") for c, r in records.items() if r["status"] == "failed"}
         if not done:
             raise CampaignError(f"{out}: no finished case to report")
-        # Plan order: the case index of each table.
-        order = sorted(done, key=lambda c: pq.read_table(store.case_path(c), columns=["case_index"])[0][0].as_py())
-        store.merge(order)
+        store.merge(done)
         seconds = [r["seconds"] for r in records.values() if "seconds" in r]
     df = pd.read_parquet(out / "results.parquet")
     whole = df[df.phase == "all"]

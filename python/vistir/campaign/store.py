@@ -125,10 +125,11 @@ class Store:
         write_atomic(self.case_path(case_id), lambda t: pq.write_table(table, t))
 
     def merge(self, case_ids: Iterable[str]) -> Path:
-        """Writes the merged table of these cases (in this order) as results.parquet."""
+        """Writes the merged table of these cases as results.parquet, in plan order (by
+        `case_index`; Arrow's sort is stable, so each case keeps its rows' order)."""
         tables: List[pa.Table] = [pq.read_table(self.case_path(c)) for c in case_ids]
         path = self.out / RESULTS
         if tables:
-            merged = pa.concat_tables(tables, promote_options="default")
+            merged = pa.concat_tables(tables, promote_options="default").sort_by("case_index")
             write_atomic(path, lambda t: pq.write_table(merged, t))
         return path

@@ -42,9 +42,15 @@ pub struct Row {
     pub figures: PhaseSummary,
 }
 
-/// The sequence a case renders.
+/// The sequence a case renders. The thermal camera's raw counts and factory calibration are
+/// rendered too (`fusion render --raw-tir`) when a stream of the case reads them (`tir-raw`,
+/// `tir-nuc`, `tir-chain`, `adaptive-chain`: navbench's defaults name them); the other
+/// frames are the same either way.
 pub fn sequence_config(case: &Case) -> SequenceConfig {
     let base = SequenceConfig::new(case.trajectory);
+    let raw = fusion_navbench::bench::streams()
+        .iter()
+        .any(|(name, stream)| stream.needs_raw() && case.sources.contains(name));
     SequenceConfig {
         frames: case.frames,
         vis_size: case.vis_size,
@@ -60,6 +66,7 @@ pub fn sequence_config(case: &Case) -> SequenceConfig {
         ),
         sun_phase_deg: case.sun_phase_deg,
         glare: case.glare.then(render_host::glare::GlareParams::default),
+        focal_plane: raw.then(render_host::focal_plane::FocalPlaneParams::default),
         ..base
     }
 }

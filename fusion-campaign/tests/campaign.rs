@@ -194,3 +194,33 @@ fn a_case_run_gives_the_judges_figures_per_stream_and_phase() {
         avail("zero-motion")
     );
 }
+
+#[test]
+fn a_file_without_sources_judges_every_default_stream_raw_sensor_ones_too() {
+    let file = parse(
+        r#"
+        name = "every"
+        seed = 5
+        frames = 4
+        vis_size = 64
+        [axes]
+        trajectory = ["flyaround"]
+        "#,
+    )
+    .unwrap();
+    let case = plan(&file).unwrap().remove(0);
+    let defaults: Vec<String> =
+        fusion_navbench::bench::selected(None).unwrap().into_iter().map(|(n, _)| n).collect();
+    assert_eq!(case.sources, defaults);
+    assert!(
+        sequence_config(&case).focal_plane.is_some(),
+        "tir-raw is a default: the raw counts are rendered"
+    );
+    let named = plan(&parse(BASE).unwrap()).unwrap().remove(0);
+    assert!(sequence_config(&named).focal_plane.is_none(), "vis, tir: no raw counts");
+    let scratch = tempfile::tempdir().unwrap();
+    let rows = run(&case, scratch.path()).unwrap();
+    let judged: std::collections::BTreeSet<&str> = rows.iter().map(|r| r.source.as_str()).collect();
+    let want: std::collections::BTreeSet<&str> = defaults.iter().map(|s| s.as_str()).collect();
+    assert_eq!(judged, want);
+}

@@ -149,6 +149,42 @@ def test_the_driver_killed_and_restarted_resumes(tmp_path):
     assert pq.read_table(out / "results.parquet").equals(pq.read_table(tmp_path / "serial" / "results.parquet"))
 
 
+def test_an_existing_scheduler_and_its_workers_give_the_serial_table(reference, tmp_path):
+    """The way a cluster without Slurm is used: a `dask scheduler` and `dask worker` processes
+    started by hand, the campaign pointed at them through the command line."""
+    f, table = reference
+    sched_file = tmp_path / "scheduler.json"
+    procs = [
+        subprocess.Popen(
+            ["dask", "scheduler", "--host", "127.0.0.1", "--port", "0", "--no-dashboard", "--scheduler-file", str(sched_file)],
+            start_new_session=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+        )
+    ]
+    try:
+        deadline = time.monotonic() + 60
+        while not sched_file.exists() and time.monotonic() < deadline:
+            time.sleep(0.05)
+        address = json.loads(sched_file.read_text())["address"]
+        procs.append(
+            subprocess.Popen(
+                ["dask", "worker", address, "--nworkers", str(WORKERS), "--nthreads", "1", "--no-dashboard"],
+                start_new_session=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+            )
+        )
+        out = tmp_path / "out"
+        for how in (["--scheduler", address], ["--scheduler-file", str(sched_file)]):
+            cmd = [sys.executable, "-m", "vistir.campaign", "run", str(f), "--out", str(out), *how, "--no-progress"]
+            r = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
+            assert r.returncode == 0, r.stderr
+        # The first run did every case; the second, through the scheduler file, found them done.
+        assert_once_each(out, campaign.plan(f).ids)
+        assert pq.read_table(out / "results.parquet").equals(table)
+    finally:
+        for p in reversed(procs):
+            os.killpg(p.pid, signal.SIGTERM)
+            p.wait(timeout=60)
+
+
 def test_a_half_written_manifest_line_is_dropped(reference, tmp_path):
     f, table = reference
     out = tmp_path / "out"

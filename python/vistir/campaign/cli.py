@@ -1,7 +1,7 @@
 """``vistir-campaign``: plan, run and report Monte Carlo campaigns of the navigation judge.
 
     vistir-campaign plan FILE
-    vistir-campaign run FILE --out DIR [--local N | --scheduler ADDRESS | --slurm JOBS ...]
+    vistir-campaign run FILE --out DIR [--local N | --scheduler ADDRESS | --scheduler-file FILE | --slurm JOBS ...]
     vistir-campaign report DIR
 """
 
@@ -23,6 +23,7 @@ def _parser() -> argparse.ArgumentParser:
     engine = r.add_mutually_exclusive_group()
     engine.add_argument("--local", type=int, metavar="N", help="a local Dask cluster of N worker processes [default: one per core]")
     engine.add_argument("--scheduler", metavar="ADDRESS", help="an existing Dask scheduler, e.g. tcp://head:8786")
+    engine.add_argument("--scheduler-file", metavar="FILE", help="the file an existing scheduler wrote (dask scheduler --scheduler-file)")
     engine.add_argument("--slurm", type=int, metavar="JOBS", help="Slurm through dask-jobqueue: JOBS jobs of one worker each")
     engine.add_argument("--serial", action="store_true", help="in this process, without Dask (the reference)")
     r.add_argument("--slurm-cores", type=int, default=2, help="cores per Slurm job [2]")
@@ -63,6 +64,7 @@ def main(argv=None) -> int:
                 args.out,
                 local=args.local,
                 scheduler=args.scheduler,
+                scheduler_file=args.scheduler_file,
                 slurm=slurm,
                 serial=args.serial,
                 allow_changed=args.allow_changed,

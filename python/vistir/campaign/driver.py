@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import json
 import os
-import tempfile
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -108,7 +107,7 @@ class _Progress:
             self.bar.close()
 
 
-def _client(local, scheduler, slurm, cluster, threads_per_case):
+def _client(local, scheduler, scheduler_file, slurm, cluster, threads_per_case):
     """The Dask client and what to close afterwards, and the threads each case may use."""
     from dask.distributed import Client, LocalCluster
 
@@ -116,9 +115,12 @@ def _client(local, scheduler, slurm, cluster, threads_per_case):
         return Client(cluster), [], threads_per_case or 1
     if scheduler is not None:
         return Client(scheduler), [], threads_per_case or 1
+    if scheduler_file is not None:
+        return Client(scheduler_file=str(scheduler_file)), [], threads_per_case or 1
     if slurm is not None:
         from dask_jobqueue import SLURMCluster
 
+        slurm = dict(slurm)
         jobs = slurm.pop("jobs", 1)
         c = SLURMCluster(**slurm)
         c.scale(jobs=jobs)
@@ -135,6 +137,7 @@ def run(
     *,
     local: Optional[int] = None,
     scheduler: Optional[str] = None,
+    scheduler_file: Optional[str] = None,
     slurm: Optional[Dict] = None,
     cluster=None,
     serial: bool = False,
@@ -148,7 +151,8 @@ def run(
     """Runs a campaign file into the folder `out`, resuming what is finished there.
 
     Engines: `local=N` worker processes on this machine (default: one per core), `scheduler`
-    (a Dask scheduler's address), `slurm` (keyword arguments of dask_jobqueue.SLURMCluster,
+    (a Dask scheduler's address) or `scheduler_file` (the file `dask scheduler
+    --scheduler-file` writes), `slurm` (keyword arguments of dask_jobqueue.SLURMCluster,
     plus `jobs`), `cluster` (any Dask cluster object), or `serial=True` (in this process, no
     Dask: the reference a distributed run must equal). `allowed_failures`: how many workers a
     case may kill before it is recorded as failed (set on the clusters started here; an
@@ -171,7 +175,9 @@ def run(
 
         finished = {cid for cid, r in records.items() if is_finished(cid, r)}
         todo = [c for c in p.cases if c["id"] not in finished]
-        scratch_dir = scratch or tempfile.gettempdir()
+        # Each worker's own temporary folder unless one is given: a worker on another machine
+        # (a scheduler's, a Slurm job's) has its own.
+        scratch_dir = scratch
         bar = _Progress(len(p.cases), len(finished), p.name, progress)
         done = failed = 0
         failures: Dict[str, str] = {}
@@ -204,7 +210,7 @@ def run(
                 from dask.distributed import as_completed
 
                 with dask.config.set({"distributed.scheduler.allowed-failures": allowed_failures}):
-                    client, closers, threads = _client(local, scheduler, slurm, cluster, threads_per_case)
+                    client, closers, threads = _client(local, scheduler, scheduler_file, slurm, cluster, threads_per_case)
                     try:
                         token = os.urandom(4).hex()
                         futures = {}

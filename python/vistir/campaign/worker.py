@@ -13,9 +13,10 @@ from __future__ import annotations
 import json
 import os
 import signal
+import tempfile
 import time
 from pathlib import Path
-from typing import Tuple
+from typing import Optional, Tuple
 
 import pyarrow as pa
 
@@ -61,11 +62,11 @@ def _fault(case_id: str, scratch: Path) -> None:
                 os.kill(os.getpid(), signal.SIGKILL)
 
 
-def run_case(case: dict, scratch: str, threads: int = 1) -> Tuple[pa.Table, float]:
-    """Runs one planned case; returns its table (one row per stream and phase) and the seconds
-    it took in the worker."""
+def run_case(case: dict, scratch: Optional[str], threads: int = 1) -> Tuple[pa.Table, float]:
+    """Runs one planned case in a scratch folder (`None`: this process's temporary folder);
+    returns its table (one row per stream and phase) and the seconds it took in the worker."""
     start = time.monotonic()
-    scratch_path = Path(scratch)
+    scratch_path = Path(scratch or tempfile.gettempdir())
     scratch_path.mkdir(parents=True, exist_ok=True)
     _fault(case["id"], scratch_path)
     rows = json.loads(_vistir._campaign_case(json.dumps(case), str(scratch_path), threads))

@@ -1,7 +1,8 @@
 """Campaigns on a real local Dask cluster (3 worker processes): every planned case recorded
 exactly once, the merged table bit-identical to a serial run of the same file, through a worker
 killed in the middle of a case, a case that always kills its worker, the driver killed and
-restarted; changed files and code refused; the report.
+restarted; a hand-started scheduler and its workers; Slurm jobs (where a Slurm runs: CI starts
+one); changed files and code refused; the report.
 
 Needs ``pip install './python[campaign]'``.
 """
@@ -183,6 +184,46 @@ def test_an_existing_scheduler_and_its_workers_give_the_serial_table(reference, 
         for p in reversed(procs):
             os.killpg(p.pid, signal.SIGTERM)
             p.wait(timeout=60)
+
+
+def _slurm_idle() -> bool:
+    try:
+        r = subprocess.run(["sinfo", "-h", "-o", "%t"], capture_output=True, text=True, timeout=30)
+    except (OSError, subprocess.TimeoutExpired):
+        return False
+    return r.returncode == 0 and "idle" in r.stdout
+
+
+def test_slurm_jobs_give_the_serial_table(reference, tmp_path):
+    """`--slurm`: Dask workers in real sbatch jobs (dask-jobqueue). CI starts a one-node Slurm
+    (`.ci/slurm-single-node`) and sets VISTIR_TEST_SLURM=1, so there the test cannot skip."""
+    if not _slurm_idle():
+        if os.environ.get("VISTIR_TEST_SLURM") == "1":
+            pytest.fail("VISTIR_TEST_SLURM=1 but no idle Slurm node (run .ci/slurm-single-node)")
+        pytest.skip("no Slurm here (.ci/slurm-single-node starts one)")
+    f, table = reference
+    out = tmp_path / "out"
+    cmd = [sys.executable, "-m", "vistir.campaign", "run", str(f), "--out", str(out), "--no-progress",
+           "--slurm", "2", "--slurm-cores", "1", "--slurm-memory", "1GB", "--slurm-walltime", "00:10:00"]
+    r = subprocess.run(cmd, capture_output=True, text=True, timeout=600, cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    assert_once_each(out, campaign.plan(f).ids)
+    assert pq.read_table(out / "results.parquet").equals(table)
+    # The workers ran as Slurm jobs: each job's output file (sbatch writes it where the driver
+    # runs) holds a Dask worker's log.
+    logs = [p.read_text(errors="replace") for p in tmp_path.glob("slurm-*.out")]
+    assert logs and any("Start worker" in text for text in logs), logs
+    # A worker killed in the middle of a case inside its Slurm job: its nanny restarts it there,
+    # the case runs again, once in the results.
+    victim = campaign.plan(f).ids[1]
+    env = dict(os.environ, VISTIR_CAMPAIGN_FAULT=f"kill-once:{victim}")
+    scratch = tmp_path / "scratch"
+    again = [*cmd[:6], str(tmp_path / "faulted"), *cmd[7:], "--scratch", str(scratch)]
+    r = subprocess.run(again, capture_output=True, text=True, timeout=600, cwd=tmp_path, env=env)
+    assert r.returncode == 0, r.stderr
+    assert (scratch / f"fault-{victim}").exists(), "the worker running the case was killed"
+    assert_once_each(tmp_path / "faulted", campaign.plan(f).ids)
+    assert pq.read_table(tmp_path / "faulted" / "results.parquet").equals(table)
 
 
 def test_a_half_written_manifest_line_is_dropped(reference, tmp_path):

@@ -35,6 +35,7 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("--allowed-failures", type=int, default=3, help="workers a case may kill before it is recorded as failed [3]")
     r.add_argument("--allow-changed", action="store_true", help="go on in a folder made by another campaign file or code version")
     r.add_argument("--retry-failed", action="store_true", help="run the cases recorded as failed again")
+    r.add_argument("--scratch", metavar="DIR", help="where each case renders its frames (removed after): a node-local disk on a cluster [each worker's temporary folder]")
     r.add_argument("--no-progress", action="store_true", help="no progress bar")
     rep = sub.add_parser("report", help="merge, summarise and chart a campaign's folder")
     rep.add_argument("dir", type=Path)
@@ -65,6 +66,7 @@ def main(argv=None) -> int:
                 local=args.local,
                 scheduler=args.scheduler,
                 scheduler_file=args.scheduler_file,
+                scratch=args.scratch,
                 slurm=slurm,
                 serial=args.serial,
                 allow_changed=args.allow_changed,

@@ -298,3 +298,31 @@ def test_the_report(reference, tmp_path):
     v = np.array([0.1, 0.5, 0.9, 0.3, 0.7, np.nan])
     m, lo, hi = bootstrap_mean(v)
     assert m == pytest.approx(0.5) and 0.1 <= lo < m < hi <= 0.9
+
+
+def test_the_verdict_names_streams_that_tie_on_every_case_as_one():
+    import pandas as pd
+
+    from vistir.campaign.report import HEADLINE, MAX_LINES, _best, _headline
+
+    cases = [f"c{i}" for i in range(8)]
+    rng = np.random.default_rng(3)
+    base = rng.uniform(0.2, 0.4, size=len(cases))
+
+    def frame(avail):
+        return pd.DataFrame([{"case_id": c, "source": s, "availability": v} for s, vs in avail.items() for c, v in zip(cases, vs)])
+
+    # a and b give the same figure on every case, c is lower by 0.2 on each: a ≡ b, separated.
+    df = frame({"a": base + 0.2, "b": base + 0.2, "c": base})
+    assert _best(df, ["a", "b", "c"]) == f"**a ≡ b** ({float(np.mean(base + 0.2)):.2f})"
+    # b differs from a on one case only, by a little: not separated, named beside it.
+    b = base + 0.2
+    b[0] -= 0.01
+    assert "≈ b" in _best(frame({"a": base + 0.2, "b": b, "c": base}), ["a", "b", "c"])
+    # Every stream the same: no winner.
+    assert _best(frame({s: base for s in "abcd"}), list("abcd")).startswith("every stream alike")
+    # Under 10 % availability no stream navigates.
+    assert _best(frame({"a": base / 10, "b": base / 20}), ["a", "b"]).startswith("none navigates")
+    # Lines: every stream when few, else the headline ones.
+    many = [f"s{i}" for i in range(MAX_LINES + 1)] + list(HEADLINE)
+    assert _headline(["vis", "x"]) == ["vis", "x"] and _headline(many) == list(HEADLINE)

@@ -175,9 +175,6 @@ def run(
 
         finished = {cid for cid, r in records.items() if is_finished(cid, r)}
         todo = [c for c in p.cases if c["id"] not in finished]
-        # Each worker's own temporary folder unless one is given: a worker on another machine
-        # (a scheduler's, a Slurm job's) has its own.
-        scratch_dir = scratch
         bar = _Progress(len(p.cases), len(finished), p.name, progress)
         done = failed = 0
         failures: Dict[str, str] = {}
@@ -200,7 +197,7 @@ def run(
             if serial or not todo:
                 for case in todo:
                     try:
-                        result = run_case(case, scratch_dir, threads_per_case or 0)
+                        result = run_case(case, scratch, threads_per_case or 0)
                     except Exception as e:  # a case's error is its result, the campaign goes on
                         record(case, exc=e)
                     else:
@@ -215,7 +212,9 @@ def run(
                         token = os.urandom(4).hex()
                         futures = {}
                         for case in todo:
-                            f = client.submit(run_case, case, scratch_dir, threads, key=f"case-{case['id']}-{token}", retries=0)
+                            # `scratch` None: each worker's own temporary folder (one on another machine,
+                            # a scheduler's or a Slurm job's, has its own).
+                            f = client.submit(run_case, case, scratch, threads, key=f"case-{case['id']}-{token}", retries=0)
                             futures[f] = case
                         for f in as_completed(list(futures)):
                             case = futures.pop(f)

@@ -21,7 +21,9 @@
 //! ```
 //!
 //! Every key but `name`, `seed`, `frames`, `vis_size` and `axes.trajectory` has the default
-//! shown in its comment (`sun_phase` absent: each sequence's own sun). Unknown keys, an empty or
+//! shown in its comment (`sun_phase` absent: each sequence's own sun; `sources` absent: every
+//! stream `fusion navbench` runs by default, the raw thermal chain's among them, so the cases
+//! then render the thermal camera's raw counts too). Unknown keys, an empty or
 //! repeated axis value, a phase outside 0–180° are refused with one line naming the key.
 
 use anyhow::{Context, Result, bail, ensure};

@@ -295,25 +295,35 @@ def report(out) -> Path:
         f"no verdict on fewer than {MIN_CASES} cases; none where even the best keeps navigation on "
         f"less than {USABLE:.0%} of the frames.",
         "",
-        "| " + " | ".join(dict(AXES)[k] for k in keys) + " | stream to fly (availability) |",
-        "|---" * (len(keys) + 1) + "|",
     ]
-    wins: Dict[str, int] = {}
+    # With many streams (a method's variants side by side) also the choice of method: the
+    # cameras, the adaptive policy and each method's flight variant.
+    headline = _headline(streams)
+    choices = [("every stream", streams)] + ([("one per method", headline)] if len(headline) < len(streams) else [])
+    if len(choices) > 1:
+        lines += [f"*one per method*: among {', '.join(headline)} only.", ""]
+    lines += [
+        "| " + " | ".join(dict(AXES)[k] for k in keys) + " | " + " | ".join(f"to fly, {c} (availability)" for c, _ in choices) + " |",
+        "|---" * (len(keys) + len(choices)) + "|",
+    ]
+    wins: List[Dict[str, int]] = [{} for _ in choices]
     for cond, g in whole.groupby(keys, dropna=False):
         cond = cond if isinstance(cond, tuple) else (cond,)
-        verdict = _best(g, streams)
-        if verdict.startswith("**"):
-            name = verdict[2:].split("**")[0]
-            wins[name] = wins.get(name, 0) + 1
-        lines.append("| " + " | ".join(_value(v) for v in cond) + f" | {verdict} |")
+        verdicts = [_best(g, among) for _, among in choices]
+        for w, verdict in zip(wins, verdicts):
+            if verdict.startswith("**"):
+                name = verdict[2:].split("**")[0]
+                w[name] = w.get(name, 0) + 1
+        lines.append("| " + " | ".join(_value(v) for v in cond) + " | " + " | ".join(verdicts) + " |")
     n_cond = whole.groupby(keys, dropna=False).ngroups
-    lines += [
-        "",
-        "Separated winners: "
-        + (", ".join(f"{s} in {n} of {n_cond} conditions" for s, n in sorted(wins.items(), key=lambda x: -x[1])) or "none")
-        + f"; in the other {n_cond - sum(wins.values())} no stream is separated from the runner-up.",
-        "",
-    ]
+    lines.append("")
+    for (label, _), w in zip(choices, wins):
+        lines.append(
+            f"Separated winners ({label}): "
+            + (", ".join(f"{s} in {n} of {n_cond} conditions" for s, n in sorted(w.items(), key=lambda x: -x[1])) or "none")
+            + f"; in the other {n_cond - sum(w.values())} no stream is separated from the runner-up."
+        )
+    lines.append("")
     charts = _charts(whole, streams, out)
     if charts:
         lines += ["## Charts", ""] + [f"![{p.stem}]({p.name})" for p in charts] + [""]

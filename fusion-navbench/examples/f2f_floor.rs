@@ -14,23 +14,21 @@
 //! `cargo run --release -p fusion-navbench --example f2f_floor -- DIR [N,N,…] [σ,σ,…] [DRAWS]`
 //! (`DIR`: a rendered sequence, e.g. `OUT/data/seed-1/flyaround` of `fusion navbench`).
 
-use fusion_navbench::model::{TargetModel, normalised};
+use fusion_navbench::baseline::{observe, target_to_camera};
+use fusion_navbench::model::TargetModel;
 use fusion_navbench::pose::{RelativePose, estimate};
 use render_host::Camera;
-use render_host::glam::{DMat3, DQuat, DVec2, DVec3};
+use render_host::glam::{DMat3, DQuat};
 use render_host::noise::{SplitMix64, mix64};
 use render_host::sequence::{Phase, read_manifest};
-
-fn gaussian(rng: &mut SplitMix64) -> f64 {
-    fusion_navbench::baseline::gaussian(rng)
-}
 
 fn list<T: std::str::FromStr>(arg: Option<&String>, default: &str) -> Vec<T> {
     arg.map_or(default, String::as_str).split(',').filter_map(|s| s.trim().parse().ok()).collect()
 }
 
-fn pose_of(cam: &Camera) -> (DMat3, DVec3) {
-    (cam.pose.rotation.as_dmat3(), cam.pose.position.as_dvec3())
+/// A uniform deviate in `[lo, hi)`.
+fn uniform(rng: &mut SplitMix64, lo: u32, hi: u32) -> f64 {
+    f64::from(lo) + (rng.next_u64() >> 11) as f64 / (1u64 << 53) as f64 * f64::from(hi - lo)
 }
 
 fn main() -> anyhow::Result<()> {
@@ -73,10 +71,7 @@ fn main() -> anyhow::Result<()> {
                         if points.len() == n {
                             break;
                         }
-                        let u = f64::from(x0)
-                            + (rng.next_u64() >> 11) as f64 / (1u64 << 53) as f64 * f64::from(x1 - x0);
-                        let v = f64::from(y0)
-                            + (rng.next_u64() >> 11) as f64 / (1u64 << 53) as f64 * f64::from(y1 - y0);
+                        let (u, v) = (uniform(&mut rng, x0, x1), uniform(&mut rng, y0, y1));
                         if let Some(hit) = model.back_project(a, u, v)
                             && model.visible(b, hit.point)
                         {
@@ -86,20 +81,10 @@ fn main() -> anyhow::Result<()> {
                     if points.len() < n {
                         continue;
                     }
+                    // Each frame's absolute pose from its exact, noisy tracks, as a stream's.
                     let mut measure = |cam: &Camera, salt: u64| {
-                        let image: Vec<DVec2> = points
-                            .iter()
-                            .filter_map(|p| cam.project(p.as_vec3()))
-                            .map(|(u, v)| {
-                                let noise = DVec2::new(gaussian(&mut rng), gaussian(&mut rng)) * sigma;
-                                normalised(cam, f64::from(u) + noise.x, f64::from(v) + noise.y)
-                            })
-                            .collect();
-                        (image.len() == points.len())
-                            .then(|| estimate(&points, &image, f, salt))
-                            .flatten()
-                            .and_then(|(_, refined)| refined)
-                            .map(|r| r.measurement())
+                        let (p3, p2) = observe(&points, &target_to_camera(cam), f, sigma, &mut rng, |_| true);
+                        estimate(&p3, &p2, f, salt).and_then(|(_, refined)| refined).map(|r| r.measurement())
                     };
                     let (Some(p), Some(q)) = (measure(a, 2 * k as u64), measure(b, 2 * k as u64 + 1)) else {
                         continue;
@@ -107,8 +92,12 @@ fn main() -> anyhow::Result<()> {
                     let to_mat = |q: DQuat| DMat3::from_quat(q);
                     let measured =
                         RelativePose::between(to_mat(p.attitude), p.position, to_mat(q.attitude), q.position);
-                    let ((ra, pa), (rb, pb)) = (pose_of(a), pose_of(b));
-                    let truth = RelativePose::between(ra, pa, rb, pb);
+                    let truth = RelativePose::between(
+                        a.pose.rotation.as_dmat3(),
+                        a.pose.position.as_dvec3(),
+                        b.pose.rotation.as_dmat3(),
+                        b.pose.position.as_dvec3(),
+                    );
                     errors.push(measured.rotation_error_deg(&truth));
                 }
             }

@@ -12,7 +12,7 @@
 use crate::model::normalised;
 use crate::pose::RelativePose;
 use render_host::Camera;
-use render_host::glam::{DVec2, DVec3};
+use render_host::glam::{DMat3, DQuat, DVec2, DVec3};
 use render_host::noise::SplitMix64;
 
 /// The oracle's image noise, px (1σ per axis).
@@ -59,13 +59,22 @@ pub fn surface_points(cam: &Camera, depth: &[Option<f32>]) -> Vec<DVec3> {
     out
 }
 
+/// The true pose target → camera of a rendered camera (whose pose is the camera's attitude
+/// and position in the target's frame).
+pub fn target_to_camera(cam: &Camera) -> RelativePose {
+    let q = DQuat::from_mat3(&cam.pose.rotation.as_dmat3()).normalize();
+    let rot = DMat3::from_quat(q);
+    RelativePose { rotation: q.inverse(), translation: -(rot.transpose() * cam.pose.position.as_dvec3()) }
+}
+
 /// Points (`points`, in some frame A) seen by camera 2 through the true pose A → camera 2,
-/// with the oracle's noise: the normalised image coordinates, for the points in front of the
-/// camera that `visible` accepts.
+/// with `noise_px` of white noise per axis ([`ORACLE_NOISE_PX`] for the oracle): the
+/// normalised image coordinates, for the points in front of the camera that `visible` accepts.
 pub fn observe(
     points: &[DVec3],
     truth: &RelativePose,
     focal_px: f64,
+    noise_px: f64,
     rng: &mut SplitMix64,
     visible: impl Fn(DVec3) -> bool,
 ) -> (Vec<DVec3>, Vec<DVec2>) {
@@ -76,9 +85,58 @@ pub fn observe(
         if !visible(x) {
             continue;
         }
-        let noise = DVec2::new(gaussian(rng), gaussian(rng)) * (ORACLE_NOISE_PX / focal_px);
+        let noise = DVec2::new(gaussian(rng), gaussian(rng)) * (noise_px / focal_px);
         p3.push(x);
         p2.push(u + noise);
     }
     (p3, p2)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::TargetModel;
+    use render_host::Scene;
+    use render_host::sequence::{SequenceConfig, SequenceName, camera_pose, state};
+
+    /// The target → camera pose projects a target-frame point where the camera does, and
+    /// `observe` with no noise returns exactly those coordinates.
+    #[test]
+    fn the_true_pose_projects_as_the_camera_and_observe_adds_only_its_noise() {
+        let scene = Scene::tango().expect("scene");
+        let cfg = SequenceConfig::new(SequenceName::Flyaround);
+        let cam = Camera::study(256, camera_pose(&state(&cfg, 30), &scene));
+        let model = TargetModel::new(&scene);
+        let (x0, y0, x1, y1) = model.image_box(&cam, 0.0).expect("box");
+        let points: Vec<DVec3> = (0..8)
+            .flat_map(|i| (0..8).map(move |j| (i, j)))
+            .filter_map(|(i, j)| {
+                let u = f64::from(x0) + (f64::from(i) + 0.5) / 8.0 * f64::from(x1 - x0);
+                let v = f64::from(y0) + (f64::from(j) + 0.5) / 8.0 * f64::from(y1 - y0);
+                model.back_project(&cam, u, v).map(|h| h.point)
+            })
+            .collect();
+        assert!(points.len() >= 10, "{} points on the target", points.len());
+        let truth = target_to_camera(&cam);
+        let f = f64::from(cam.focal_px);
+        for &x in &points {
+            let (u, v) = cam.project(x.as_vec3()).expect("in front");
+            let seen = normalised(&cam, f64::from(u), f64::from(v));
+            let by_pose = truth.project(x).expect("in front");
+            assert!((seen - by_pose).length() * f < 1e-3, "{seen:?} vs {by_pose:?}");
+        }
+        let mut rng = SplitMix64::new(7);
+        let (p3, p2) = observe(&points, &truth, f, 0.0, &mut rng, |_| true);
+        assert_eq!(p3, points);
+        for (x, u) in p3.iter().zip(&p2) {
+            assert_eq!(*u, truth.project(*x).expect("in front"));
+        }
+        // With noise, the spread in pixels is the one asked for (64 points: within 40 %).
+        let (_, noisy) = observe(&points, &truth, f, 2.0, &mut rng, |_| true);
+        let rms = (p2.iter().zip(&noisy).map(|(a, b)| (a - b).length_squared()).sum::<f64>()
+            / (2.0 * p2.len() as f64))
+            .sqrt()
+            * f;
+        assert!((rms - 2.0).abs() < 0.8, "noise {rms:.2} px per axis");
+    }
 }

@@ -39,7 +39,7 @@
 //! [`INIT_ATT_ERR_DEG`] and [`INIT_POS_ERR_FRAC`] (acquisition is out of scope); nothing else
 //! in a stream reads the truth.
 
-use super::baseline::{observe, surface_points, unit_vector};
+use super::baseline::{ORACLE_NOISE_PX, observe, surface_points, target_to_camera, unit_vector};
 use super::features::{detect, grow_mask};
 use super::filter::{FilterParams, PoseFilter, PoseMeasurement, relative_position, rotation_vector};
 use super::model::{TargetModel, camera_at, normalised};
@@ -985,7 +985,9 @@ impl SequenceRun<'_> {
             let truth = self.truth_pair(i);
             let (q1, p1) = true_pose(prev);
             let to_target = |x: DVec3| render_host::glam::DMat3::from_quat(q1) * x + p1;
-            let (p3, p2) = observe(&pts, &truth, f, &mut rng, |x| self.model.visible(cam, to_target(x)));
+            let (p3, p2) = observe(&pts, &truth, f, ORACLE_NOISE_PX, &mut rng, |x| {
+                self.model.visible(cam, to_target(x))
+            });
             if let Some((_, Some(refined))) = estimate(&p3, &p2, f, i as u64) {
                 row.rot_err_deg = refined.pose.rotation_error_deg(&truth);
                 row.trans_dir_err_deg = refined.pose.translation_direction_error_deg(&truth);
@@ -996,8 +998,7 @@ impl SequenceRun<'_> {
         let (q, p) = true_pose(cam);
         let rot = render_host::glam::DMat3::from_quat(q);
         let pts: Vec<DVec3> = surface_points(cam, &self.depths[i]).into_iter().map(|x| rot * x + p).collect();
-        let to_cam = RelativePose { rotation: q.inverse(), translation: -(rot.transpose() * p) };
-        let (p3, p2) = observe(&pts, &to_cam, f, &mut rng, |_| true);
+        let (p3, p2) = observe(&pts, &target_to_camera(cam), f, ORACLE_NOISE_PX, &mut rng, |_| true);
         row.tracks = p3.len();
         estimate(&p3, &p2, f, (i as u64) ^ 0x5EED).and_then(|(found, refined)| {
             row.inliers = found.inliers;

@@ -59,12 +59,16 @@ pub fn surface_points(cam: &Camera, depth: &[Option<f32>]) -> Vec<DVec3> {
     out
 }
 
-/// The true pose target → camera of a rendered camera (whose pose is the camera's attitude
-/// and position in the target's frame).
+/// The true camera attitude (camera → target) and position in the target's frame of a
+/// rendered camera.
+pub fn true_pose(cam: &Camera) -> (DQuat, DVec3) {
+    (DQuat::from_mat3(&cam.pose.rotation.as_dmat3()).normalize(), cam.pose.position.as_dvec3())
+}
+
+/// The true pose target → camera of a rendered camera ([`true_pose`] inverted).
 pub fn target_to_camera(cam: &Camera) -> RelativePose {
-    let q = DQuat::from_mat3(&cam.pose.rotation.as_dmat3()).normalize();
-    let rot = DMat3::from_quat(q);
-    RelativePose { rotation: q.inverse(), translation: -(rot.transpose() * cam.pose.position.as_dvec3()) }
+    let (q, p) = true_pose(cam);
+    RelativePose { rotation: q.inverse(), translation: -(DMat3::from_quat(q).transpose() * p) }
 }
 
 /// Points (`points`, in some frame A) seen by camera 2 through the true pose A → camera 2,

@@ -39,7 +39,7 @@
 //! [`INIT_ATT_ERR_DEG`] and [`INIT_POS_ERR_FRAC`] (acquisition is out of scope); nothing else
 //! in a stream reads the truth.
 
-use super::baseline::{ORACLE_NOISE_PX, observe, surface_points, target_to_camera, unit_vector};
+use super::baseline::{ORACLE_NOISE_PX, observe, surface_points, target_to_camera, true_pose, unit_vector};
 use super::features::{detect, grow_mask};
 use super::filter::{FilterParams, PoseFilter, PoseMeasurement, relative_position, rotation_vector};
 use super::model::{TargetModel, camera_at, normalised};
@@ -783,11 +783,6 @@ struct Tracked {
     features: Vec<Feature>,
     /// Camera-frame 3D point of each feature (from the rendered depth), when it sits on the target.
     points: Vec<Option<DVec3>>,
-}
-
-/// The true camera attitude (camera → target) and position of a frame.
-fn true_pose(cam: &Camera) -> (DQuat, DVec3) {
-    (DQuat::from_mat3(&cam.pose.rotation.as_dmat3()).normalize(), cam.pose.position.as_dvec3())
 }
 
 /// The relative pose between two camera poses given as (attitude camera → target, position).

@@ -37,7 +37,7 @@ fn navbench_writes_the_summary_shape_csv_and_charts() {
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     // The sequences were rendered into OUT/data, one folder per seed.
     for seed in [1, 2] {
-        for seq in ["approach", "flyaround"] {
+        for seq in ["approach", "flyaround", "radial", "radial@10"] {
             assert!(out.join(format!("data/seed-{seed}/{seq}/manifest.json")).is_file(), "{seed} {seq}");
         }
     }
@@ -82,7 +82,8 @@ fn navbench_writes_the_summary_shape_csv_and_charts() {
             && k["window_frac_mean"]["mean"].as_f64().is_some()
     );
     let csv = std::fs::read_to_string(out.join("per_frame.csv")).unwrap();
-    assert_eq!(csv.lines().count(), 1 + 2 * 2 * frames * expected.len());
+    // The default run: two seeds × four sequences (black space, and the Earth at two phases).
+    assert_eq!(csv.lines().count(), 1 + 2 * 4 * frames * expected.len());
     // The relative position's columns come last: the earlier columns keep their places.
     assert!(csv.lines().next().unwrap().ends_with(",misregistration_p95_px,rel_pos_err_pct,available_rel"));
     let md = std::fs::read_to_string(out.join("navbench.md")).unwrap();
@@ -162,6 +163,69 @@ fn verdicts_are_outside_the_spread(md: &str, json: &serde_json::Value) {
             );
         }
     }
+}
+
+/// A sequence spec (`NAME[+earth][@DEG]`) renders that sequence into a folder of its name, its
+/// rows carry the name, the Earth targets are reported for it, and data rendered as another
+/// sequence under that name is refused in one line.
+#[test]
+fn navbench_runs_a_sequence_spec_with_the_earth_and_a_sun_phase() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("nb");
+    let run = |specs: &str| {
+        fusion(&[
+            "--quiet",
+            "navbench",
+            "--out",
+            out.to_str().unwrap(),
+            "--frames",
+            "4",
+            "--vis-size",
+            "96",
+            "--seeds",
+            "1",
+            "--sources",
+            "vis,tir,adaptive,adaptive-skip",
+            "--sequences",
+            specs,
+        ])
+    };
+    let o = run("approach+earth@40,radial@10");
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let m: serde_json::Value = serde_json::from_slice(
+        &std::fs::read(out.join("data/seed-1/approach+earth@40/manifest.json")).unwrap(),
+    )
+    .unwrap();
+    assert_eq!(m["config"]["name"], "approach");
+    assert_eq!(m["config"]["sun_phase_deg"], 40.0);
+    assert!(m["config"]["earth"].is_object(), "{}", m["config"]);
+    // The Earth is drawn: its mask is not empty on the first frame.
+    let mask = image::open(out.join("data/seed-1/approach+earth@40/vis_earth_mask/frame_000.png"))
+        .unwrap()
+        .to_luma8();
+    assert!(mask.pixels().any(|p| p[0] > 0));
+    let csv = std::fs::read_to_string(out.join("per_frame.csv")).unwrap();
+    let seqs: std::collections::BTreeSet<&str> =
+        csv.lines().skip(1).map(|l| l.split(',').next().unwrap()).collect();
+    assert_eq!(seqs, ["approach+earth@40", "radial@10"].into_iter().collect());
+    let md = std::fs::read_to_string(out.join("navbench.md")).unwrap();
+    assert!(md.contains("## Targets with the Earth behind the target"));
+    assert!(md.contains("| radial@10 | adaptive |"), "{md}");
+    assert!(out.join("approach+earth@40_attitude_error.png").is_file());
+    // The folder `radial@10` holds radial at 10°; asked as another sequence, it is refused.
+    std::fs::rename(out.join("data/seed-1/radial@10"), out.join("data/seed-1/radial@20")).unwrap();
+    let o = run("radial@20");
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        !o.status.success()
+            && err.contains("rendered as another sequence")
+            && err.trim().lines().count() == 1,
+        "{err}"
+    );
+    // A spec that cannot be is refused by the argument parser, naming why.
+    let o = run("radial+earth");
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && err.contains("drop '+earth'"), "{err}");
 }
 
 #[test]

@@ -65,15 +65,86 @@ pub struct NavbenchArgs {
     /// `truth` (at the true range) or `none` (rescaled as if the cameras were aligned).
     #[arg(long, default_value = "filter", value_name = "filter|truth|none", value_parser = Registration::parse)]
     pub registration: Registration,
-    /// Only these sequences, comma-separated (`approach`, `flyaround`, `radial`: the Earth
-    /// behind the target) [default: approach, flyaround].
-    #[arg(long, value_delimiter = ',', value_enum)]
-    pub sequences: Option<Vec<SequenceName>>,
+    /// Only these sequences, comma-separated: `NAME[+earth][@DEG]`, NAME one of `approach`,
+    /// `flyaround`, `radial` (the Earth behind the target), `+earth` the Earth behind an
+    /// `approach` or `flyaround` (500 km), `@DEG` the sun phase angle at the first frame
+    /// (`fusion render --sun-phase`); the spec names the sequence's folder and its rows
+    /// [default: approach, flyaround, radial, radial@10 — black space, and the Earth at two
+    /// phase angles: radial's own 68° (night side, into the shadow) and 10° (daylight)].
+    #[arg(long, value_delimiter = ',', value_parser = SequenceSpec::parse, value_name = "SPECS")]
+    pub sequences: Option<Vec<SequenceSpec>>,
     /// The target of sequences rendered here: `tango` or `boxwing` (`fusion render --target`)
     /// [default: tango]; given, sequences already rendered with another target are refused.
     /// Each sequence is judged against the model of the target it was rendered with.
     #[arg(long, value_enum, value_name = "NAME")]
     pub target: Option<render_host::scene::Target>,
+}
+
+/// One sequence of a run: a named trajectory, with the Earth behind it or not, at its own sun
+/// or at a sun phase angle.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SequenceSpec {
+    /// The trajectory.
+    pub name: SequenceName,
+    /// The Earth behind an `approach` or `flyaround` (`radial` always has it).
+    pub earth: bool,
+    /// The sun phase angle at the first frame, degrees (0–180).
+    pub sun_phase_deg: Option<f64>,
+}
+
+impl SequenceSpec {
+    /// The default run: black space, and the Earth at two sun phase angles.
+    pub fn defaults() -> Vec<SequenceSpec> {
+        let plain = |name| SequenceSpec { name, earth: false, sun_phase_deg: None };
+        vec![
+            plain(SequenceName::Approach),
+            plain(SequenceName::Flyaround),
+            plain(SequenceName::Radial),
+            SequenceSpec { sun_phase_deg: Some(10.0), ..plain(SequenceName::Radial) },
+        ]
+    }
+
+    /// Parses `NAME[+earth][@DEG]`.
+    pub fn parse(text: &str) -> Result<SequenceSpec, String> {
+        let (rest, phase) = match text.split_once('@') {
+            Some((r, p)) => {
+                let deg: f64 = p.parse().map_err(|_| format!("'{p}' is not a sun phase angle in degrees"))?;
+                if !(0.0..=180.0).contains(&deg) {
+                    return Err(format!("sun phase {deg}° is outside 0–180°"));
+                }
+                (r, Some(deg))
+            }
+            None => (text, None),
+        };
+        let (name, earth) = match rest.strip_suffix("+earth") {
+            Some(n) => (n, true),
+            None => (rest, false),
+        };
+        let name = SequenceName::ALL.into_iter().find(|n| n.as_str() == name).ok_or_else(|| {
+            format!("unknown sequence '{name}' (approach, flyaround, radial; NAME[+earth][@DEG])")
+        })?;
+        if earth && name == SequenceName::Radial {
+            return Err("radial always has the Earth behind the target: drop '+earth'".into());
+        }
+        Ok(SequenceSpec { name, earth, sun_phase_deg: phase })
+    }
+
+    /// The spec as written (`radial@10`): the sequence's folder and the rows' `sequence`.
+    pub fn label(&self) -> String {
+        let mut s = self.name.as_str().to_string();
+        if self.earth {
+            s.push_str("+earth");
+        }
+        if let Some(p) = self.sun_phase_deg {
+            let _ = write!(s, "@{p}");
+        }
+        s
+    }
+
+    /// Whether the Earth is behind the target.
+    pub fn has_earth(&self) -> bool {
+        self.earth || self.name == SequenceName::Radial
+    }
 }
 
 /// The phases in table order, then the whole sequence.
@@ -126,16 +197,32 @@ pub fn run(args: &NavbenchArgs) -> Result<()> {
     let _folder = fusion_io::output::create_folder(&args.out)?;
     let mut rows: Vec<FrameResult> = Vec::new();
     let mut per_seed = Vec::new();
+    let specs = args.sequences.clone().unwrap_or_else(SequenceSpec::defaults);
+    let labels: Vec<String> = specs.iter().map(SequenceSpec::label).collect();
+    if let Some(l) = labels.iter().enumerate().find_map(|(i, l)| labels[..i].contains(l).then_some(l)) {
+        bail!("--sequences names '{l}' twice");
+    }
+    let earth: Vec<String> = specs.iter().filter(|s| s.has_earth()).map(SequenceSpec::label).collect();
     // Which target each sequence shows (`sequence: target`), for the report.
     let mut targets: Vec<String> = Vec::new();
     for &seed in &seeds {
         let mut seed_rows = Vec::new();
-        for &name in args.sequences.as_deref().unwrap_or(&SequenceName::SPACE) {
-            let dir = data.join(format!("seed-{seed}")).join(name.as_str());
+        for spec in &specs {
+            let (name, label) = (spec.name, spec.label());
+            let dir = data.join(format!("seed-{seed}")).join(&label);
             let target = if dir.join("manifest.json").is_file() {
                 let m = read_manifest(&dir)?;
                 if m.config.seed != seed {
                     bail!("{}: rendered with seed {}, not {seed}", dir.display(), m.config.seed);
+                }
+                if m.config.name != name
+                    || m.config.earth.is_some() != spec.has_earth()
+                    || m.config.sun_phase_deg != spec.sun_phase_deg
+                {
+                    bail!(
+                        "{}: rendered as another sequence than '{label}' (its trajectory, Earth or sun phase differ)",
+                        dir.display()
+                    );
                 }
                 if let Some(t) = args.target
                     && m.config.target != t
@@ -183,24 +270,28 @@ pub fn run(args: &NavbenchArgs) -> Result<()> {
                     target: args.target.unwrap_or_default(),
                     focal_plane: args.raw_tir.then(render_host::focal_plane::FocalPlaneParams::default),
                     rig,
-                    // The sequence's own Earth (`radial`), seeded as `fusion render` seeds it.
-                    earth: render_host::sequence::sequence_earth(name, None, seed, base.surface_seed),
+                    // The sequence's own Earth (`radial`) or the one asked for, seeded as
+                    // `fusion render` seeds it.
+                    earth: render_host::sequence::sequence_earth(
+                        name,
+                        spec.earth.then_some(render_host::earth::DEFAULT_ALTITUDE_M),
+                        seed,
+                        base.surface_seed,
+                    ),
+                    sun_phase_deg: spec.sun_phase_deg,
                     ..base
                 };
-                note!(
-                    "rendering {} seed {seed} ({} frames) into {}",
-                    name.as_str(),
-                    cfg.frames,
-                    dir.display()
-                );
+                note!("rendering {label} seed {seed} ({} frames) into {}", cfg.frames, dir.display());
                 // Whole or absent: an interrupted render leaves no half-written sequence.
                 fusion_io::output::in_new_folder(&dir, |d| render_sequence(&cfg, d, false))?.config.target
             };
-            targets.push(format!("`{}`: {}", name.as_str(), target.as_str()));
-            let seq = run_sequence(&dir, args.frames, only, args.clean, args.registration)?;
+            targets.push(format!("`{label}`: {}", target.as_str()));
+            let mut seq = run_sequence(&dir, args.frames, only, args.clean, args.registration)?;
+            for r in &mut seq {
+                r.sequence.clone_from(&label);
+            }
             note!(
-                "navbench: {} seed {seed} ({} frames, {streams} sources, {:.0} s so far)",
-                name.as_str(),
+                "navbench: {label} seed {seed} ({} frames, {streams} sources, {:.0} s so far)",
                 seq.len() / streams.max(1),
                 start.elapsed().as_secs_f64()
             );
@@ -212,13 +303,13 @@ pub fn run(args: &NavbenchArgs) -> Result<()> {
     let s = aggregate(&seeds, &per_seed);
     write_text(&args.out.join("navbench.json"), &serde_json::to_string_pretty(&s)?)?;
     write_text(&args.out.join("per_frame.csv"), &csv(&rows))?;
-    let charts = charts(&args.out, &rows, seeds[0])?;
+    let charts = charts(&args.out, &rows, seeds[0], &labels)?;
     targets.sort();
     targets.dedup();
     let targets = targets.join(", ");
     write_text(
         &args.out.join("navbench.md"),
-        &markdown(&s, &charts, start.elapsed().as_secs_f64(), &targets),
+        &markdown(&s, &charts, start.elapsed().as_secs_f64(), &targets, &earth),
     )?;
     outln!(
         "navbench: {} frame results, {} sources, {} seeds -> {} ({:.0} s)",
@@ -284,11 +375,10 @@ misregistration_px,misregistration_p95_px,rel_pos_err_pct,available_rel\n",
 /// Per sequence (the first seed): the filter's attitude and position errors against the frame
 /// with their 3σ bounds (thin lines), penumbra and eclipse shaded, for the baselines, the two
 /// cameras, the adaptive fusion and ADF (flight); and the features on the target.
-fn charts(out: &Path, rows: &[FrameResult], seed: u64) -> Result<Vec<PathBuf>> {
+fn charts(out: &Path, rows: &[FrameResult], seed: u64, labels: &[String]) -> Result<Vec<PathBuf>> {
     let mut written = Vec::new();
-    for name in SequenceName::ALL {
-        let seq: Vec<&FrameResult> =
-            rows.iter().filter(|r| r.sequence == name.as_str() && r.seed == seed).collect();
+    for name in labels {
+        let seq: Vec<&FrameResult> = rows.iter().filter(|r| &r.sequence == name && r.seed == seed).collect();
         if seq.is_empty() {
             continue;
         }
@@ -307,15 +397,15 @@ fn charts(out: &Path, rows: &[FrameResult], seed: u64) -> Result<Vec<PathBuf>> {
                 .collect()
         };
         written.push(error_chart(
-            &out.join(format!("{}_attitude_error", name.as_str())),
-            &format!("{}, seed {seed}: filter attitude error and its 3σ (thin)", name.as_str()),
+            &out.join(format!("{name}_attitude_error")),
+            &format!("{name}, seed {seed}: filter attitude error and its 3σ (thin)"),
             "attitude error, degrees (log)",
             &seq,
             &|r| (r.att_err_deg, r.att_3sigma_deg),
         )?);
         written.push(error_chart(
-            &out.join(format!("{}_position_error", name.as_str())),
-            &format!("{}, seed {seed}: filter position error and its 3σ (thin)", name.as_str()),
+            &out.join(format!("{name}_position_error")),
+            &format!("{name}, seed {seed}: filter position error and its 3σ (thin)"),
             "position error, % of range (log)",
             &seq,
             &|r| (r.pos_err_pct, r.pos_3sigma_pct),
@@ -325,12 +415,9 @@ fn charts(out: &Path, rows: &[FrameResult], seed: u64) -> Result<Vec<PathBuf>> {
             .filter(|s| !["zero-motion", "oracle"].contains(&s.name.as_str()))
             .collect();
         written.push(chart_shaded(
-            &out.join(format!("{}_features", name.as_str())),
+            &out.join(format!("{name}_features")),
             Labels {
-                title: &format!(
-                    "{}, seed {seed}: features on the target (grey: penumbra and eclipse)",
-                    name.as_str()
-                ),
+                title: &format!("{name}, seed {seed}: features on the target (grey: penumbra and eclipse)"),
                 x: "frame",
                 y: "FAST corners on the target",
             },
@@ -384,6 +471,66 @@ pub fn error_chart(
     )
 }
 
+/// Issue 39's targets on the sequences with the Earth behind the target: per phase, the
+/// adaptive stream never worse than the better camera (means over seeds), and the skip
+/// streams' windows (the scene analysis's, from brightness) covering every target pixel.
+fn earth_targets(md: &mut String, s: &SeedSummary, earth: &[String]) {
+    let present: Vec<&String> = earth.iter().filter(|l| s.by_sequence.contains_key(*l)).collect();
+    if present.is_empty() {
+        return;
+    }
+    let _ = writeln!(
+        md,
+        "## Targets with the Earth behind the target\n\n\
+         Per phase, the adaptive stream against the better single camera (the never-worse rule: mean \
+         availability ≥ the camera's and mean attitude RMS ≤ 1.05 × its; better or worse only when the \
+         means differ by more than the larger spread over the seeds); the skip streams' windows (the \
+         scene analysis's, found from brightness; the `-loop` streams take the filter's predicted box \
+         instead) against every target pixel.\n\n\
+         | sequence | phase | better camera: availability | adaptive: availability | never worse | adaptive's availability against it |\n\
+         |---|---|---|---|---|---|"
+    );
+    for label in &present {
+        let Some(srcs) = s.by_sequence.get(*label) else { continue };
+        for phase in PHASES {
+            let (Some((cam, cf)), Some(a)) =
+                (better_camera(srcs, phase), srcs.get("adaptive").and_then(|p| p.get(phase)))
+            else {
+                continue;
+            };
+            let v = match (stat(a, "availability"), stat(cf, "availability")) {
+                (Some(x), Some(c)) => verdict(x, c, true).word(),
+                _ => Verdict::OneSeed.word(),
+            };
+            let _ = writeln!(
+                md,
+                "| {label} | {phase} | {cam} {} | {} | {} | {v} |",
+                cell(cf, "availability", 3),
+                cell(a, "availability", 3),
+                if never_worse(a, cf) { "yes" } else { "no" }
+            );
+        }
+    }
+    let _ = writeln!(
+        md,
+        "\n| sequence | skip stream | target coverage (each seed's minimum over frames, mean over seeds) | 100 % on every frame |\n\
+         |---|---|---|---|"
+    );
+    for label in &present {
+        let Some(methods) = s.skip_by_sequence.get(*label) else { continue };
+        for (m, k) in methods.iter().filter(|(m, _)| !m.ends_with("-loop")) {
+            let min = k.get("target_coverage_min").copied().flatten().map(|x| x.mean);
+            let _ = writeln!(
+                md,
+                "| {label} | {m} | {} | {} |",
+                min.map_or("—".into(), |x| format!("{x:.4}")),
+                if min == Some(1.0) { "yes" } else { "no" }
+            );
+        }
+    }
+    let _ = writeln!(md);
+}
+
 /// `mean ± sd` (the mean alone for one seed), `—` when missing.
 fn cell(f: &Figures, key: &str, digits: usize) -> String {
     match f.get(key).copied().flatten() {
@@ -424,7 +571,7 @@ fn never_worse(x: &Figures, cam: &Figures) -> bool {
     }
 }
 
-fn markdown(s: &SeedSummary, charts: &[PathBuf], seconds: f64, targets: &str) -> String {
+fn markdown(s: &SeedSummary, charts: &[PathBuf], seconds: f64, targets: &str, earth: &[String]) -> String {
     let mut md = String::new();
     let seeds: Vec<String> = s.seeds.iter().map(u64::to_string).collect();
     let _ = writeln!(md, "# Navigation benchmark\n");
@@ -531,6 +678,7 @@ their spreads over the seeds.\n",
         }
     }
     let _ = writeln!(md);
+    earth_targets(&mut md, s, earth);
     // Per sequence and phase.
     for (seq, srcs) in &s.by_sequence {
         for phase in PHASES {
@@ -653,4 +801,37 @@ their spreads over the seeds.\n",
         }
     }
     md
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_sequence_spec_reads_back_as_written_and_refuses_what_it_cannot_be() {
+        for text in ["approach", "flyaround+earth", "radial@10", "approach+earth@172.5", "radial@0"] {
+            let spec = SequenceSpec::parse(text).unwrap();
+            assert_eq!(spec.label(), text);
+            assert_eq!(SequenceSpec::parse(&spec.label()).unwrap(), spec);
+        }
+        let r = SequenceSpec::parse("radial@10").unwrap();
+        assert_eq!(
+            (r.name, r.earth, r.sun_phase_deg, r.has_earth()),
+            (SequenceName::Radial, false, Some(10.0), true)
+        );
+        let a = SequenceSpec::parse("approach").unwrap();
+        assert!(!a.has_earth() && a.sun_phase_deg.is_none());
+        assert!(SequenceSpec::parse("flyaround+earth").unwrap().has_earth());
+        for bad in
+            ["radial+earth", "orbit", "approach@181", "approach@-1", "approach@ten", "approach@", "+earth"]
+        {
+            assert!(SequenceSpec::parse(bad).is_err(), "{bad}");
+        }
+        // The default run: black space, and the Earth behind the target at two sun phase angles.
+        let d = SequenceSpec::defaults();
+        let earth: Vec<String> = d.iter().filter(|s| s.has_earth()).map(SequenceSpec::label).collect();
+        assert_eq!(earth, ["radial", "radial@10"]);
+        assert!(d.iter().any(|s| s.name == SequenceName::Approach && !s.has_earth()));
+        assert!(d.iter().any(|s| s.name == SequenceName::Flyaround && !s.has_earth()));
+    }
 }

@@ -131,6 +131,52 @@ fn eclipse_passes_the_thermal_frame_through() -> Result<()> {
     Ok(())
 }
 
+/// A lit VIS background is not "no signal": a structured background (tiles of 20, 60 and 90
+/// grey levels: median 20, upper quartile 60, so the 6σ threshold lies above 255 and no pixel
+/// is "signal") is blended, while the same frame with the structure taken away (a dark,
+/// uniform VIS) still passes the thermal frame through. On the VIFB pairs — daylight scenes —
+/// the thermal frame is never passed through, and where the rule blends, the output is not
+/// the thermal frame.
+#[test]
+fn a_lit_background_is_not_an_eclipse() -> Result<()> {
+    let (w, h) = (128, 128);
+    let mut vis = Gray::<u8>::new(w, h);
+    let tir = large_target_pair(w, h, 30).1;
+    for y in 0..h {
+        for x in 0..w {
+            // Tiles of 32 px: half at 20, a quarter at 60, a quarter at 90.
+            let t = (x / 32 + 4 * (y / 32)) % 4;
+            vis.data[y * w + x] = [20, 20, 60, 90][t];
+        }
+    }
+    let grid = (w, h);
+    let (sp, ap) = (SceneParams::default(), AdaptiveParams::blend_only());
+    let scene = analyze(vis.view()?, tir.view()?, grid, &sp)?;
+    assert!(scene.vis.threshold > 255 && scene.vis.signal_samples == 0, "{:?}", scene.vis);
+    assert!(scene.vis_background_lit);
+    assert!(matches!(decide_frame(vis.view()?, tir.view()?, grid, &sp, &ap)?, Decision::Blend { .. }));
+    let dark = Gray::<u8>::new(w, h);
+    assert!(!analyze(dark.view()?, tir.view()?, grid, &sp)?.vis_background_lit);
+    assert_eq!(decide_frame(dark.view()?, tir.view()?, grid, &sp, &ap)?, Decision::TirOnly);
+    let dir = fusion_io::testdata::vifb_dir();
+    for name in ["fight", "kettle", "manWalking", "peopleshadow"] {
+        let load = |band: &str| {
+            fusion_io::load_gray_u8(&dir.join(format!("{name}_{band}.png")), fusion_io::ColorPolicy::Refuse)
+        };
+        let (vis, tir) = (load("VIS")?, load("IR")?);
+        let scene = analyze(vis.view()?, tir.view()?, (vis.width, vis.height), &sp)?;
+        assert!(scene.vis_background_lit, "{name}");
+        let fused = fuse_core(&vis, &tir, &adaptive(), false)?;
+        assert!(!fused.guards.contains(Guards::ADAPTIVE_TIR_ONLY), "{name}: {:?}", fused.guards);
+        assert_ne!(fused.image.data, tir.data, "{name}");
+        // The blend against its f64 reference (an ADF frame is ADF's, within a level of its own).
+        if !fused.guards.contains(Guards::ADAPTIVE_ADF) {
+            assert_matches_reference(&vis, &tir, name)?;
+        }
+    }
+    Ok(())
+}
+
 /// Glare: where VIS is clipped at 255 (smoothed VIS at 255) the output is the TIR pixel. (The
 /// clipped part stays below a quarter of the frame: the analysis reads the noise from the
 /// upper quartile and assumes a mostly empty sky.)

@@ -227,6 +227,12 @@ pub struct Scene {
     pub varying_tir: Option<Rect>,
     /// Why skipping is refused for this pair, if it is.
     pub decline: Option<Decline>,
+    /// VIS's background is itself lit: brighter than [`SceneParams::max_background`], or
+    /// structured in its block means beyond [`SceneParams::max_noise_spread`] (the sunlit
+    /// Earth behind the target, a real scene). VIS then carries an image even where nothing
+    /// rises above its noise threshold — the threshold is set by the scene's own structure —
+    /// so "no signal" does not mean "dark" ([`crate::methods::adaptive::decide`]).
+    pub vis_background_lit: bool,
     /// VIS block analysis, when its pixel noise is above [`SceneParams::max_noise_spread`]
     /// (its target box then comes from the blocks).
     pub vis_blocks: Option<BlockStats>,
@@ -584,6 +590,7 @@ pub fn analyze(
     let blocks_quiet = |k: &Option<BlockStats>| {
         k.as_ref().is_none_or(|k| k.spread_q8 <= u16::from(params.max_noise_spread) << 8)
     };
+    let vis_background_lit = !dark(&v) || !blocks_quiet(&vb);
     let decline = if !dark(&v) || !dark(&t) {
         Some(Decline::BackgroundNotDark)
     } else if !blocks_quiet(&vb) || !blocks_quiet(&tb) {
@@ -601,6 +608,7 @@ pub fn analyze(
         varying: Rect::join(varying_vis, varying_tir),
         varying_tir,
         decline,
+        vis_background_lit,
         vis_blocks: vb,
         tir_blocks: tb,
         rescale_needed: vis.size() != tir.size(),

@@ -14,7 +14,7 @@
 //!
 //! ```text
 //! per frame:  target box ≥ 160 px →  out = ADF(I_VIS, I_TIR)           (flight; AdaptiveParams::adf)
-//!             VIS has no signal  →  out = I_TIR                        (the TIR frame passes through)
+//!             VIS dark, no signal →  out = I_TIR                       (the TIR frame passes through)
 //! per pixel:  a = clamp((B_VIS − ℓ − lit_offset) / lit_span, 0, 1)     (quantised to ⌊256·a⌋/256)
 //!             F = max(B_VIS, B_TIR) + (G_VIS − B_VIS) + (1 − a)·(I_TIR − B_TIR)
 //!             g = clamp((G_VIS − glare_level) / 16, 0, 1)
@@ -38,9 +38,15 @@
 //!   frames.
 //! * VIS has no usable signal when the analysis finds fewer than
 //!   [`AdaptiveParams::min_vis_samples`] samples above its 6σ noise threshold
-//!   ([`crate::scene::BandStats`]) — eclipse, or the target's unlit side. Then the thermal frame
-//!   passes through unchanged ([`Guards::ADAPTIVE_TIR_ONLY`]): in eclipse the fused stream *is*
-//!   the thermal stream, bit for bit, never darker. (A large target in eclipse is ADF's: its
+//!   ([`crate::scene::BandStats`]) on a dark background — eclipse, or the target's unlit side
+//!   against space. Then the thermal frame passes through unchanged
+//!   ([`Guards::ADAPTIVE_TIR_ONLY`]): in eclipse the fused stream *is* the thermal stream, bit
+//!   for bit, never darker. A lit VIS background ([`Scene::vis_background_lit`]: the sunlit
+//!   Earth behind the target, a real scene) is not "no signal", though its structure lifts the
+//!   noise threshold above every pixel: that frame is blended (before this, the rule passed the
+//!   thermal frame through on three of the four VIFB pairs and on 59 of the 120 daylight-Earth
+//!   frames of `radial@10`, seed 1, dropping a lit visible image; `BENCHMARKS.md`, "The Earth
+//!   behind the target"). (A large target in eclipse is ADF's: its
 //!   base is the two bands' mean, so the target shows at about half the thermal frame's
 //!   brightness — darker, and the filter holds on it where it does not on the thermal frame.)
 //! * **Base**: the brighter band's local mean. The target is bright in whichever band sees it
@@ -175,12 +181,13 @@ pub enum Decision {
 /// The decision for a frame pair from its scene analysis ([`crate::scene::analyze`], on the
 /// fusion grid): [`Decision::Adf`] when the target box's longer side is at least
 /// [`AdaptiveParams::adf_from_px`] (and that is not 0), else [`Decision::TirOnly`] when VIS
-/// has fewer than [`AdaptiveParams::min_vis_samples`] signal samples, else the blend.
+/// has fewer than [`AdaptiveParams::min_vis_samples`] signal samples and its background is
+/// dark ([`Scene::vis_background_lit`] false), else the blend.
 pub fn decide(scene: &Scene, p: &AdaptiveParams) -> Decision {
     let side = scene.target.map_or(0, |r| r.width().max(r.height()));
     if p.adf_from_px != 0 && side >= usize::from(p.adf_from_px) {
         Decision::Adf
-    } else if scene.vis.signal_samples < p.min_vis_samples.max(1) {
+    } else if scene.vis.signal_samples < p.min_vis_samples.max(1) && !scene.vis_background_lit {
         Decision::TirOnly
     } else {
         Decision::Blend { vis_level: scene.vis.background }

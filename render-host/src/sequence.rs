@@ -90,9 +90,6 @@ impl SequenceName {
     pub const ALL: [SequenceName; 3] =
         [SequenceName::Approach, SequenceName::Flyaround, SequenceName::Radial];
 
-    /// The two sequences against black space (the Earth only on request).
-    pub const SPACE: [SequenceName; 2] = [SequenceName::Approach, SequenceName::Flyaround];
-
     /// The name as written on the command line and in manifests.
     pub fn as_str(self) -> &'static str {
         match self {
